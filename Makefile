@@ -1,0 +1,45 @@
+# openmm-flavors: the commands a user needs.  Every target installs the Debian packages it needs first.
+#   make demo                 build, then run the FPU scene and print its table
+#   make test                 build, then run every C++ test (ctest) and every Python test (pytest)
+#   make install PREFIX=dir   install libraries, headers, kernel plugins and the Python package under dir
+#   make bench                run the benchmarks (not part of the tests)
+
+PREFIX ?= /usr/local
+BUILD ?= build
+PYTHON := /usr/bin/python3
+JOBS ?= $(shell nproc)
+APT_PACKAGES := cmake make g++ swig libopenmm-dev libopenmm-plugins python3-simtk python3-dev libeigen3-dev \
+                libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy
+PYTHON_ENV := PYTHONPATH=$(CURDIR)/$(BUILD)/python PYTHONDONTWRITEBYTECODE=1
+
+.PHONY: deps build test demo install bench clean
+
+deps:
+	@missing=$$(for p in $(APT_PACKAGES); do \
+	    dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	    echo "Installing Debian packages:" $$missing; \
+	    apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends $$missing; \
+	fi
+
+build: deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=$(PYTHON)
+	cmake --build $(BUILD) -j $(JOBS)
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	$(PYTHON_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python
+
+demo: build
+	$(PYTHON_ENV) $(PYTHON) examples/fpu/fpu.py
+
+bench: build
+	$(PYTHON_ENV) $(PYTHON) benchmarks/step_cost.py
+
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
+	@echo "Python package installed in $(PREFIX)/lib/python3/dist-packages/openmmflavors"
+	@echo "Use it with: PYTHONPATH=$(PREFIX)/lib/python3/dist-packages $(PYTHON) -c 'import openmmflavors'"
+
+clean:
+	rm -rf $(BUILD)

@@ -1,0 +1,154 @@
+#ifndef OPENMM_FLAVOR_INTEGRATOR_H_
+#define OPENMM_FLAVOR_INTEGRATOR_H_
+
+#include "internal/windowsExportFlavors.h"
+#include "openmm/Integrator.h"
+#include "openmm/Kernel.h"
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace FlavorPlugin {
+
+/**
+ * This is a flow-averaging integrator (FLAVOR) for systems with stiff and soft forces.  Every force whose
+ * force group is in the bitmask stiffGroups is stiff; every other force is soft, and no force group is ever
+ * ignored.  Each step advances time by the mesostep (the step size): the stiff forces act together with the
+ * soft ones for a total time equal to the microstep, and the soft forces alone act for the rest of the
+ * mesostep.  With microstep << 1/(stiff frequency) << mesostep the slow variables are accurate and the fast ones
+ * are correct in distribution, at a cost set by the slow time scale.
+ *
+ * Two schemes are available: SymplecticEuler (symplectic, first order) and Verlet (symplectic and
+ * time-reversible, the default).  Setting the microstep equal to the mesostep reduces them to plain symplectic
+ * Euler and velocity Verlet.  Velocities are synchronous with positions.
+ *
+ * With a nonzero friction the integrator is a Langevin FLAVOR: friction and noise are applied as exact
+ * Ornstein-Uhlenbeck steps, either over the whole mesostep (the default) or, if stiff friction is enabled, only
+ * while the stiff forces are on.
+ */
+class OPENMM_EXPORT_FLAVORS FlavorIntegrator : public OpenMM::Integrator {
+public:
+    /**
+     * The flow composition used for each mesostep.
+     */
+    enum Scheme {
+        /** K_all(tau) D(tau) K_soft(delta-tau) D(delta-tau): symplectic, first order. */
+        SymplecticEuler = 0,
+        /** The symmetric (Strang) composition: symplectic and time-reversible. */
+        Verlet = 1
+    };
+    /**
+     * Create a FlavorIntegrator.
+     *
+     * @param mesoStep     the mesostep delta, which is the step size (in picoseconds)
+     * @param microStep    the microstep tau for which the stiff forces act in each mesostep (in picoseconds,
+     *                     0 < microStep <= mesoStep)
+     * @param stiffGroups  a bitmask of the force groups that are stiff (bit i set means group i is stiff)
+     */
+    FlavorIntegrator(double mesoStep, double microStep, int stiffGroups);
+    /**
+     * Get the mesostep delta (in picoseconds).  This is the same as getStepSize().
+     */
+    double getMesoStep() const { return getStepSize(); }
+    /**
+     * Set the mesostep delta (in picoseconds).  It must be finite and at least the microstep.
+     */
+    void setMesoStep(double size);
+    /**
+     * Set the step size, which is the mesostep delta (in picoseconds).
+     */
+    void setStepSize(double size) override;
+    /**
+     * Get the microstep tau (in picoseconds).
+     */
+    double getMicroStep() const { return microStep; }
+    /**
+     * Set the microstep tau (in picoseconds).  It must be finite, positive and at most the mesostep.
+     */
+    void setMicroStep(double size);
+    /**
+     * Get the bitmask of stiff force groups.
+     */
+    int getStiffGroups() const { return stiffGroups; }
+    /**
+     * Set the bitmask of stiff force groups.  It must be nonzero.  If the integrator is bound to a Context, the
+     * System must contain at least one force in these groups.
+     */
+    void setStiffGroups(int groups);
+    /**
+     * Get the scheme used for each mesostep.
+     */
+    Scheme getScheme() const { return scheme; }
+    /**
+     * Set the scheme used for each mesostep.
+     */
+    void setScheme(Scheme scheme);
+    /**
+     * Get the temperature of the heat bath (in Kelvin).
+     */
+    double getTemperature() const { return temperature; }
+    /**
+     * Set the temperature of the heat bath (in Kelvin).  It must be finite and non-negative.
+     */
+    void setTemperature(double temp);
+    /**
+     * Get the friction coefficient (in inverse picoseconds).  Zero means the Hamiltonian schemes.
+     */
+    double getFriction() const { return friction; }
+    /**
+     * Set the friction coefficient (in inverse picoseconds).  It must be finite and non-negative; zero means no
+     * friction and no noise.
+     */
+    void setFriction(double coeff);
+    /**
+     * Get whether friction and noise act only while the stiff forces are on (true) or over the whole mesostep
+     * (false, the default).
+     */
+    bool getStiffFriction() const { return stiffFriction; }
+    /**
+     * Set whether friction and noise act only while the stiff forces are on, a total time equal to the
+     * microstep in each mesostep (true), or over the whole mesostep (false).
+     */
+    void setStiffFriction(bool stiff);
+    /**
+     * Get the random number seed.  See setRandomNumberSeed() for details.
+     */
+    int getRandomNumberSeed() const { return randomNumberSeed; }
+    /**
+     * Set the random number seed.  If two simulations use different seeds, their random forces differ.  The same
+     * seed on the same platform gives the same random forces.  If seed is 0 (the default), a unique seed is
+     * chosen when a Context is created from this Integrator.
+     */
+    void setRandomNumberSeed(int seed) { randomNumberSeed = seed; }
+    /**
+     * Advance a simulation through time by taking a series of mesosteps.
+     *
+     * @param steps   the number of mesosteps to take
+     */
+    void step(int steps) override;
+
+protected:
+    void initialize(OpenMM::ContextImpl& context) override;
+    void cleanup() override;
+    std::vector<std::string> getKernelNames() override;
+    void stateChanged(OpenMM::State::DataType changed) override;
+    double computeKineticEnergy() override;
+    bool kineticEnergyRequiresForce() const override { return false; }
+    void createCheckpoint(std::ostream& stream) const override;
+    void loadCheckpoint(std::istream& stream) override;
+
+private:
+    double microStep;
+    int stiffGroups;
+    Scheme scheme;
+    double temperature, friction;
+    bool stiffFriction;
+    int randomNumberSeed;
+    bool forcesAreValid;
+    OpenMM::Kernel kernel;
+};
+
+} // namespace FlavorPlugin
+
+#endif

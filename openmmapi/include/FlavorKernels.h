@@ -1,0 +1,51 @@
+#ifndef OPENMM_FLAVORS_KERNELS_H_
+#define OPENMM_FLAVORS_KERNELS_H_
+
+#include "FlavorIntegrator.h"
+#include "openmm/KernelImpl.h"
+#include "openmm/System.h"
+#include <iosfwd>
+#include <string>
+
+namespace FlavorPlugin {
+
+/**
+ * This kernel is invoked by FlavorIntegrator to take one mesostep.
+ */
+class IntegrateFlavorStepKernel : public OpenMM::KernelImpl {
+public:
+    static std::string Name() { return "IntegrateFlavorStep"; }
+    IntegrateFlavorStepKernel(std::string name, const OpenMM::Platform& platform)
+        : OpenMM::KernelImpl(name, platform) {}
+    /**
+     * Initialize the kernel.
+     *
+     * @param system     the System this kernel will be applied to
+     * @param integrator the FlavorIntegrator this kernel will be used for
+     */
+    virtual void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) = 0;
+    /**
+     * Execute the kernel.
+     *
+     * @param context      the context in which to execute this kernel
+     * @param integrator   the FlavorIntegrator this kernel is being used for
+     * @param forcesValid  whether forces cached by an earlier step are still valid; true on return
+     */
+    virtual void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) = 0;
+    /**
+     * Compute the kinetic energy.
+     */
+    virtual double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) = 0;
+    /**
+     * Write the kernel's state (the random streams) to a checkpoint.
+     */
+    virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
+    /**
+     * Restore the kernel's state from a checkpoint.
+     */
+    virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
+};
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,37 @@
+#ifndef OPENMM_FLAVORS_FLAVOR_STEP_KERNEL_H_
+#define OPENMM_FLAVORS_FLAVOR_STEP_KERNEL_H_
+
+#include "../FlavorKernels.h"
+#include "FlowStepRunner.h"
+#include "windowsExportFlavors.h"
+#include <memory>
+
+namespace FlavorPlugin {
+
+/**
+ * The FlavorIntegrator kernel of every platform whose particle data is ReferencePlatform::PlatformData: the
+ * platforms differ only in the ParticleLoop they supply.
+ */
+class OPENMM_EXPORT_FLAVORS FlavorStepKernel : public IntegrateFlavorStepKernel {
+public:
+    FlavorStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParticleLoop> loop);
+    void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) override;
+    void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) override;
+    double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
+    void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
+    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
+
+private:
+    std::unique_ptr<ParticleLoop> loop;
+    std::unique_ptr<FlowStepRunner> runner;
+    bool configured;
+    FlavorParameters parameters;
+    double kT;
+};
+
+/** Turns a user's seed into the seed of the random streams; 0 picks a fresh one. */
+OPENMM_EXPORT_FLAVORS std::uint64_t effectiveRandomSeed(int seed);
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,87 @@
+#ifndef OPENMM_FLAVORS_FLOW_SCHEDULE_H_
+#define OPENMM_FLAVORS_FLOW_SCHEDULE_H_
+
+#include "windowsExportFlavors.h"
+#include <vector>
+
+namespace FlavorPlugin {
+
+/** The force-group mask that selects every group. */
+constexpr int AllForceGroups = -1;
+
+/**
+ * One exact sub-flow of an integration step.  A step is a composition of these, applied left to right.
+ */
+struct SubFlow {
+    enum Kind {
+        /** v += h M^-1 F_groups(q) */
+        Kick,
+        /** q += h v */
+        Drift,
+        /** Exact Ornstein-Uhlenbeck flow of friction and noise over h. */
+        Thermostat
+    };
+    Kind kind;
+    double h;
+    /** The force groups of a Kick; unused otherwise. */
+    int groups;
+    bool operator==(const SubFlow& other) const { return kind == other.kind && h == other.h && groups == other.groups; }
+};
+
+typedef std::vector<SubFlow> Schedule;
+
+/** The parameters that define a FLAVOR step. */
+struct FlavorParameters {
+    enum Scheme { SymplecticEuler = 0, Verlet = 1 };
+    Scheme scheme;
+    double mesoStep, microStep;
+    int stiffGroups;
+    /** The force groups integrated at all (stiff and soft together). */
+    int integrationGroups;
+    double friction;
+    bool stiffFriction;
+    bool operator==(const FlavorParameters& o) const {
+        return scheme == o.scheme && mesoStep == o.mesoStep && microStep == o.microStep &&
+               stiffGroups == o.stiffGroups && integrationGroups == o.integrationGroups && friction == o.friction &&
+               stiffFriction == o.stiffFriction;
+    }
+};
+
+/**
+ * Builds the schedule of one FLAVOR mesostep (DESIGN.md section 2), already simplified.
+ */
+OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
+
+/**
+ * Removes zero-length sub-flows and kicks by no force group, and merges adjacent sub-flows that compose exactly into
+ * one (two drifts, two kicks of the same groups, two Ornstein-Uhlenbeck flows).
+ */
+OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
+
+/**
+ * A run of sub-flows that act particle by particle with forces that are all evaluated at the positions where the
+ * pass begins, so one parallel loop over particles executes it.
+ */
+struct FlowPass {
+    std::vector<SubFlow> flows;
+    /** For each flow, the index of the force slot a Kick reads (-1 for other kinds). */
+    std::vector<int> slots;
+};
+
+/**
+ * A schedule split into passes, with the distinct kick force-group sets numbered as slots.
+ */
+struct StepPlan {
+    std::vector<FlowPass> passes;
+    std::vector<int> slotGroups;
+};
+
+/**
+ * Splits a schedule into passes.  A pass ends before a kick that follows a drift (its forces need the new
+ * positions).  With constraints, every sub-flow is its own pass so constraints can be applied after it.
+ */
+OPENMM_EXPORT_FLAVORS StepPlan compileStepPlan(const Schedule& schedule, bool oneFlowPerPass);
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,78 @@
+#ifndef OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
+#define OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
+
+#include "CounterRandom.h"
+#include "FlowSchedule.h"
+#include "ParticleFlows.h"
+#include "openmm/System.h"
+#include "openmm/Vec3.h"
+#include "windowsExportFlavors.h"
+#include <cstdint>
+#include <iosfwd>
+#include <memory>
+#include <vector>
+
+namespace OpenMM {
+class ContextImpl;
+}
+
+namespace FlavorPlugin {
+
+/**
+ * Executes a Schedule on the particle data of a Reference or CPU Context.  Forces are cached per force-group
+ * set and valid until positions change, so each group set is evaluated once per distinct set of positions.
+ * Constraints are applied as OpenMM's VerletIntegrator applies them: positions after each drift (with the
+ * velocity corrected to the constrained displacement), velocities after each kick or thermostat.  Virtual sites
+ * are placed before each force evaluation and at the end of the step.
+ */
+class OPENMM_EXPORT_FLAVORS FlowStepRunner {
+public:
+    FlowStepRunner(const OpenMM::System& system, std::unique_ptr<ParticleLoop> loop);
+    /**
+     * Sets the schedule of one step, the thermal energy kT (kJ/mol) and the friction (1/ps) of its thermostats.
+     * Cheap when nothing changed.
+     */
+    void setSchedule(const Schedule& schedule, double kT, double friction);
+    /** Sets the seed of the random streams and restarts them. */
+    void setRandomSeed(std::uint64_t seed);
+    /**
+     * Takes one step.  forcesValid says whether forces cached in an earlier step may be reused; it is true on
+     * return.
+     */
+    void step(OpenMM::ContextImpl& context, double constraintTolerance, bool& forcesValid);
+    /** The kinetic energy of the current velocities (synchronous with positions). */
+    double kineticEnergy(OpenMM::ContextImpl& context) const;
+    void createCheckpoint(std::ostream& stream) const;
+    void loadCheckpoint(std::istream& stream);
+    /** The number of force evaluations of each force-group set since construction, for diagnostics. */
+    long long getForceEvaluationCount() const { return forceEvaluations; }
+
+private:
+    struct ForceSlot {
+        int groups;
+        bool valid;
+        std::vector<OpenMM::Vec3> forces;
+    };
+    void prepare();
+    void ensureForces(OpenMM::ContextImpl& context, int slot);
+    void invalidateForces();
+
+    std::unique_ptr<ParticleLoop> loop;
+    int numParticles;
+    bool hasConstraints, hasVirtualSites;
+    std::vector<double> masses, inverseMasses, thermalSpeeds;
+    Schedule schedule;
+    double kT, friction;
+    StepPlan plan;
+    std::vector<std::vector<PreparedFlow>> preparedPasses;
+    std::vector<ForceSlot> slots;
+    std::vector<OpenMM::Vec3> previousPositions;
+    int thermostatsPerStep;
+    std::uint64_t seed, nextStream;
+    CounterRandom random;
+    long long forceEvaluations;
+};
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,142 @@
+#include "FlavorIntegrator.h"
+#include "FlavorKernels.h"
+#include "internal/ParameterChecks.h"
+#include "openmm/Context.h"
+#include "openmm/Force.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/internal/ContextImpl.h"
+#include <cmath>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::string;
+using std::vector;
+
+namespace {
+
+const string Owner = "FlavorIntegrator";
+
+bool systemHasForceInGroups(const System& system, int groups) {
+    for (int i = 0; i < system.getNumForces(); ++i)
+        if ((groups & (1 << system.getForce(i).getForceGroup())) != 0)
+            return true;
+    return false;
+}
+
+void requireStiffForce(const System& system, int groups) {
+    if (!systemHasForceInGroups(system, groups))
+        throwInvalidParameter(Owner, "stiffGroups", std::to_string(groups),
+                              "the System has no force in these groups; stiffGroups must select the force group(s) "
+                              "of at least one force (Force.setForceGroup)");
+}
+
+} // namespace
+
+FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
+    : microStep(0.0), stiffGroups(0), scheme(Verlet), temperature(0.0), friction(0.0), stiffFriction(false),
+      randomNumberSeed(0), forcesAreValid(false) {
+    requirePositive(Owner, "mesoStep", mesoStep, "ps");
+    requirePositive(Owner, "microStep", microStep, "ps");
+    if (microStep > mesoStep)
+        throwInvalidParameter(Owner, "microStep", formatNumber(microStep),
+                              "microStep must be > 0 and <= mesoStep (" + formatNumber(mesoStep) + " ps)");
+    requireGroupMask(Owner, "stiffGroups", stiffGroups);
+    Integrator::setStepSize(mesoStep);
+    this->microStep = microStep;
+    this->stiffGroups = stiffGroups;
+    setConstraintTolerance(1e-5);
+}
+
+void FlavorIntegrator::setMesoStep(double size) {
+    requirePositive(Owner, "mesoStep", size, "ps");
+    if (size < microStep)
+        throwInvalidParameter(Owner, "mesoStep", formatNumber(size),
+                              "mesoStep must be >= microStep (" + formatNumber(microStep) + " ps)");
+    Integrator::setStepSize(size);
+}
+
+void FlavorIntegrator::setStepSize(double size) {
+    setMesoStep(size);
+}
+
+void FlavorIntegrator::setMicroStep(double size) {
+    requirePositive(Owner, "microStep", size, "ps");
+    if (size > getMesoStep())
+        throwInvalidParameter(Owner, "microStep", formatNumber(size),
+                              "microStep must be > 0 and <= mesoStep (" + formatNumber(getMesoStep()) + " ps)");
+    microStep = size;
+}
+
+void FlavorIntegrator::setStiffGroups(int groups) {
+    requireGroupMask(Owner, "stiffGroups", groups);
+    if (context != nullptr)
+        requireStiffForce(context->getSystem(), groups);
+    stiffGroups = groups;
+}
+
+void FlavorIntegrator::setScheme(Scheme newScheme) {
+    if (newScheme != SymplecticEuler && newScheme != Verlet)
+        throwInvalidParameter(Owner, "scheme", std::to_string((int)newScheme),
+                              "scheme must be FlavorIntegrator::SymplecticEuler (0) or FlavorIntegrator::Verlet (1)");
+    scheme = newScheme;
+}
+
+void FlavorIntegrator::setTemperature(double temp) {
+    requireNonNegative(Owner, "temperature", temp, "K");
+    temperature = temp;
+}
+
+void FlavorIntegrator::setFriction(double coeff) {
+    requireNonNegative(Owner, "friction", coeff, "1/ps");
+    friction = coeff;
+}
+
+void FlavorIntegrator::setStiffFriction(bool stiff) {
+    stiffFriction = stiff;
+}
+
+void FlavorIntegrator::initialize(ContextImpl& contextRef) {
+    if (owner != nullptr && &contextRef.getOwner() != owner)
+        throw OpenMMException("This Integrator is already bound to a context");
+    requireStiffForce(contextRef.getSystem(), stiffGroups);
+    context = &contextRef;
+    owner = &contextRef.getOwner();
+    kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);
+    kernel.getAs<IntegrateFlavorStepKernel>().initialize(contextRef.getSystem(), *this);
+    forcesAreValid = false;
+}
+
+void FlavorIntegrator::cleanup() {
+    kernel = Kernel();
+}
+
+vector<string> FlavorIntegrator::getKernelNames() {
+    return {IntegrateFlavorStepKernel::Name()};
+}
+
+void FlavorIntegrator::stateChanged(State::DataType changed) {
+    forcesAreValid = false;
+}
+
+double FlavorIntegrator::computeKineticEnergy() {
+    return kernel.getAs<IntegrateFlavorStepKernel>().computeKineticEnergy(*context, *this);
+}
+
+void FlavorIntegrator::step(int steps) {
+    if (context == nullptr)
+        throw OpenMMException("This Integrator is not bound to a context!");
+    for (int i = 0; i < steps; ++i) {
+        if (context->updateContextState())
+            forcesAreValid = false;
+        kernel.getAs<IntegrateFlavorStepKernel>().execute(*context, *this, forcesAreValid);
+    }
+}
+
+void FlavorIntegrator::createCheckpoint(std::ostream& stream) const {
+    kernel.getAs<IntegrateFlavorStepKernel>().createCheckpoint(*context, stream);
+}
+
+void FlavorIntegrator::loadCheckpoint(std::istream& stream) {
+    kernel.getAs<IntegrateFlavorStepKernel>().loadCheckpoint(*context, stream);
+    forcesAreValid = false;
+}

@@ -1,0 +1,58 @@
+#include "internal/FlavorStepKernel.h"
+#include "openmm/internal/ContextImpl.h"
+#include "openmm/reference/ReferencePlatform.h"
+#include "openmm/reference/SimTKOpenMMRealType.h"
+#include <random>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+
+std::uint64_t FlavorPlugin::effectiveRandomSeed(int seed) {
+    if (seed != 0)
+        return (std::uint64_t)(std::uint32_t)seed;
+    std::random_device device;
+    return ((std::uint64_t)device() << 32) | device();
+}
+
+FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParticleLoop> loop)
+    : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0) {}
+
+void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
+    runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
+    runner->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
+}
+
+void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) {
+    FlavorParameters current{(FlavorParameters::Scheme)integrator.getScheme(),
+                             integrator.getMesoStep(),
+                             integrator.getMicroStep(),
+                             integrator.getStiffGroups(),
+                             integrator.getIntegrationForceGroups(),
+                             integrator.getFriction(),
+                             integrator.getStiffFriction()};
+    const double currentKT = BOLTZ * integrator.getTemperature();
+    if (!configured || !(current == parameters) || currentKT != kT) {
+        // Rebuilt only when a parameter changed, so the step loop does not allocate.
+        parameters = current;
+        kT = currentKT;
+        runner->setSchedule(flavorSchedule(parameters), kT, parameters.friction);
+        configured = true;
+    }
+    runner->step(context, integrator.getConstraintTolerance(), forcesValid);
+    ReferencePlatform::PlatformData& data =
+        *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
+    data.time += integrator.getMesoStep();
+    data.stepCount++;
+}
+
+double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const FlavorIntegrator& integrator) {
+    return runner->kineticEnergy(context);
+}
+
+void FlavorStepKernel::createCheckpoint(ContextImpl& context, std::ostream& stream) const {
+    runner->createCheckpoint(stream);
+}
+
+void FlavorStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+    runner->loadCheckpoint(stream);
+}

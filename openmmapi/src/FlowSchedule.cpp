@@ -1,0 +1,98 @@
+#include "internal/FlowSchedule.h"
+#include <algorithm>
+
+using namespace FlavorPlugin;
+using std::vector;
+
+namespace {
+
+SubFlow kick(double h, int groups) {
+    return SubFlow{SubFlow::Kick, h, groups};
+}
+
+SubFlow drift(double h) {
+    return SubFlow{SubFlow::Drift, h, 0};
+}
+
+SubFlow thermostat(double h) {
+    return SubFlow{SubFlow::Thermostat, h, 0};
+}
+
+bool composesExactly(const SubFlow& a, const SubFlow& b) {
+    if (a.kind != b.kind)
+        return false;
+    return a.kind != SubFlow::Kick || a.groups == b.groups;
+}
+
+} // namespace
+
+Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
+    Schedule result;
+    for (const SubFlow& flow : schedule) {
+        if (flow.h == 0.0 || (flow.kind == SubFlow::Kick && flow.groups == 0))
+            continue;
+        if (!result.empty() && composesExactly(result.back(), flow))
+            result.back().h += flow.h;
+        else
+            result.push_back(flow);
+    }
+    return result;
+}
+
+Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
+    const double tau = p.microStep, rest = p.mesoStep - p.microStep;
+    const int all = p.integrationGroups;
+    const int soft = p.integrationGroups & ~p.stiffGroups;
+    const bool friction = p.friction > 0.0;
+    Schedule s;
+    if (p.scheme == FlavorParameters::SymplecticEuler) {
+        // Eq. (2.17); Langevin: eqs. (4.7) and (4.8).
+        if (friction)
+            s.push_back(thermostat(tau));
+        s.push_back(kick(tau, all));
+        s.push_back(drift(tau));
+        if (friction && !p.stiffFriction)
+            s.push_back(thermostat(rest));
+        s.push_back(kick(rest, soft));
+        s.push_back(drift(rest));
+    } else {
+        // Eq. (2.7); Langevin: eqs. (4.9) and (4.10).
+        const double edge = p.stiffFriction ? tau / 2 : p.mesoStep / 2;
+        if (friction)
+            s.push_back(thermostat(edge));
+        s.push_back(kick(tau / 2, all));
+        s.push_back(drift(tau / 2));
+        s.push_back(kick(rest / 2, soft));
+        s.push_back(drift(rest));
+        s.push_back(kick(rest / 2, soft));
+        s.push_back(drift(tau / 2));
+        s.push_back(kick(tau / 2, all));
+        if (friction)
+            s.push_back(thermostat(edge));
+    }
+    return simplifySchedule(s);
+}
+
+StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool oneFlowPerPass) {
+    StepPlan plan;
+    bool driftedInPass = false;
+    for (const SubFlow& flow : schedule) {
+        bool newPass = plan.passes.empty() || oneFlowPerPass || (flow.kind == SubFlow::Kick && driftedInPass);
+        if (newPass) {
+            plan.passes.emplace_back();
+            driftedInPass = false;
+        }
+        int slot = -1;
+        if (flow.kind == SubFlow::Kick) {
+            auto found = std::find(plan.slotGroups.begin(), plan.slotGroups.end(), flow.groups);
+            slot = (int)(found - plan.slotGroups.begin());
+            if (found == plan.slotGroups.end())
+                plan.slotGroups.push_back(flow.groups);
+        }
+        if (flow.kind == SubFlow::Drift)
+            driftedInPass = true;
+        plan.passes.back().flows.push_back(flow);
+        plan.passes.back().slots.push_back(slot);
+    }
+    return plan;
+}

@@ -1,0 +1,169 @@
+#include "internal/FlowStepRunner.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/internal/ContextImpl.h"
+#include "openmm/reference/ReferenceConstraints.h"
+#include "openmm/reference/ReferencePlatform.h"
+#include <cmath>
+#include <istream>
+#include <ostream>
+#include <utility>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::vector;
+
+namespace {
+
+ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
+    // Both the Reference and the CPU platform keep positions, velocities and forces here.
+    return *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
+}
+
+} // namespace
+
+FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParticleLoop> loop)
+    : loop(std::move(loop)), numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0),
+      hasVirtualSites(false), kT(-1.0), friction(-1.0), thermostatsPerStep(0), seed(0), nextStream(0),
+      forceEvaluations(0) {
+    masses.resize(numParticles);
+    inverseMasses.resize(numParticles);
+    thermalSpeeds.resize(numParticles);
+    for (int i = 0; i < numParticles; ++i) {
+        masses[i] = system.getParticleMass(i);
+        inverseMasses[i] = (masses[i] == 0.0 ? 0.0 : 1.0 / masses[i]);
+        hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
+    }
+    if (hasConstraints)
+        previousPositions.resize(numParticles);
+}
+
+void FlowStepRunner::setSchedule(const Schedule& newSchedule, double newKT, double newFriction) {
+    if (newSchedule == schedule && newKT == kT && newFriction == friction)
+        return;
+    schedule = newSchedule;
+    kT = newKT;
+    friction = newFriction;
+    prepare();
+}
+
+void FlowStepRunner::prepare() {
+    plan = compileStepPlan(schedule, hasConstraints);
+    if (plan.slotGroups.size() > (size_t)MaxForceSlots)
+        throw OpenMMException("FlowStepRunner: a step may kick with at most 4 distinct force-group sets");
+    slots.resize(plan.slotGroups.size());
+    for (size_t i = 0; i < slots.size(); ++i) {
+        slots[i].groups = plan.slotGroups[i];
+        slots[i].valid = false;
+        slots[i].forces.resize(numParticles);
+    }
+    for (int i = 0; i < numParticles; ++i)
+        thermalSpeeds[i] = std::sqrt(kT * inverseMasses[i]);
+    preparedPasses.clear();
+    thermostatsPerStep = 0;
+    for (const FlowPass& pass : plan.passes) {
+        vector<PreparedFlow> prepared;
+        for (size_t k = 0; k < pass.flows.size(); ++k) {
+            const SubFlow& flow = pass.flows[k];
+            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0};
+            if (flow.kind == SubFlow::Thermostat) {
+                p.decay = std::exp(-friction * flow.h);
+                p.noise = std::sqrt(-std::expm1(-2.0 * friction * flow.h));
+                p.streamOffset = thermostatsPerStep++;
+            }
+            prepared.push_back(p);
+        }
+        preparedPasses.push_back(prepared);
+    }
+}
+
+void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
+    seed = newSeed;
+    random = CounterRandom(seed);
+    nextStream = 0;
+}
+
+void FlowStepRunner::invalidateForces() {
+    for (ForceSlot& slot : slots)
+        slot.valid = false;
+}
+
+void FlowStepRunner::ensureForces(ContextImpl& context, int slotIndex) {
+    ForceSlot& slot = slots[slotIndex];
+    if (slot.valid)
+        return;
+    if (hasVirtualSites)
+        context.computeVirtualSites();
+    context.calcForcesAndEnergy(true, false, slot.groups);
+    // Take the platform's force buffer instead of copying it; the platform refills whatever buffer it holds.
+    std::swap(*platformData(context).forces, slot.forces);
+    slot.valid = true;
+    forceEvaluations++;
+}
+
+void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool& forcesValid) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& positions = *data.positions;
+    vector<Vec3>& velocities = *data.velocities;
+    if (!forcesValid)
+        invalidateForces();
+    for (size_t p = 0; p < plan.passes.size(); ++p) {
+        const vector<PreparedFlow>& flows = preparedPasses[p];
+        ParticlePass pass{flows.data(),         (int)flows.size(),    {},      positions.data(), velocities.data(),
+                          inverseMasses.data(), thermalSpeeds.data(), &random, nextStream};
+        bool drifts = false;
+        double driftTime = 0.0;
+        for (const PreparedFlow& flow : flows) {
+            if (flow.kind == SubFlow::Kick) {
+                ensureForces(context, flow.slot);
+                pass.slotForces[flow.slot] = slots[flow.slot].forces.data();
+            }
+            if (flow.kind == SubFlow::Drift) {
+                drifts = true;
+                driftTime += flow.h;
+            }
+        }
+        if (hasConstraints && drifts)
+            previousPositions = positions;
+        loop->run(pass, numParticles);
+        if (drifts)
+            invalidateForces();
+        if (hasConstraints) {
+            // With constraints every pass holds one sub-flow (compileStepPlan).
+            if (drifts) {
+                data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
+                const double inverseTime = 1.0 / driftTime;
+                for (int i = 0; i < numParticles; ++i)
+                    if (inverseMasses[i] != 0.0)
+                        velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
+            } else {
+                data.constraints->applyToVelocities(positions, velocities, inverseMasses, constraintTolerance);
+            }
+        }
+    }
+    nextStream += thermostatsPerStep;
+    if (hasVirtualSites)
+        context.computeVirtualSites();
+    forcesValid = true;
+}
+
+double FlowStepRunner::kineticEnergy(ContextImpl& context) const {
+    const vector<Vec3>& velocities = *platformData(context).velocities;
+    double energy = 0.0;
+    for (int i = 0; i < numParticles; ++i)
+        energy += masses[i] * velocities[i].dot(velocities[i]);
+    return 0.5 * energy;
+}
+
+void FlowStepRunner::createCheckpoint(std::ostream& stream) const {
+    stream.write((const char*)&seed, sizeof(seed));
+    stream.write((const char*)&nextStream, sizeof(nextStream));
+}
+
+void FlowStepRunner::loadCheckpoint(std::istream& stream) {
+    std::uint64_t storedSeed, storedStream;
+    stream.read((char*)&storedSeed, sizeof(storedSeed));
+    stream.read((char*)&storedStream, sizeof(storedStream));
+    setRandomSeed(storedSeed);
+    nextStream = storedStream;
+    invalidateForces();
+}

@@ -1,0 +1,46 @@
+#include "internal/ParameterChecks.h"
+#include "openmm/OpenMMException.h"
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+using namespace FlavorPlugin;
+
+std::string FlavorPlugin::formatNumber(double value) {
+    for (int digits = 6; digits <= 17; ++digits) {
+        std::ostringstream out;
+        out.precision(digits);
+        out << value;
+        if (std::isnan(value) || std::strtod(out.str().c_str(), nullptr) == value)
+            return out.str();
+    }
+    std::ostringstream out;
+    out.precision(17);
+    out << value;
+    return out.str();
+}
+
+void FlavorPlugin::throwInvalidParameter(const std::string& owner, const std::string& parameter,
+                                         const std::string& value, const std::string& allowed) {
+    throw OpenMM::OpenMMException(owner + ": " + parameter + " = " + value + " is not allowed; " + allowed);
+}
+
+void FlavorPlugin::requirePositive(const std::string& owner, const std::string& parameter, double value,
+                                   const std::string& unit) {
+    if (!(std::isfinite(value) && value > 0.0))
+        throwInvalidParameter(owner, parameter, formatNumber(value),
+                              parameter + " must be a finite number > 0 (in " + unit + ")");
+}
+
+void FlavorPlugin::requireNonNegative(const std::string& owner, const std::string& parameter, double value,
+                                      const std::string& unit) {
+    if (!(std::isfinite(value) && value >= 0.0))
+        throwInvalidParameter(owner, parameter, formatNumber(value),
+                              parameter + " must be a finite number >= 0 (in " + unit + ")");
+}
+
+void FlavorPlugin::requireGroupMask(const std::string& owner, const std::string& parameter, int groups) {
+    if (groups == 0)
+        throwInvalidParameter(owner, parameter, "0",
+                              parameter + " must be a nonzero bitmask of force groups 0..31 (bit i set = group i)");
+}

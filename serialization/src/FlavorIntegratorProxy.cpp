@@ -1,0 +1,47 @@
+#include "FlavorIntegratorProxy.h"
+#include "FlavorIntegrator.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/serialization/SerializationNode.h"
+#include <string>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+
+FlavorIntegratorProxy::FlavorIntegratorProxy() : SerializationProxy("FlavorIntegrator") {}
+
+void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
+    const FlavorIntegrator& integrator = *reinterpret_cast<const FlavorIntegrator*>(object);
+    node.setIntProperty("version", 1);
+    node.setDoubleProperty("stepSize", integrator.getStepSize());
+    node.setDoubleProperty("microStep", integrator.getMicroStep());
+    node.setIntProperty("stiffGroups", integrator.getStiffGroups());
+    node.setIntProperty("scheme", integrator.getScheme());
+    node.setDoubleProperty("temperature", integrator.getTemperature());
+    node.setDoubleProperty("friction", integrator.getFriction());
+    node.setBoolProperty("stiffFriction", integrator.getStiffFriction());
+    node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
+    node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
+    node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
+}
+
+void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
+    int version = node.getIntProperty("version");
+    if (version != 1)
+        throw OpenMMException("FlavorIntegrator: unsupported serialization version " + std::to_string(version) +
+                              "; this library reads version 1");
+    FlavorIntegrator* integrator = new FlavorIntegrator(
+        node.getDoubleProperty("stepSize"), node.getDoubleProperty("microStep"), node.getIntProperty("stiffGroups"));
+    try {
+        integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
+        integrator->setTemperature(node.getDoubleProperty("temperature"));
+        integrator->setFriction(node.getDoubleProperty("friction"));
+        integrator->setStiffFriction(node.getBoolProperty("stiffFriction"));
+        integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
+        integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
+        integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
+    } catch (...) {
+        delete integrator;
+        throw;
+    }
+    return integrator;
+}

@@ -1,0 +1,99 @@
+#include "internal/FlowSchedule.h"
+#include <gtest/gtest.h>
+
+using namespace FlavorPlugin;
+
+namespace {
+
+const int Stiff = 1 << 1;
+const int Soft = ~Stiff;
+
+FlavorParameters parameters(FlavorParameters::Scheme scheme, double delta, double tau, double friction = 0.0,
+                            bool stiffFriction = false) {
+    return FlavorParameters{scheme, delta, tau, Stiff, AllForceGroups, friction, stiffFriction};
+}
+
+SubFlow kick(double h, int groups) {
+    return SubFlow{SubFlow::Kick, h, groups};
+}
+SubFlow drift(double h) {
+    return SubFlow{SubFlow::Drift, h, 0};
+}
+SubFlow thermostat(double h) {
+    return SubFlow{SubFlow::Thermostat, h, 0};
+}
+
+double totalTime(const Schedule& s, SubFlow::Kind kind, int requiredGroups = 0) {
+    double t = 0;
+    for (const SubFlow& f : s)
+        if (f.kind == kind && (f.groups & requiredGroups) == requiredGroups)
+            t += f.h;
+    return t;
+}
+
+} // namespace
+
+TEST(FlowSchedule, SymplecticEulerIsEquation2_17) {
+    Schedule s = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, 0.01, 0.001));
+    Schedule expected = {kick(0.001, AllForceGroups), drift(0.001), kick(0.01 - 0.001, Soft), drift(0.01 - 0.001)};
+    EXPECT_EQ(expected, s);
+}
+
+TEST(FlowSchedule, VerletIsEquation2_7) {
+    const double delta = 0.01, tau = 0.001, rest = delta - tau;
+    Schedule s = flavorSchedule(parameters(FlavorParameters::Verlet, delta, tau));
+    Schedule expected = {kick(tau / 2, AllForceGroups), drift(tau / 2), kick(rest / 2, Soft),         drift(rest),
+                         kick(rest / 2, Soft),          drift(tau / 2), kick(tau / 2, AllForceGroups)};
+    EXPECT_EQ(expected, s);
+}
+
+TEST(FlowSchedule, StiffForcesActForTheMicrostepAndTimeAdvancesByTheMesostep) {
+    for (auto scheme : {FlavorParameters::SymplecticEuler, FlavorParameters::Verlet}) {
+        Schedule s = flavorSchedule(parameters(scheme, 0.02, 0.003));
+        EXPECT_NEAR(0.003, totalTime(s, SubFlow::Kick, Stiff), 1e-17);
+        EXPECT_NEAR(0.02, totalTime(s, SubFlow::Kick, 1), 1e-17); // group 0 is soft: always on
+        EXPECT_NEAR(0.02, totalTime(s, SubFlow::Drift), 1e-17);
+    }
+}
+
+TEST(FlowSchedule, EqualStepsReduceToTheLegacyIntegrators) {
+    Schedule euler = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, 0.01, 0.01));
+    EXPECT_EQ((Schedule{kick(0.01, AllForceGroups), drift(0.01)}), euler);
+    Schedule verlet = flavorSchedule(parameters(FlavorParameters::Verlet, 0.01, 0.01));
+    EXPECT_EQ((Schedule{kick(0.005, AllForceGroups), drift(0.01), kick(0.005, AllForceGroups)}), verlet);
+}
+
+TEST(FlowSchedule, LangevinPlacesTheThermostatsOfEquations4_7To4_10) {
+    const double delta = 0.01, tau = 0.002;
+    Schedule slowEuler = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, delta, tau, 1.0, false));
+    EXPECT_EQ((Schedule{thermostat(tau), kick(tau, AllForceGroups), drift(tau), thermostat(delta - tau),
+                        kick(delta - tau, Soft), drift(delta - tau)}),
+              slowEuler);
+    Schedule stiffEuler = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, delta, tau, 1.0, true));
+    EXPECT_EQ(
+        (Schedule{thermostat(tau), kick(tau, AllForceGroups), drift(tau), kick(delta - tau, Soft), drift(delta - tau)}),
+        stiffEuler);
+    for (bool stiff : {false, true}) {
+        Schedule verlet = flavorSchedule(parameters(FlavorParameters::Verlet, delta, tau, 1.0, stiff));
+        double edge = stiff ? tau / 2 : delta / 2;
+        EXPECT_EQ(thermostat(edge), verlet.front());
+        EXPECT_EQ(thermostat(edge), verlet.back());
+        EXPECT_NEAR(stiff ? tau : delta, totalTime(verlet, SubFlow::Thermostat), 1e-17);
+    }
+}
+
+TEST(FlowSchedule, SimplifyDropsEmptyFlowsAndMergesExactCompositions) {
+    Schedule s = {drift(0.1), drift(0.2), kick(0.0, 1), kick(0.3, 0), kick(0.1, 1), kick(0.2, 1), kick(0.1, 2)};
+    EXPECT_EQ((Schedule{drift(0.1 + 0.2), kick(0.1 + 0.2, 1), kick(0.1, 2)}), simplifySchedule(s));
+}
+
+TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
+    StepPlan plan = compileStepPlan(flavorSchedule(parameters(FlavorParameters::Verlet, 0.01, 0.001)), false);
+    // K_A D | K_S D | K_S D | K_A: three force evaluations per step once the last one is reused.
+    ASSERT_EQ(4u, plan.passes.size());
+    EXPECT_EQ(2u, plan.passes[0].flows.size());
+    EXPECT_EQ(1u, plan.passes[3].flows.size());
+    EXPECT_EQ((std::vector<int>{AllForceGroups, Soft}), plan.slotGroups);
+    StepPlan constrained = compileStepPlan(flavorSchedule(parameters(FlavorParameters::Verlet, 0.01, 0.001)), true);
+    EXPECT_EQ(7u, constrained.passes.size());
+}

@@ -1,0 +1,104 @@
+#ifndef OPENMM_FLAVORS_TESTS_TEST_SYSTEMS_H_
+#define OPENMM_FLAVORS_TESTS_TEST_SYSTEMS_H_
+
+// Small systems from the FLAVORS paper, in OpenMM's units with unit masses.  Particles move along x only.
+
+#include "openmm/Context.h"
+#include "openmm/CustomBondForce.h"
+#include "openmm/CustomExternalForce.h"
+#include "openmm/HarmonicBondForce.h"
+#include "openmm/State.h"
+#include "openmm/System.h"
+#include "openmm/Vec3.h"
+#include <cmath>
+#include <vector>
+
+namespace FlavorTests {
+
+constexpr int SoftGroup = 0;
+constexpr int StiffGroup = 1;
+constexpr int StiffMask = 1 << StiffGroup;
+
+/**
+ * The Fermi-Pasta-Ulam chain (6.7): `chains` independent copies of m stiff harmonic springs (omega^2/4 (q2-q1)^2,
+ * force group StiffGroup) joined by soft quartic springs (q3-q2)^4 and to walls at 0 ((q1)^4 and (q_2m)^4), in
+ * SoftGroup.  Particle 2m*c + k is q_{k+1} of chain c.
+ */
+inline OpenMM::System* fpuSystem(int m, double omega, int chains = 1) {
+    OpenMM::System* system = new OpenMM::System();
+    OpenMM::HarmonicBondForce* stiff = new OpenMM::HarmonicBondForce();
+    OpenMM::CustomBondForce* soft = new OpenMM::CustomBondForce("r^4");
+    OpenMM::CustomExternalForce* walls = new OpenMM::CustomExternalForce("x^4");
+    stiff->setForceGroup(StiffGroup);
+    soft->setForceGroup(SoftGroup);
+    walls->setForceGroup(SoftGroup);
+    for (int c = 0; c < chains; ++c) {
+        int first = system->getNumParticles();
+        for (int k = 0; k < 2 * m; ++k)
+            system->addParticle(1.0);
+        for (int i = 0; i < m; ++i)
+            stiff->addBond(first + 2 * i, first + 2 * i + 1, 0.0, omega * omega / 2);
+        for (int i = 0; i + 1 < m; ++i)
+            soft->addBond(first + 2 * i + 1, first + 2 * i + 2);
+        walls->addParticle(first);
+        walls->addParticle(first + 2 * m - 1);
+    }
+    system->addForce(stiff);
+    system->addForce(soft);
+    system->addForce(walls);
+    return system;
+}
+
+/**
+ * Positions from the slow and fast coordinates x0_i = (q_2i + q_2i-1)/sqrt2, x1_i = (q_2i - q_2i-1)/sqrt2,
+ * repeated for each chain.
+ */
+inline std::vector<OpenMM::Vec3> fpuPositions(const std::vector<double>& x0, const std::vector<double>& x1,
+                                              int chains = 1) {
+    std::vector<OpenMM::Vec3> positions;
+    for (int c = 0; c < chains; ++c)
+        for (size_t i = 0; i < x0.size(); ++i) {
+            positions.push_back(OpenMM::Vec3((x0[i] - x1[i]) / std::sqrt(2.0), 0, 0));
+            positions.push_back(OpenMM::Vec3((x0[i] + x1[i]) / std::sqrt(2.0), 0, 0));
+        }
+    return positions;
+}
+
+/** The linear system (5.1): particle 0 is x (soft potential x^2/2), particle 1 is y (stiff omega^2/2 (y-x)^2). */
+inline OpenMM::System* linearSystem(double omega) {
+    OpenMM::System* system = new OpenMM::System();
+    system->addParticle(1.0);
+    system->addParticle(1.0);
+    OpenMM::CustomExternalForce* soft = new OpenMM::CustomExternalForce("0.5*x^2");
+    soft->addParticle(0);
+    soft->setForceGroup(SoftGroup);
+    OpenMM::HarmonicBondForce* stiff = new OpenMM::HarmonicBondForce();
+    stiff->addBond(0, 1, 0.0, omega * omega);
+    stiff->setForceGroup(StiffGroup);
+    system->addForce(soft);
+    system->addForce(stiff);
+    return system;
+}
+
+inline std::vector<OpenMM::Vec3> positionsOf(OpenMM::Context& context) {
+    return context.getState(OpenMM::State::Positions).getPositions();
+}
+
+inline std::vector<OpenMM::Vec3> velocitiesOf(OpenMM::Context& context) {
+    return context.getState(OpenMM::State::Velocities).getVelocities();
+}
+
+/** |a - b| / |b| over all coordinates. */
+inline double relativeDifference(const std::vector<OpenMM::Vec3>& a, const std::vector<OpenMM::Vec3>& b) {
+    double diff = 0, norm = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+        OpenMM::Vec3 d = a[i] - b[i];
+        diff += d.dot(d);
+        norm += b[i].dot(b[i]);
+    }
+    return std::sqrt(diff / norm);
+}
+
+} // namespace FlavorTests
+
+#endif

@@ -1,0 +1,105 @@
+%module(package="openmmflavors") openmmflavors
+
+%include "std_string.i"
+%include "std_vector.i"
+%import "OpenMMBase.i"
+
+%{
+#include "FlavorIntegrator.h"
+#include "openmm/OpenMMException.h"
+#include <Python.h>
+%}
+
+// C++ exceptions become openmm.OpenMMException, as in OpenMM's own wrapper.
+%exception {
+    try {
+        $action
+    } catch (std::exception& e) {
+        PyObject* mm = PyImport_AddModule("openmm");
+        PyObject* openmmException = PyObject_GetAttrString(mm, "OpenMMException");
+        PyErr_SetString(openmmException, e.what());
+        Py_XDECREF(openmmException);
+        SWIG_fail;
+    }
+}
+
+// Stepping releases the GIL, like OpenMM's integrators.
+%exception *::step {
+    PyThreadState* savedThreadState = PyEval_SaveThread();
+    try {
+        $action
+    } catch (std::exception& e) {
+        PyEval_RestoreThread(savedThreadState);
+        PyObject* mm = PyImport_AddModule("openmm");
+        PyObject* openmmException = PyObject_GetAttrString(mm, "OpenMMException");
+        PyErr_SetString(openmmException, e.what());
+        Py_XDECREF(openmmException);
+        SWIG_fail;
+    }
+    PyEval_RestoreThread(savedThreadState);
+}
+
+%pythonbegin %{
+import openmm
+import openmm.unit as unit
+from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupMask
+%}
+
+// Quantities in, plain numbers in OpenMM's units to C++.
+%pythonprepend FlavorPlugin::FlavorIntegrator::FlavorIntegrator %{
+    mesoStep = _stripUnits(mesoStep, unit.picosecond, "mesoStep")
+    microStep = _stripUnits(microStep, unit.picosecond, "microStep")
+    stiffGroups = _groupMask(stiffGroups, "stiffGroups")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setMesoStep %{
+    size = _stripUnits(size, unit.picosecond, "mesoStep")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setStepSize %{
+    size = _stripUnits(size, unit.picosecond, "stepSize")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setMicroStep %{
+    size = _stripUnits(size, unit.picosecond, "microStep")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setStiffGroups %{
+    groups = _groupMask(groups, "stiffGroups")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setTemperature %{
+    temp = _stripUnits(temp, unit.kelvin, "temperature")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setFriction %{
+    coeff = _stripUnits(coeff, unit.picosecond**-1, "friction")
+%}
+
+// Getters return Quantities, as OpenMM's integrators do.
+%pythonappend FlavorPlugin::FlavorIntegrator::getMesoStep %{
+    val = unit.Quantity(val, unit.picosecond)
+%}
+%pythonappend FlavorPlugin::FlavorIntegrator::getMicroStep %{
+    val = unit.Quantity(val, unit.picosecond)
+%}
+%pythonappend FlavorPlugin::FlavorIntegrator::getTemperature %{
+    val = unit.Quantity(val, unit.kelvin)
+%}
+%pythonappend FlavorPlugin::FlavorIntegrator::getFriction %{
+    val = unit.Quantity(val, unit.picosecond**-1)
+%}
+
+// The protected Integrator interface is OpenMM's business, not Python's.
+%ignore FlavorPlugin::FlavorIntegrator::initialize;
+%ignore FlavorPlugin::FlavorIntegrator::cleanup;
+%ignore FlavorPlugin::FlavorIntegrator::getKernelNames;
+%ignore FlavorPlugin::FlavorIntegrator::stateChanged;
+%ignore FlavorPlugin::FlavorIntegrator::computeKineticEnergy;
+%ignore FlavorPlugin::FlavorIntegrator::kineticEnergyRequiresForce;
+%ignore FlavorPlugin::FlavorIntegrator::createCheckpoint;
+%ignore FlavorPlugin::FlavorIntegrator::loadCheckpoint;
+
+#define OPENMM_EXPORT_FLAVORS
+%include "FlavorIntegrator.h"
+
+%extend FlavorPlugin::FlavorIntegrator {
+    /** Returns integrator as a FlavorIntegrator, or None if it is another kind of Integrator. */
+    static FlavorPlugin::FlavorIntegrator* _cast(OpenMM::Integrator* integrator) {
+        return dynamic_cast<FlavorPlugin::FlavorIntegrator*>(integrator);
+    }
+}

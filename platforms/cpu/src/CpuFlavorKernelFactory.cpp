@@ -17,12 +17,17 @@ namespace {
 
 /**
  * Runs a pass on the CPU platform's thread pool, each thread on one contiguous block of particles.  The task
- * object is reused for every pass, so stepping allocates nothing.
+ * object is reused for every pass, so stepping allocates nothing.  Small systems run on the calling thread: waking
+ * the pool costs more than the pass.
  */
 class ThreadedParticleLoop : public ParticleLoop, private ThreadPool::Task {
 public:
     explicit ThreadedParticleLoop(ThreadPool& threads) : threads(threads), pass(nullptr), numParticles(0) {}
     void run(const ParticlePass& currentPass, int count) override {
+        if (count < MinParticlesPerThread * threads.getNumThreads()) {
+            currentPass.apply(0, count);
+            return;
+        }
         pass = &currentPass;
         numParticles = count;
         threads.execute(*this);
@@ -30,6 +35,7 @@ public:
     }
 
 private:
+    static constexpr int MinParticlesPerThread = 1024;
     void execute(ThreadPool& pool, int threadIndex) override {
         const int numThreads = pool.getNumThreads();
         const int begin = (int)((long long)numParticles * threadIndex / numThreads);

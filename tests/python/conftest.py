@@ -1,0 +1,122 @@
+"""Shared systems and helpers for the openmmflavors tests.
+
+The test system is a small Fermi-Pasta-Ulam chain: 6 unit-mass particles on the x axis, stiff harmonic springs
+of rest length 0 between (0,1), (2,3), (4,5) in force group 1, and soft quartic springs r^4 between (1,2), (3,4)
+plus quartic walls x^4 on particles 0 and 5 in force group 0.
+"""
+import numpy as np
+import openmm
+import openmm.unit as unit
+import pytest
+
+import openmmflavors  # noqa: F401  (loads the plugin kernels and patches XmlSerializer)
+from openmmflavors import FlavorIntegrator
+
+PLATFORMS = ["Reference", "CPU"]
+
+SOFT_GROUP = 0
+STIFF_GROUP = 1
+OMEGA = 40.0
+STIFF_PAIRS = [(0, 1), (2, 3), (4, 5)]
+SOFT_PAIRS = [(1, 2), (3, 4)]
+WALL_PARTICLES = [0, 5]
+
+# Generic values (no symmetry, no particle pair at the same x) so that every force term is active.
+INITIAL_X = np.array([-0.55, -0.42, -0.12, 0.03, 0.36, 0.51])
+INITIAL_VX = np.array([0.3, -0.2, 0.5, -0.4, 0.1, 0.25])
+
+MESO_STEP = 0.02
+MICRO_STEP = 0.002
+
+
+def build_fpu_system(stiff_group=STIFF_GROUP, soft_group=SOFT_GROUP, omega=OMEGA):
+    system = openmm.System()
+    for _ in range(6):
+        system.addParticle(1.0)
+    stiff = openmm.HarmonicBondForce()
+    for i, j in STIFF_PAIRS:
+        stiff.addBond(i, j, 0.0, omega**2 / 2)
+    stiff.setForceGroup(stiff_group)
+    soft = openmm.CustomBondForce("r^4")
+    for i, j in SOFT_PAIRS:
+        soft.addBond(i, j, [])
+    soft.setForceGroup(soft_group)
+    walls = openmm.CustomExternalForce("x^4")
+    for i in WALL_PARTICLES:
+        walls.addParticle(i, [])
+    walls.setForceGroup(soft_group)
+    system.addForce(stiff)
+    system.addForce(soft)
+    system.addForce(walls)
+    return system
+
+
+def fpu_positions():
+    return [openmm.Vec3(x, 0.0, 0.0) for x in INITIAL_X] * unit.nanometer
+
+
+def fpu_velocities():
+    return [openmm.Vec3(v, 0.0, 0.0) for v in INITIAL_VX] * (unit.nanometer / unit.picosecond)
+
+
+def platform_properties(platform_name):
+    # A fixed thread count keeps CPU results independent of the machine.
+    return {"Threads": "2"} if platform_name == "CPU" else {}
+
+
+def make_context(system, integrator, platform_name, positions=None, velocities=None):
+    platform = openmm.Platform.getPlatformByName(platform_name)
+    context = openmm.Context(system, integrator, platform, platform_properties(platform_name))
+    context.setPositions(fpu_positions() if positions is None else positions)
+    context.setVelocities(fpu_velocities() if velocities is None else velocities)
+    return context
+
+
+def make_integrator(meso=MESO_STEP, micro=MICRO_STEP, groups=1 << STIFF_GROUP, scheme=None, temperature=None,
+                    friction=None, seed=None, stiff_friction=None):
+    integrator = FlavorIntegrator(meso, micro, groups)
+    if scheme is not None:
+        integrator.setScheme(scheme)
+    if temperature is not None:
+        integrator.setTemperature(temperature)
+    if friction is not None:
+        integrator.setFriction(friction)
+    if seed is not None:
+        integrator.setRandomNumberSeed(seed)
+    if stiff_friction is not None:
+        integrator.setStiffFriction(stiff_friction)
+    return integrator
+
+
+def state_arrays(context, forces=False):
+    """Positions (nm) and velocities (nm/ps) as float64 arrays, plus forces (kJ/mol/nm) if asked for."""
+    state = context.getState(getPositions=True, getVelocities=True, getForces=forces)
+    pos = np.array(state.getPositions(asNumpy=True).value_in_unit(unit.nanometer), dtype=np.float64)
+    vel = np.array(state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond),
+                   dtype=np.float64)
+    if forces:
+        frc = np.array(state.getForces(asNumpy=True).value_in_unit(unit.kilojoule_per_mole / unit.nanometer),
+                       dtype=np.float64)
+        return pos, vel, frc
+    return pos, vel
+
+
+def run_trajectory(context, steps):
+    """Step one mesostep at a time; return the positions and velocities after every step."""
+    positions, velocities = [], []
+    for _ in range(steps):
+        context.getIntegrator().step(1)
+        pos, vel = state_arrays(context)
+        positions.append(pos)
+        velocities.append(vel)
+    return np.array(positions), np.array(velocities)
+
+
+@pytest.fixture(params=PLATFORMS)
+def platform_name(request):
+    return request.param
+
+
+@pytest.fixture
+def fpu_system():
+    return build_fpu_system()

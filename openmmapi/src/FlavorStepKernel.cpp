@@ -14,7 +14,7 @@ std::uint64_t FlavorPlugin::effectiveRandomSeed(int seed) {
     return ((std::uint64_t)device() << 32) | device();
 }
 
-FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParticleLoop> loop)
+FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
     : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0) {}
 
 void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {

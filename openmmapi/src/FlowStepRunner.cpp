@@ -21,7 +21,7 @@ ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
 
 } // namespace
 
-FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParticleLoop> loop)
+FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoop> loop)
     : loop(std::move(loop)), numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0),
       hasVirtualSites(false), kT(-1.0), friction(-1.0), thermostatsPerStep(0), seed(0), nextStream(0),
       forceEvaluations(0) {
@@ -108,8 +108,15 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool
         invalidateForces();
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const vector<PreparedFlow>& flows = preparedPasses[p];
-        ParticlePass pass{flows.data(),         (int)flows.size(),    {},      positions.data(), velocities.data(),
-                          inverseMasses.data(), thermalSpeeds.data(), &random, nextStream};
+        ParticlePass pass;
+        pass.flows = flows.data();
+        pass.numFlows = (int)flows.size();
+        pass.positions = positions.data();
+        pass.velocities = velocities.data();
+        pass.inverseMasses = inverseMasses.data();
+        pass.thermalSpeeds = thermalSpeeds.data();
+        pass.random = &random;
+        pass.firstStream = nextStream;
         bool drifts = false;
         double driftTime = 0.0;
         for (const PreparedFlow& flow : flows) {

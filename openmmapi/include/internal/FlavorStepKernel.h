@@ -10,11 +10,11 @@ namespace FlavorPlugin {
 
 /**
  * The FlavorIntegrator kernel of every platform whose particle data is ReferencePlatform::PlatformData: the
- * platforms differ only in the ParticleLoop they supply.
+ * platforms differ only in the ParallelLoop they supply.
  */
 class OPENMM_EXPORT_FLAVORS FlavorStepKernel : public IntegrateFlavorStepKernel {
 public:
-    FlavorStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParticleLoop> loop);
+    FlavorStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParallelLoop> loop);
     void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) override;
     void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
@@ -22,7 +22,7 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
 
 private:
-    std::unique_ptr<ParticleLoop> loop;
+    std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
     bool configured;
     FlavorParameters parameters;

@@ -27,7 +27,7 @@ namespace FlavorPlugin {
  */
 class OPENMM_EXPORT_FLAVORS FlowStepRunner {
 public:
-    FlowStepRunner(const OpenMM::System& system, std::unique_ptr<ParticleLoop> loop);
+    FlowStepRunner(const OpenMM::System& system, std::unique_ptr<ParallelLoop> loop);
     /**
      * Sets the schedule of one step, the thermal energy kT (kJ/mol) and the friction (1/ps) of its thermostats.
      * Cheap when nothing changed.
@@ -57,7 +57,7 @@ private:
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
 
-    std::unique_ptr<ParticleLoop> loop;
+    std::unique_ptr<ParallelLoop> loop;
     int numParticles;
     bool hasConstraints, hasVirtualSites;
     std::vector<double> masses, inverseMasses, thermalSpeeds;

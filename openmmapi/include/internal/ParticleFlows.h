@@ -24,22 +24,40 @@ struct PreparedFlow {
 };
 
 /**
+ * Work that splits into independent index ranges [begin, end).
+ */
+class RangeTask {
+public:
+    virtual ~RangeTask() = default;
+    virtual void apply(int begin, int end) const = 0;
+};
+
+/**
+ * Runs a RangeTask over [0, count).  Each platform supplies one: plain loops, or its thread pool.
+ */
+class ParallelLoop {
+public:
+    virtual ~ParallelLoop() = default;
+    virtual void run(const RangeTask& task, int count) = 0;
+};
+
+/**
  * Everything one pass over the particles needs.  apply() is the only place where kicks, drifts and
  * Ornstein-Uhlenbeck flows touch particle data, for every platform.
  */
-struct ParticlePass {
-    const PreparedFlow* flows;
-    int numFlows;
-    const OpenMM::Vec3* slotForces[MaxForceSlots];
-    OpenMM::Vec3* positions;
-    OpenMM::Vec3* velocities;
-    const double* inverseMasses;
+struct ParticlePass : public RangeTask {
+    const PreparedFlow* flows = nullptr;
+    int numFlows = 0;
+    const OpenMM::Vec3* slotForces[MaxForceSlots] = {};
+    OpenMM::Vec3* positions = nullptr;
+    OpenMM::Vec3* velocities = nullptr;
+    const double* inverseMasses = nullptr;
     /** sqrt(kT/m) for each particle. */
-    const double* thermalSpeeds;
-    const CounterRandom* random;
-    std::uint64_t firstStream;
+    const double* thermalSpeeds = nullptr;
+    const CounterRandom* random = nullptr;
+    std::uint64_t firstStream = 0;
 
-    void apply(int begin, int end) const {
+    void apply(int begin, int end) const override {
         for (int i = begin; i < end; ++i) {
             const double invMass = inverseMasses[i];
             if (invMass == 0.0)
@@ -65,15 +83,6 @@ struct ParticlePass {
             velocities[i] = v;
         }
     }
-};
-
-/**
- * Runs a ParticlePass over all particles.  Each platform supplies one: plain loops, or its thread pool.
- */
-class ParticleLoop {
-public:
-    virtual ~ParticleLoop() = default;
-    virtual void run(const ParticlePass& pass, int numParticles) = 0;
 };
 
 } // namespace FlavorPlugin

@@ -16,35 +16,35 @@ using namespace OpenMM;
 namespace {
 
 /**
- * Runs a pass on the CPU platform's thread pool, each thread on one contiguous block of particles.  The task
- * object is reused for every pass, so stepping allocates nothing.  Small systems run on the calling thread: waking
- * the pool costs more than the pass.
+ * Runs a task on the CPU platform's thread pool, each thread on one contiguous block of indices.  The loop object is
+ * reused for every pass, so stepping allocates nothing.  Small tasks run on the calling thread: waking the pool
+ * costs more than they do.
  */
-class ThreadedParticleLoop : public ParticleLoop, private ThreadPool::Task {
+class ThreadedLoop : public ParallelLoop, private ThreadPool::Task {
 public:
-    explicit ThreadedParticleLoop(ThreadPool& threads) : threads(threads), pass(nullptr), numParticles(0) {}
-    void run(const ParticlePass& currentPass, int count) override {
-        if (count < MinParticlesPerThread * threads.getNumThreads()) {
-            currentPass.apply(0, count);
+    explicit ThreadedLoop(ThreadPool& threads) : threads(threads), task(nullptr), count(0) {}
+    void run(const RangeTask& currentTask, int count) override {
+        if (count < MinItemsPerThread * threads.getNumThreads()) {
+            currentTask.apply(0, count);
             return;
         }
-        pass = &currentPass;
-        numParticles = count;
+        task = &currentTask;
+        this->count = count;
         threads.execute(*this);
         threads.waitForThreads();
     }
 
 private:
-    static constexpr int MinParticlesPerThread = 1024;
+    static constexpr int MinItemsPerThread = 1024;
     void execute(ThreadPool& pool, int threadIndex) override {
         const int numThreads = pool.getNumThreads();
-        const int begin = (int)((long long)numParticles * threadIndex / numThreads);
-        const int end = (int)((long long)numParticles * (threadIndex + 1) / numThreads);
-        pass->apply(begin, end);
+        const int begin = (int)((long long)count * threadIndex / numThreads);
+        const int end = (int)((long long)count * (threadIndex + 1) / numThreads);
+        task->apply(begin, end);
     }
     ThreadPool& threads;
-    const ParticlePass* pass;
-    int numParticles;
+    const RangeTask* task;
+    int count;
 };
 
 class CpuFlavorKernelFactory : public KernelFactory {
@@ -52,7 +52,7 @@ public:
     KernelImpl* createKernelImpl(std::string name, const Platform& platform, ContextImpl& context) const override {
         CpuPlatform::PlatformData& data = CpuPlatform::getPlatformData(context);
         if (name == IntegrateFlavorStepKernel::Name())
-            return new FlavorStepKernel(name, platform, std::make_unique<ThreadedParticleLoop>(data.threads));
+            return new FlavorStepKernel(name, platform, std::make_unique<ThreadedLoop>(data.threads));
         throw OpenMMException((std::string("Tried to create kernel with illegal kernel name '") + name + "'").c_str());
     }
 };

@@ -12,17 +12,17 @@ using namespace OpenMM;
 
 namespace {
 
-/** Plain loops: the obviously correct way to run a pass. */
-class SerialParticleLoop : public ParticleLoop {
+/** Plain loops: the obviously correct way to run a task. */
+class SerialLoop : public ParallelLoop {
 public:
-    void run(const ParticlePass& pass, int numParticles) override { pass.apply(0, numParticles); }
+    void run(const RangeTask& task, int count) override { task.apply(0, count); }
 };
 
 class ReferenceFlavorKernelFactory : public KernelFactory {
 public:
     KernelImpl* createKernelImpl(std::string name, const Platform& platform, ContextImpl& context) const override {
         if (name == IntegrateFlavorStepKernel::Name())
-            return new FlavorStepKernel(name, platform, std::make_unique<SerialParticleLoop>());
+            return new FlavorStepKernel(name, platform, std::make_unique<SerialLoop>());
         throw OpenMMException((std::string("Tried to create kernel with illegal kernel name '") + name + "'").c_str());
     }
 };

@@ -2,10 +2,12 @@
 #define OPENMM_FLAVORS_KERNELS_H_
 
 #include "FlavorIntegrator.h"
+#include "StochasticImpulseIntegrator.h"
 #include "openmm/KernelImpl.h"
 #include "openmm/System.h"
 #include <iosfwd>
 #include <string>
+#include <vector>
 
 namespace FlavorPlugin {
 
@@ -36,6 +38,52 @@ public:
      * Compute the kinetic energy.
      */
     virtual double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) = 0;
+    /**
+     * Write the kernel's state (the random streams) to a checkpoint.
+     */
+    virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
+    /**
+     * Restore the kernel's state from a checkpoint.
+     */
+    virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
+};
+
+/**
+ * This kernel is invoked by StochasticImpulseIntegrator to take one step.
+ */
+class IntegrateStochasticImpulseStepKernel : public OpenMM::KernelImpl {
+public:
+    static std::string Name() { return "IntegrateStochasticImpulseStep"; }
+    IntegrateStochasticImpulseStepKernel(std::string name, const OpenMM::Platform& platform)
+        : OpenMM::KernelImpl(name, platform) {}
+    /**
+     * Initialize the kernel.
+     *
+     * @param system     the System this kernel will be applied to
+     * @param integrator the StochasticImpulseIntegrator this kernel will be used for
+     */
+    virtual void initialize(const OpenMM::System& system, const StochasticImpulseIntegrator& integrator) = 0;
+    /**
+     * Execute the kernel.
+     *
+     * @param context          the context in which to execute this kernel
+     * @param integrator       the integrator this kernel is being used for
+     * @param forcesValid      whether forces cached by an earlier step are still valid; true on return
+     * @param stiffModesValid  whether the measured stiff potential is still valid; true on return
+     */
+    virtual void execute(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
+                         bool& stiffModesValid) = 0;
+    /**
+     * Get the angular frequencies of the stiff modes, measuring the stiff potential if needed.
+     */
+    virtual std::vector<double> getStiffModeFrequencies(OpenMM::ContextImpl& context,
+                                                        const StochasticImpulseIntegrator& integrator,
+                                                        bool& stiffModesValid) = 0;
+    /**
+     * Compute the kinetic energy.
+     */
+    virtual double computeKineticEnergy(OpenMM::ContextImpl& context,
+                                        const StochasticImpulseIntegrator& integrator) = 0;
     /**
      * Write the kernel's state (the random streams) to a checkpoint.
      */

@@ -1,5 +1,6 @@
 #include "internal/FlowSchedule.h"
 #include <algorithm>
+#include <cmath>
 
 using namespace FlavorPlugin;
 using std::vector;
@@ -16,6 +17,10 @@ SubFlow drift(double h) {
 
 SubFlow thermostat(double h) {
     return SubFlow{SubFlow::Thermostat, h, 0};
+}
+
+SubFlow stiffFlow(double h) {
+    return SubFlow{SubFlow::StiffFlow, h, 0};
 }
 
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
@@ -73,11 +78,37 @@ Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
     return simplifySchedule(s);
 }
 
+Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
+    const double H = p.stepSize;
+    const int soft = p.integrationGroups & ~p.stiffGroups;
+    Schedule s;
+    auto strang = [&](double h) {
+        s.push_back(kick(h / 2, soft));
+        s.push_back(stiffFlow(h));
+        s.push_back(kick(h / 2, soft));
+    };
+    if (p.splitting == ImpulseParameters::LieTrotter) {
+        s.push_back(stiffFlow(H));
+        s.push_back(kick(H, soft));
+    } else if (p.splitting == ImpulseParameters::Strang) {
+        strang(H);
+    } else {
+        const double c = 1.0 / (2.0 - std::cbrt(2.0));
+        strang(c * H);
+        strang((1 - 2 * c) * H);
+        strang(c * H);
+    }
+    return simplifySchedule(s);
+}
+
 StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool oneFlowPerPass) {
     StepPlan plan;
     bool driftedInPass = false;
     for (const SubFlow& flow : schedule) {
-        bool newPass = plan.passes.empty() || oneFlowPerPass || (flow.kind == SubFlow::Kick && driftedInPass);
+        const bool previousWasStiff =
+            !plan.passes.empty() && plan.passes.back().flows.back().kind == SubFlow::StiffFlow;
+        bool newPass = plan.passes.empty() || oneFlowPerPass || flow.kind == SubFlow::StiffFlow || previousWasStiff ||
+                       (flow.kind == SubFlow::Kick && driftedInPass);
         if (newPass) {
             plan.passes.emplace_back();
             driftedInPass = false;

@@ -46,6 +46,11 @@ void FlowStepRunner::setSchedule(const Schedule& newSchedule, double newKT, doub
     prepare();
 }
 
+void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
+    stiffModes = modes;
+    prepare();
+}
+
 void FlowStepRunner::prepare() {
     plan = compileStepPlan(schedule, hasConstraints);
     if (plan.slotGroups.size() > (size_t)MaxForceSlots)
@@ -59,8 +64,10 @@ void FlowStepRunner::prepare() {
     for (int i = 0; i < numParticles; ++i)
         thermalSpeeds[i] = std::sqrt(kT * inverseMasses[i]);
     preparedPasses.clear();
+    stiffFlows.assign(plan.passes.size(), vector<ModeFlow>());
     thermostatsPerStep = 0;
-    for (const FlowPass& pass : plan.passes) {
+    for (size_t passIndex = 0; passIndex < plan.passes.size(); ++passIndex) {
+        const FlowPass& pass = plan.passes[passIndex];
         vector<PreparedFlow> prepared;
         for (size_t k = 0; k < pass.flows.size(); ++k) {
             const SubFlow& flow = pass.flows[k];
@@ -69,6 +76,11 @@ void FlowStepRunner::prepare() {
                 p.decay = std::exp(-friction * flow.h);
                 p.noise = std::sqrt(-std::expm1(-2.0 * friction * flow.h));
                 p.streamOffset = thermostatsPerStep++;
+            }
+            if (flow.kind == SubFlow::StiffFlow) {
+                p.streamOffset = thermostatsPerStep++;
+                if (stiffModes)
+                    stiffModes->computeFlows(flow.h, friction, stiffFlows[passIndex]);
             }
             prepared.push_back(p);
         }
@@ -117,6 +129,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool
         pass.thermalSpeeds = thermalSpeeds.data();
         pass.random = &random;
         pass.firstStream = nextStream;
+        if (flows[0].kind == SubFlow::StiffFlow) {
+            runStiffFlow(context, p, flows[0], constraintTolerance);
+            continue;
+        }
         bool drifts = false;
         double driftTime = 0.0;
         for (const PreparedFlow& flow : flows) {
@@ -151,6 +167,30 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool
     if (hasVirtualSites)
         context.computeVirtualSites();
     forcesValid = true;
+}
+
+void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                                  double constraintTolerance) {
+    if (!stiffModes)
+        throw OpenMMException("FlowStepRunner: a StiffFlow needs setStiffModes()");
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& positions = *data.positions;
+    if (hasConstraints)
+        previousPositions = positions;
+    StiffModes::Flow task(*stiffModes);
+    task.flows = stiffFlows[passIndex].data();
+    task.positions = positions.data();
+    task.velocities = data.velocities->data();
+    task.thermalScale = (friction > 0.0 ? std::sqrt(kT) : 0.0);
+    task.random = &random;
+    task.stream = nextStream + flow.streamOffset;
+    loop->run(task, stiffModes->getNumComponents());
+    invalidateForces();
+    if (hasConstraints) {
+        // Only particles outside stiff components may be constrained; they moved by the free flow.
+        data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
+        data.constraints->applyToVelocities(positions, *data.velocities, inverseMasses, constraintTolerance);
+    }
 }
 
 double FlowStepRunner::kineticEnergy(ContextImpl& context) const {

@@ -2,6 +2,7 @@
 #include "FlavorIntegrator.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/serialization/SerializationNode.h"
+#include <memory>
 #include <string>
 
 using namespace FlavorPlugin;
@@ -29,19 +30,14 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     if (version != 1)
         throw OpenMMException("FlavorIntegrator: unsupported serialization version " + std::to_string(version) +
                               "; this library reads version 1");
-    FlavorIntegrator* integrator = new FlavorIntegrator(
+    auto integrator = std::make_unique<FlavorIntegrator>(
         node.getDoubleProperty("stepSize"), node.getDoubleProperty("microStep"), node.getIntProperty("stiffGroups"));
-    try {
-        integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
-        integrator->setTemperature(node.getDoubleProperty("temperature"));
-        integrator->setFriction(node.getDoubleProperty("friction"));
-        integrator->setStiffFriction(node.getBoolProperty("stiffFriction"));
-        integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
-        integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
-        integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
-    } catch (...) {
-        delete integrator;
-        throw;
-    }
-    return integrator;
+    integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
+    integrator->setTemperature(node.getDoubleProperty("temperature"));
+    integrator->setFriction(node.getDoubleProperty("friction"));
+    integrator->setStiffFriction(node.getBoolProperty("stiffFriction"));
+    integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
+    integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
+    integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
+    return integrator.release();
 }

@@ -6,6 +6,7 @@
 
 %{
 #include "FlavorIntegrator.h"
+#include "StochasticImpulseIntegrator.h"
 #include "openmm/OpenMMException.h"
 #include <Python.h>
 %}
@@ -45,6 +46,8 @@ import openmm.unit as unit
 from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupMask
 %}
 
+%template(DoubleVector) std::vector<double>;
+
 // Quantities in, plain numbers in OpenMM's units to C++.
 %pythonprepend FlavorPlugin::FlavorIntegrator::FlavorIntegrator %{
     mesoStep = _stripUnits(mesoStep, unit.picosecond, "mesoStep")
@@ -70,7 +73,35 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
     coeff = _stripUnits(coeff, unit.picosecond**-1, "friction")
 %}
 
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::StochasticImpulseIntegrator %{
+    temperature = _stripUnits(temperature, unit.kelvin, "temperature")
+    frictionCoeff = _stripUnits(frictionCoeff, unit.picosecond**-1, "frictionCoeff")
+    stepSize = _stripUnits(stepSize, unit.picosecond, "stepSize")
+    stiffGroups = _groupMask(stiffGroups, "stiffGroups")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStepSize %{
+    size = _stripUnits(size, unit.picosecond, "stepSize")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setTemperature %{
+    temp = _stripUnits(temp, unit.kelvin, "temperature")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setFriction %{
+    coeff = _stripUnits(coeff, unit.picosecond**-1, "friction")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffGroups %{
+    groups = _groupMask(groups, "stiffGroups")
+%}
+
 // Getters return Quantities, as OpenMM's integrators do.
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getTemperature %{
+    val = unit.Quantity(val, unit.kelvin)
+%}
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getFriction %{
+    val = unit.Quantity(val, unit.picosecond**-1)
+%}
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeFrequencies %{
+    val = unit.Quantity(list(val), unit.picosecond**-1)
+%}
 %pythonappend FlavorPlugin::FlavorIntegrator::getMesoStep %{
     val = unit.Quantity(val, unit.picosecond)
 %}
@@ -93,13 +124,29 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %ignore FlavorPlugin::FlavorIntegrator::kineticEnergyRequiresForce;
 %ignore FlavorPlugin::FlavorIntegrator::createCheckpoint;
 %ignore FlavorPlugin::FlavorIntegrator::loadCheckpoint;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::initialize;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::cleanup;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::getKernelNames;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::stateChanged;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::computeKineticEnergy;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::kineticEnergyRequiresForce;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::createCheckpoint;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::loadCheckpoint;
 
 #define OPENMM_EXPORT_FLAVORS
 %include "FlavorIntegrator.h"
+%include "StochasticImpulseIntegrator.h"
 
 %extend FlavorPlugin::FlavorIntegrator {
     /** Returns integrator as a FlavorIntegrator, or None if it is another kind of Integrator. */
     static FlavorPlugin::FlavorIntegrator* _cast(OpenMM::Integrator* integrator) {
         return dynamic_cast<FlavorPlugin::FlavorIntegrator*>(integrator);
+    }
+}
+
+%extend FlavorPlugin::StochasticImpulseIntegrator {
+    /** Returns integrator as a StochasticImpulseIntegrator, or None if it is another kind of Integrator. */
+    static FlavorPlugin::StochasticImpulseIntegrator* _cast(OpenMM::Integrator* integrator) {
+        return dynamic_cast<FlavorPlugin::StochasticImpulseIntegrator*>(integrator);
     }
 }

@@ -141,7 +141,8 @@ inline std::array<double, 2> smallStepSeries(double w, double b) {
 
 /**
  * Sum over k >= 1 of rho^(k-1) e^-x sum_{j>=2k+1} x^j/j!: the overdamped position variance times (gamma/2)^2, with
- * x = gamma h and rho = 1 - (2 omega/gamma)^2.  All terms are positive, so it is accurate where the closed forms cancel.
+ * x = gamma h and rho = 1 - (2 omega/gamma)^2.  All terms are positive, so it is accurate where the closed forms
+ * cancel.
  */
 inline double overdampedPositionSeries(double x, double rho) {
     // Regrouped by j: sum_j pmf(j) (1 + rho + ... + rho^((j-3)/2)).
@@ -265,7 +266,6 @@ inline FlowAndCovariance flowAndCovariance(double omega, double gamma, double h)
 inline ModeFlow computeModeFlow(double omega, double gamma, double h) {
     return ModeFlowDetail::flowAndCovariance(omega, gamma, h).flow;
 }
-
 
 } // namespace FlavorPlugin
 

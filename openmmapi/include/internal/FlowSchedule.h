@@ -19,7 +19,9 @@ struct SubFlow {
         /** q += h v */
         Drift,
         /** Exact Ornstein-Uhlenbeck flow of friction and noise over h. */
-        Thermostat
+        Thermostat,
+        /** Exact flow of the quadratic stiff potential with friction and noise, E(h, gamma). */
+        StiffFlow
     };
     Kind kind;
     double h;
@@ -51,6 +53,26 @@ struct FlavorParameters {
  * Builds the schedule of one FLAVOR mesostep (DESIGN.md section 2), already simplified.
  */
 OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
+
+/** The parameters that define a stochastic impulse step. */
+struct ImpulseParameters {
+    enum Splitting { LieTrotter = 0, Strang = 1, Yoshida4 = 2 };
+    Splitting splitting;
+    double stepSize;
+    int stiffGroups;
+    int integrationGroups;
+    bool operator==(const ImpulseParameters& o) const {
+        return splitting == o.splitting && stepSize == o.stepSize && stiffGroups == o.stiffGroups &&
+               integrationGroups == o.integrationGroups;
+    }
+};
+
+/**
+ * Builds the schedule of one stochastic impulse step (DESIGN.md section 2): E(H) K_soft(H) (LieTrotter),
+ * K_soft(H/2) E(H) K_soft(H/2) (Strang), or Strang composed as S(c H) S((1-2c) H) S(c H) with
+ * c = 1/(2 - 2^(1/3)) (Yoshida4).
+ */
+OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 
 /**
  * Removes zero-length sub-flows and kicks by no force group, and merges adjacent sub-flows that compose exactly into

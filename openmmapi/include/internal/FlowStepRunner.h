@@ -4,6 +4,7 @@
 #include "CounterRandom.h"
 #include "FlowSchedule.h"
 #include "ParticleFlows.h"
+#include "StiffModes.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
 #include "windowsExportFlavors.h"
@@ -33,6 +34,11 @@ public:
      * Cheap when nothing changed.
      */
     void setSchedule(const Schedule& schedule, double kT, double friction);
+    /**
+     * Sets the decomposed stiff potential whose exact flow StiffFlow sub-flows apply (friction and kT as given to
+     * setSchedule()).
+     */
+    void setStiffModes(std::shared_ptr<const StiffModes> modes);
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
     /**
@@ -56,6 +62,8 @@ private:
     void prepare();
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
+    void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                      double constraintTolerance);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
@@ -65,6 +73,9 @@ private:
     double kT, friction;
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
+    std::shared_ptr<const StiffModes> stiffModes;
+    // For each pass that is a StiffFlow, the per-mode flows over its step.
+    std::vector<std::vector<ModeFlow>> stiffFlows;
     std::vector<ForceSlot> slots;
     std::vector<OpenMM::Vec3> previousPositions;
     int thermostatsPerStep;

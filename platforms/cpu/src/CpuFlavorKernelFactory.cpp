@@ -1,5 +1,6 @@
 #include "FlavorKernels.h"
 #include "internal/FlavorStepKernel.h"
+#include "internal/ImpulseStepKernel.h"
 #include "internal/ParticleFlows.h"
 #include "openmm/KernelFactory.h"
 #include "openmm/OpenMMException.h"
@@ -53,6 +54,8 @@ public:
         CpuPlatform::PlatformData& data = CpuPlatform::getPlatformData(context);
         if (name == IntegrateFlavorStepKernel::Name())
             return new FlavorStepKernel(name, platform, std::make_unique<ThreadedLoop>(data.threads));
+        if (name == IntegrateStochasticImpulseStepKernel::Name())
+            return new ImpulseStepKernel(name, platform, std::make_unique<ThreadedLoop>(data.threads));
         throw OpenMMException((std::string("Tried to create kernel with illegal kernel name '") + name + "'").c_str());
     }
 };
@@ -63,6 +66,7 @@ void registerCpuKernels() {
         if (platform.getName() == "CPU") {
             CpuFlavorKernelFactory* factory = new CpuFlavorKernelFactory();
             platform.registerKernelFactory(IntegrateFlavorStepKernel::Name(), factory);
+            platform.registerKernelFactory(IntegrateStochasticImpulseStepKernel::Name(), factory);
         }
     }
 }

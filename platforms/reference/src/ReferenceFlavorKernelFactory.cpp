@@ -1,5 +1,6 @@
 #include "FlavorKernels.h"
 #include "internal/FlavorStepKernel.h"
+#include "internal/ImpulseStepKernel.h"
 #include "internal/ParticleFlows.h"
 #include "openmm/KernelFactory.h"
 #include "openmm/OpenMMException.h"
@@ -23,6 +24,8 @@ public:
     KernelImpl* createKernelImpl(std::string name, const Platform& platform, ContextImpl& context) const override {
         if (name == IntegrateFlavorStepKernel::Name())
             return new FlavorStepKernel(name, platform, std::make_unique<SerialLoop>());
+        if (name == IntegrateStochasticImpulseStepKernel::Name())
+            return new ImpulseStepKernel(name, platform, std::make_unique<SerialLoop>());
         throw OpenMMException((std::string("Tried to create kernel with illegal kernel name '") + name + "'").c_str());
     }
 };
@@ -33,6 +36,7 @@ void registerReferenceKernels() {
         if (platform.getName() == "Reference") {
             ReferenceFlavorKernelFactory* factory = new ReferenceFlavorKernelFactory();
             platform.registerKernelFactory(IntegrateFlavorStepKernel::Name(), factory);
+            platform.registerKernelFactory(IntegrateStochasticImpulseStepKernel::Name(), factory);
         }
     }
 }

@@ -2,7 +2,8 @@
 openmmflavors: multiscale integrators for stiff systems in OpenMM.
 
 FlavorIntegrator runs flow-averaging integrators (FLAVORS): the stiff force groups act for a microstep in every
-mesostep, so the step size is set by the slow time scale.  Importing this package loads the plugin's kernels for
+mesostep, so the step size is set by the slow time scale.  StochasticImpulseIntegrator runs stochastic impulse
+methods (SIMs): a quadratic stiff potential is integrated by its exact flow with exact friction and noise.  Importing this package loads the plugin's kernels for
 the Reference and CPU platforms.
 """
 import os as _os
@@ -14,9 +15,9 @@ _here = _os.path.dirname(_os.path.abspath(__file__))
 for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
     _openmm.Platform.loadPluginLibrary(_os.path.join(_here, "plugins", _name))
 
-from .openmmflavors import FlavorIntegrator  # noqa: E402
+from .openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator  # noqa: E402
 
-_integratorClasses = [FlavorIntegrator]
+_integratorClasses = [FlavorIntegrator, StochasticImpulseIntegrator]
 
 
 def _asPluginIntegrator(integrator):
@@ -46,4 +47,4 @@ def _patchSerializer():
 
 _patchSerializer()
 
-__all__ = ["FlavorIntegrator"]
+__all__ = ["FlavorIntegrator", "StochasticImpulseIntegrator"]

@@ -1,0 +1,118 @@
+#ifndef OPENMM_STOCHASTIC_IMPULSE_INTEGRATOR_H_
+#define OPENMM_STOCHASTIC_IMPULSE_INTEGRATOR_H_
+
+#include "internal/windowsExportFlavors.h"
+#include "openmm/Integrator.h"
+#include "openmm/Kernel.h"
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace FlavorPlugin {
+
+/**
+ * This is a stochastic impulse method (SIM) for Langevin dynamics with a quadratic stiff potential.  The forces in
+ * the force groups of the bitmask stiffGroups must be linear in the positions (a quadratic potential such as
+ * HarmonicBondForce with length 0); they are integrated by their exact flow together with exact friction and noise
+ * (an Ornstein-Uhlenbeck process in every normal mode), and composed with kicks by all other (soft) forces.  The
+ * error bound does not depend on the stiffness, so the step size is set by the soft forces.  With friction 0 it is
+ * the deterministic impulse method with exact stiff flow.
+ *
+ * The stiffness matrix is measured from the stiff forces when the first step is taken, and again whenever a context
+ * parameter changes or a force's updateParametersInContext() is called; call updateStiffModes() after any other
+ * change to the stiff forces.  Particles of stiff components must not be constrained.
+ */
+class OPENMM_EXPORT_FLAVORS StochasticImpulseIntegrator : public OpenMM::Integrator {
+public:
+    /**
+     * How the soft kicks and the exact stiff flow are composed in each step.
+     */
+    enum Splitting {
+        /** Stiff flow, then a soft kick: first order (Integrators 1 and 2 of the SIM paper). */
+        LieTrotter = 0,
+        /** Half kick, stiff flow, half kick: second order, symmetric (Integrator 3). */
+        Strang = 1,
+        /** The fourth-order composition of three Strang steps (Remark 2.4); only with friction 0. */
+        Yoshida4 = 2
+    };
+    /**
+     * Create a StochasticImpulseIntegrator.
+     *
+     * @param temperature    the temperature of the heat bath (in Kelvin)
+     * @param frictionCoeff  the friction coefficient which couples the system to the heat bath (in inverse
+     *                       picoseconds); 0 gives the deterministic impulse method
+     * @param stepSize       the step size (in picoseconds)
+     * @param stiffGroups    a bitmask of the force groups that are stiff (bit i set means group i is stiff)
+     */
+    StochasticImpulseIntegrator(double temperature, double frictionCoeff, double stepSize, int stiffGroups);
+    /** Set the step size (in picoseconds).  It must be finite and positive. */
+    void setStepSize(double size) override;
+    /** Get the temperature of the heat bath (in Kelvin). */
+    double getTemperature() const { return temperature; }
+    /** Set the temperature of the heat bath (in Kelvin).  It must be finite and non-negative. */
+    void setTemperature(double temp);
+    /** Get the friction coefficient (in inverse picoseconds). */
+    double getFriction() const { return friction; }
+    /**
+     * Set the friction coefficient (in inverse picoseconds).  It must be finite and non-negative, and 0 for the
+     * Yoshida4 splitting.
+     */
+    void setFriction(double coeff);
+    /** Get the bitmask of stiff force groups. */
+    int getStiffGroups() const { return stiffGroups; }
+    /**
+     * Set the bitmask of stiff force groups.  It must be nonzero.  If the integrator is bound to a Context, the
+     * System must contain at least one force in these groups.
+     */
+    void setStiffGroups(int groups);
+    /** Get the splitting. */
+    Splitting getSplitting() const { return splitting; }
+    /** Set the splitting (Yoshida4 requires friction 0: its middle substep runs backwards in time). */
+    void setSplitting(Splitting splitting);
+    /** Get the random number seed.  See setRandomNumberSeed() for details. */
+    int getRandomNumberSeed() const { return randomNumberSeed; }
+    /**
+     * Set the random number seed.  The same seed on the same platform gives the same random forces.  If seed is 0
+     * (the default), a unique seed is chosen when a Context is created from this Integrator.
+     */
+    void setRandomNumberSeed(int seed) { randomNumberSeed = seed; }
+    /**
+     * Get the angular frequencies (in 1/ps) of all modes of the stiff potential, in ascending order.  The
+     * integrator must be bound to a Context whose positions are set.  Step sizes H with omega*H near a multiple of
+     * pi resonate (SIM paper, section 3.3) when friction is small.
+     */
+    std::vector<double> getStiffModeFrequencies();
+    /**
+     * Measure the stiff potential again.  Call it after changing the stiff forces in a way the Context is not told
+     * about.
+     */
+    void updateStiffModes();
+    /**
+     * Advance a simulation through time by taking a series of time steps.
+     *
+     * @param steps   the number of time steps to take
+     */
+    void step(int steps) override;
+
+protected:
+    void initialize(OpenMM::ContextImpl& context) override;
+    void cleanup() override;
+    std::vector<std::string> getKernelNames() override;
+    void stateChanged(OpenMM::State::DataType changed) override;
+    double computeKineticEnergy() override;
+    bool kineticEnergyRequiresForce() const override { return false; }
+    void createCheckpoint(std::ostream& stream) const override;
+    void loadCheckpoint(std::istream& stream) override;
+
+private:
+    double temperature, friction;
+    int stiffGroups;
+    Splitting splitting;
+    int randomNumberSeed;
+    bool forcesAreValid, stiffModesValid;
+    OpenMM::Kernel kernel;
+};
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,46 @@
+#ifndef OPENMM_FLAVORS_STIFF_PROBE_H_
+#define OPENMM_FLAVORS_STIFF_PROBE_H_
+
+#include "StiffModes.h"
+#include "openmm/Vec3.h"
+#include "windowsExportFlavors.h"
+#include <vector>
+
+namespace OpenMM {
+class ContextImpl;
+}
+
+namespace FlavorPlugin {
+
+/** The stiffness matrix K (nonzero blocks, i <= j) and constant force b of a quadratic stiff potential. */
+struct ProbedStiffness {
+    std::vector<StiffnessBlock> blocks;
+    std::vector<OpenMM::Vec3> constantForce;
+    /** The relative deviation from linearity measured at a random displacement. */
+    double linearityDeviation;
+};
+
+/**
+ * Measures K and b of the force groups stiffGroups by central differences of their forces around the current
+ * positions, then checks at a random displacement that the forces really are -K q + b.  Particles linked by the
+ * bonded stiff forces (ForceImpl::getBondedParticles) are probed together, one particle of every linked group at a
+ * time, so the cost grows with the largest group, not with the number of groups; if that misses a coupling, every
+ * particle is probed on its own.  Throws an OpenMMException if the forces are not linear in the positions or K is
+ * not symmetric.  The Context's positions are left as they were.
+ */
+OPENMM_EXPORT_FLAVORS ProbedStiffness probeStiffness(OpenMM::ContextImpl& context, int stiffGroups,
+                                                     const std::vector<double>& masses);
+
+/**
+ * The particles that the bonded stiff forces link to others, known without positions (for checks at Context
+ * creation).
+ */
+OPENMM_EXPORT_FLAVORS std::vector<bool> bondedStiffParticles(OpenMM::ContextImpl& context, int stiffGroups);
+
+/** Throws if a constraint of the System touches a particle for which stiff[i] is true. */
+OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
+                                                           const std::vector<bool>& stiff);
+
+} // namespace FlavorPlugin
+
+#endif

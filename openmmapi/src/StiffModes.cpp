@@ -1,0 +1,199 @@
+#include "internal/StiffModes.h"
+#include "internal/ParameterChecks.h"
+#include "openmm/OpenMMException.h"
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::vector;
+
+namespace {
+
+int findRoot(vector<int>& parent, int i) {
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+} // namespace
+
+StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock>& blocks,
+                       const vector<Vec3>& constantForce) {
+    const int numParticles = (int)masses.size();
+    stiffParticle.assign(numParticles, false);
+    sqrtMass.resize(numParticles);
+    for (int i = 0; i < numParticles; ++i)
+        sqrtMass[i] = std::sqrt(masses[i]);
+
+    // Connected components of the coupling graph.
+    vector<int> parent(numParticles);
+    std::iota(parent.begin(), parent.end(), 0);
+    for (const StiffnessBlock& b : blocks) {
+        stiffParticle[b.i] = stiffParticle[b.j] = true;
+        parent[findRoot(parent, b.i)] = findRoot(parent, b.j);
+    }
+    std::map<int, vector<int>> members;
+    for (int i = 0; i < numParticles; ++i)
+        if (masses[i] != 0.0)
+            members[findRoot(parent, i)].push_back(i);
+    vector<int> componentOf(numParticles, -1), indexInComponent(numParticles, -1);
+    size_t matrixSize = 0;
+    int modes = 0;
+    for (auto& entry : members) {
+        Component c;
+        c.firstParticle = (int)particleList.size();
+        c.numParticles = (int)entry.second.size();
+        c.firstMode = modes;
+        c.matrixOffset = matrixSize;
+        c.stiff = stiffParticle[entry.second[0]];
+        for (size_t k = 0; k < entry.second.size(); ++k) {
+            componentOf[entry.second[k]] = (int)components.size();
+            indexInComponent[entry.second[k]] = (int)k;
+            particleList.push_back(entry.second[k]);
+        }
+        const int dim = 3 * c.numParticles;
+        modes += dim;
+        matrixSize += (size_t)dim * dim;
+        components.push_back(c);
+    }
+    eigenvectors.assign(matrixSize, 0.0);
+    omega.assign(modes, 0.0);
+    modeForce.assign(modes, 0.0);
+    scratch.assign(4 * (size_t)modes, 0.0);
+
+    // Assemble each component's mass-weighted stiffness and diagonalize it.
+    vector<Eigen::MatrixXd> omegaSquared(components.size());
+    for (size_t c = 0; c < components.size(); ++c) {
+        const int dim = 3 * components[c].numParticles;
+        omegaSquared[c] = Eigen::MatrixXd::Zero(dim, dim);
+    }
+    for (const StiffnessBlock& b : blocks) {
+        if (masses[b.i] == 0.0 || masses[b.j] == 0.0)
+            throw OpenMMException("StochasticImpulseIntegrator: the stiff forces act on a massless particle (" +
+                                  std::to_string(masses[b.i] == 0.0 ? b.i : b.j) +
+                                  "); stiff particles must have mass > 0");
+        Eigen::MatrixXd& m = omegaSquared[componentOf[b.i]];
+        const int ri = 3 * indexInComponent[b.i], rj = 3 * indexInComponent[b.j];
+        const double scale = 1.0 / (sqrtMass[b.i] * sqrtMass[b.j]);
+        for (int r = 0; r < 3; ++r)
+            for (int s = 0; s < 3; ++s) {
+                m(ri + r, rj + s) = b.k[r][s] * scale;
+                m(rj + s, ri + r) = b.k[r][s] * scale;
+            }
+    }
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        const int dim = 3 * comp.numParticles;
+        Eigen::Map<Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], dim, dim);
+        if (!comp.stiff) {
+            u.setIdentity();
+        } else {
+            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(omegaSquared[c]);
+            const Eigen::VectorXd& values = solver.eigenvalues();
+            const double largest = std::max(std::abs(values.minCoeff()), std::abs(values.maxCoeff()));
+            for (int k = 0; k < dim; ++k) {
+                // Zero modes (translations, rotations of a free molecule) come out as rounding noise.
+                if (values[k] < -1e-9 * largest)
+                    throw OpenMMException(
+                        "StochasticImpulseIntegrator: the stiff potential has negative curvature (a mass-weighted "
+                        "stiffness eigenvalue omega^2 = " +
+                        formatNumber(values[k]) + " ps^-2 in the component containing particle " +
+                        std::to_string(particleList[comp.firstParticle]) +
+                        "); the stiff force groups must form a convex quadratic potential");
+                omega[comp.firstMode + k] = values[k] > 1e-9 * largest ? std::sqrt(values[k]) : 0.0;
+            }
+            u = solver.eigenvectors();
+        }
+        // The constant force in mode coordinates, U^T M^-1/2 b.
+        Eigen::VectorXd force(dim);
+        for (int p = 0; p < comp.numParticles; ++p) {
+            const int particle = particleList[comp.firstParticle + p];
+            for (int d = 0; d < 3; ++d)
+                force[3 * p + d] = constantForce[particle][d] / sqrtMass[particle];
+        }
+        Eigen::Map<Eigen::VectorXd>(&modeForce[comp.firstMode], dim) = u.transpose() * force;
+    }
+}
+
+vector<double> StiffModes::getStiffFrequencies() const {
+    vector<double> result;
+    for (const Component& c : components)
+        if (c.stiff)
+            result.insert(result.end(), omega.begin() + c.firstMode, omega.begin() + c.firstMode + 3 * c.numParticles);
+    std::sort(result.begin(), result.end());
+    return result;
+}
+
+void StiffModes::computeFlows(double h, double gamma, vector<ModeFlow>& flows) const {
+    flows.resize(omega.size());
+    for (size_t k = 0; k < omega.size(); ++k) {
+        if (h >= 0) {
+            flows[k] = computeModeFlow(omega[k], gamma, h);
+            continue;
+        }
+        // Deterministic flow backwards in time: the inverse of the (unit-determinant) forward flow.
+        ModeFlow f = computeModeFlow(omega[k], 0.0, -h);
+        ModeFlow inverse{f.vv, -f.xv, -f.vx, f.xx, 0, 0, 0, 0, 0};
+        inverse.gx = -(inverse.xx * f.gx + inverse.xv * f.gv);
+        inverse.gv = -(inverse.vx * f.gx + inverse.vv * f.gv);
+        flows[k] = inverse;
+    }
+}
+
+void StiffModes::Flow::apply(int begin, int end) const {
+    typedef Eigen::Map<Eigen::VectorXd> Vector;
+    typedef Eigen::Map<const Eigen::MatrixXd> Matrix;
+    for (int c = begin; c < end; ++c) {
+        const Component& comp = modes.components[c];
+        const int dim = 3 * comp.numParticles;
+        // Mass-weighted coordinates x, w and mode coordinates a, alpha, in this component's slice of scratch.
+        double* x = &modes.scratch[4 * (size_t)comp.firstMode];
+        double* w = x + dim;
+        double* a = comp.stiff ? w + dim : x;
+        double* alpha = comp.stiff ? a + dim : w;
+        for (int p = 0; p < comp.numParticles; ++p) {
+            const int particle = modes.particleList[comp.firstParticle + p];
+            const double s = modes.sqrtMass[particle];
+            for (int d = 0; d < 3; ++d) {
+                x[3 * p + d] = s * positions[particle][d];
+                w[3 * p + d] = s * velocities[particle][d];
+            }
+        }
+        if (comp.stiff) {
+            Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
+            Vector(a, dim).noalias() = u.transpose() * Vector(x, dim);
+            Vector(alpha, dim).noalias() = u.transpose() * Vector(w, dim);
+        }
+        for (int k = 0; k < dim; ++k) {
+            const int mode = comp.firstMode + k;
+            const ModeFlow& f = flows[mode];
+            const double force = modes.modeForce[mode];
+            double na = f.xx * a[k] + f.xv * alpha[k] + f.gx * force;
+            double nalpha = f.vx * a[k] + f.vv * alpha[k] + f.gv * force;
+            if (thermalScale != 0.0) {
+                std::array<double, 3> xi = random->normals(stream, (std::uint32_t)mode);
+                na += thermalScale * f.lxx * xi[0];
+                nalpha += thermalScale * (f.lvx * xi[0] + f.lvv * xi[1]);
+            }
+            a[k] = na;
+            alpha[k] = nalpha;
+        }
+        if (comp.stiff) {
+            Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
+            Vector(x, dim).noalias() = u * Vector(a, dim);
+            Vector(w, dim).noalias() = u * Vector(alpha, dim);
+        }
+        for (int p = 0; p < comp.numParticles; ++p) {
+            const int particle = modes.particleList[comp.firstParticle + p];
+            const double s = 1.0 / modes.sqrtMass[particle];
+            for (int d = 0; d < 3; ++d) {
+                positions[particle][d] = s * x[3 * p + d];
+                velocities[particle][d] = s * w[3 * p + d];
+            }
+        }
+    }
+}

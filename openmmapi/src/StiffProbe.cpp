@@ -1,0 +1,272 @@
+#include "internal/StiffProbe.h"
+#include "internal/ParameterChecks.h"
+#include "openmm/Force.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/internal/ContextImpl.h"
+#include "openmm/internal/ForceImpl.h"
+#include "openmm/reference/ReferencePlatform.h"
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <random>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::vector;
+
+namespace {
+
+const double ProbeStep = 1e-3;                // nm; exact for a quadratic potential, any step would do
+const double VerificationDisplacement = 1e-3; // nm
+const double LinearityTolerance = 1e-5;       // relative; well above double-precision rounding of the probes
+
+const std::string Owner = "StochasticImpulseIntegrator";
+
+int findRoot(vector<int>& parent, int i) {
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+bool inGroups(const ForceImpl* impl, int groups) {
+    return (groups & (1 << impl->getOwner().getForceGroup())) != 0;
+}
+
+/** Labels each particle with a group of particles linked by bonded stiff forces. */
+vector<int> bondedGroups(ContextImpl& context, int stiffGroups) {
+    const int n = context.getSystem().getNumParticles();
+    vector<int> parent(n);
+    std::iota(parent.begin(), parent.end(), 0);
+    for (ForceImpl* impl : context.getForceImpls())
+        if (inGroups(impl, stiffGroups))
+            for (const std::pair<int, int>& bond : impl->getBondedParticles())
+                parent[findRoot(parent, bond.first)] = findRoot(parent, bond.second);
+    vector<int> label(n);
+    for (int i = 0; i < n; ++i)
+        label[i] = findRoot(parent, i);
+    return label;
+}
+
+class ForceProbe {
+public:
+    ForceProbe(ContextImpl& context, int groups)
+        : context(context), groups(groups),
+          data(*reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData())),
+          original(*data.positions), hasVirtualSites(false) {
+        for (int i = 0; i < context.getSystem().getNumParticles(); ++i)
+            hasVirtualSites = hasVirtualSites || context.getSystem().isVirtualSite(i);
+    }
+    ~ForceProbe() {
+        *data.positions = original;
+        if (hasVirtualSites)
+            context.computeVirtualSites();
+    }
+    /** The stiff forces at positions q. */
+    vector<Vec3> forces(const vector<Vec3>& q) {
+        *data.positions = q;
+        if (hasVirtualSites)
+            context.computeVirtualSites();
+        context.calcForcesAndEnergy(true, false, groups);
+        return *data.forces;
+    }
+    const vector<Vec3>& positions() const { return original; }
+
+private:
+    ContextImpl& context;
+    int groups;
+    ReferencePlatform::PlatformData& data;
+    vector<Vec3> original;
+    bool hasVirtualSites;
+};
+
+typedef std::map<std::pair<int, int>, StiffnessBlock> BlockMap;
+
+/**
+ * Central differences, probing the c-th particle of every group at once.  Returns false if a force appeared on a
+ * particle whose group has no c-th member (the groups missed a coupling).
+ */
+bool probeByGroups(ForceProbe& probe, const vector<int>& label, const vector<double>& masses, BlockMap& blocks) {
+    const int n = (int)masses.size();
+    std::map<int, vector<int>> members;
+    for (int i = 0; i < n; ++i)
+        if (masses[i] != 0.0)
+            members[label[i]].push_back(i);
+    vector<int> indexInGroup(n, -1);
+    size_t largest = 0;
+    for (auto& m : members) {
+        for (size_t k = 0; k < m.second.size(); ++k)
+            indexInGroup[m.second[k]] = (int)k;
+        largest = std::max(largest, m.second.size());
+    }
+    for (size_t c = 0; c < largest; ++c)
+        for (int d = 0; d < 3; ++d) {
+            vector<Vec3> plus = probe.positions(), minus = probe.positions();
+            for (int i = 0; i < n; ++i)
+                if (indexInGroup[i] == (int)c) {
+                    plus[i][d] += ProbeStep;
+                    minus[i][d] -= ProbeStep;
+                }
+            vector<Vec3> fPlus = probe.forces(plus), fMinus = probe.forces(minus);
+            for (int j = 0; j < n; ++j) {
+                Vec3 change = (fPlus[j] - fMinus[j]) / (2 * ProbeStep);
+                if (change == Vec3() || masses[j] == 0.0)
+                    continue;
+                const vector<int>& group = members[label[j]];
+                if (c >= group.size())
+                    return false;
+                const int i = group[c];
+                StiffnessBlock& block = blocks[{j, i}];
+                block.i = j;
+                block.j = i;
+                for (int r = 0; r < 3; ++r)
+                    block.k[r][d] = -change[r];
+            }
+        }
+    return true;
+}
+
+double maxAbs(const BlockMap& blocks) {
+    double m = 0;
+    for (const auto& b : blocks)
+        for (int r = 0; r < 3; ++r)
+            for (int s = 0; s < 3; ++s)
+                m = std::max(m, std::abs(b.second.k[r][s]));
+    return m;
+}
+
+/**
+ * Symmetrizes K into blocks with i <= j.  Returns false, naming a pair of particles, if K is not symmetric.
+ */
+bool symmetricBlocks(const BlockMap& blocks, vector<StiffnessBlock>& result, std::pair<int, int>& asymmetric) {
+    const double scale = maxAbs(blocks);
+    result.clear();
+    for (const auto& entry : blocks) {
+        const StiffnessBlock& b = entry.second;
+        auto transposed = blocks.find({b.j, b.i});
+        if (b.i > b.j && transposed != blocks.end())
+            continue;
+        StiffnessBlock s = b;
+        if (b.i > b.j)
+            std::swap(s.i, s.j);
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) {
+                double other = (transposed == blocks.end() ? 0.0 : transposed->second.k[c][r]);
+                if (std::abs(b.k[r][c] - other) > LinearityTolerance * scale) {
+                    asymmetric = {b.i, b.j};
+                    return false;
+                }
+                s.k[r][c] = 0.5 * (b.k[r][c] + other);
+            }
+        double largest = 0;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                largest = std::max(largest, std::abs(s.k[r][c]));
+        if (largest > 1e-12 * scale)
+            result.push_back(s);
+    }
+    return true;
+}
+
+vector<Vec3> multiply(const vector<StiffnessBlock>& blocks, const vector<Vec3>& q) {
+    vector<Vec3> result(q.size());
+    for (const StiffnessBlock& b : blocks) {
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) {
+                result[b.i][r] += b.k[r][c] * q[b.j][c];
+                if (b.i != b.j)
+                    result[b.j][c] += b.k[r][c] * q[b.i][r];
+            }
+    }
+    return result;
+}
+
+/** max |F(q+D) - F(q) + K D| / max |K D| at a seeded random displacement D. */
+double linearityDeviation(ForceProbe& probe, const vector<StiffnessBlock>& blocks, const vector<double>& masses,
+                          const vector<Vec3>& f0) {
+    std::mt19937_64 generator(20100425);
+    std::uniform_real_distribution<double> uniform(-VerificationDisplacement, VerificationDisplacement);
+    vector<Vec3> displacement(masses.size()), displaced = probe.positions();
+    for (size_t i = 0; i < masses.size(); ++i)
+        if (masses[i] != 0.0) {
+            displacement[i] = Vec3(uniform(generator), uniform(generator), uniform(generator));
+            displaced[i] += displacement[i];
+        }
+    vector<Vec3> f1 = probe.forces(displaced), predicted = multiply(blocks, displacement);
+    double deviation = 0, scale = 0;
+    for (size_t i = 0; i < masses.size(); ++i) {
+        Vec3 d = f1[i] - f0[i] + predicted[i];
+        deviation = std::max(deviation, std::sqrt(d.dot(d)));
+        scale = std::max(scale, std::sqrt(predicted[i].dot(predicted[i])));
+    }
+    if (scale == 0.0)
+        return deviation == 0.0 ? 0.0 : INFINITY;
+    return deviation / scale;
+}
+
+} // namespace
+
+vector<bool> FlavorPlugin::bondedStiffParticles(ContextImpl& context, int stiffGroups) {
+    vector<bool> stiff(context.getSystem().getNumParticles(), false);
+    for (ForceImpl* impl : context.getForceImpls())
+        if (inGroups(impl, stiffGroups))
+            for (const std::pair<int, int>& bond : impl->getBondedParticles())
+                stiff[bond.first] = stiff[bond.second] = true;
+    return stiff;
+}
+
+void FlavorPlugin::rejectConstrainedStiffParticles(const ContextImpl& context, const vector<bool>& stiff) {
+    const System& system = context.getSystem();
+    for (int c = 0; c < system.getNumConstraints(); ++c) {
+        int p1, p2;
+        double distance;
+        system.getConstraintParameters(c, p1, p2, distance);
+        if (stiff[p1] || stiff[p2])
+            throw OpenMMException(Owner + ": constraint " + std::to_string(c) + " between particles " +
+                                  std::to_string(p1) + " and " + std::to_string(p2) + " touches particle " +
+                                  std::to_string(stiff[p1] ? p1 : p2) +
+                                  " of a stiff component; the exact stiff flow cannot hold constraints.  Remove the "
+                                  "constraint or use FlavorIntegrator");
+    }
+}
+
+ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGroups, const vector<double>& masses) {
+    ForceProbe probe(context, stiffGroups);
+    const vector<Vec3> f0 = probe.forces(probe.positions());
+    const int n = (int)masses.size();
+    ProbedStiffness result;
+    result.linearityDeviation = INFINITY;
+    std::pair<int, int> asymmetric(-1, -1);
+    for (bool everyParticleAlone : {false, true}) {
+        vector<int> label(n, 0); // one group for all: one particle probed at a time
+        if (!everyParticleAlone)
+            label = bondedGroups(context, stiffGroups);
+        BlockMap blocks;
+        if (!probeByGroups(probe, label, masses, blocks))
+            continue;
+        if (!symmetricBlocks(blocks, result.blocks, asymmetric))
+            continue;
+        asymmetric = {-1, -1};
+        result.linearityDeviation = linearityDeviation(probe, result.blocks, masses, f0);
+        if (result.linearityDeviation <= LinearityTolerance)
+            break;
+    }
+    if (asymmetric.first >= 0)
+        throw OpenMMException(Owner +
+                              ": the stiff forces are not the gradient of a quadratic potential (the measured "
+                              "stiffness between particles " +
+                              std::to_string(asymmetric.first) + " and " + std::to_string(asymmetric.second) +
+                              " is not symmetric); use FlavorIntegrator for such stiff forces");
+    if (!(result.linearityDeviation <= LinearityTolerance))
+        throw OpenMMException(
+            Owner + ": the stiff force groups are not quadratic in the positions: at a random displacement of up to " +
+            formatNumber(VerificationDisplacement) + " nm their forces differ from the linear prediction -K dq by " +
+            formatNumber(result.linearityDeviation) + " (relative; at most " + formatNumber(LinearityTolerance) +
+            " allowed).  The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, CustomBondForce "
+            "\"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); use FlavorIntegrator for nonlinear stiff forces");
+    vector<Vec3> kq = multiply(result.blocks, probe.positions());
+    result.constantForce.resize(n);
+    for (int i = 0; i < n; ++i)
+        result.constantForce[i] = (masses[i] == 0.0 ? Vec3() : f0[i] + kq[i]);
+    return result;
+}

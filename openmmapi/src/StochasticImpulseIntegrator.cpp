@@ -1,0 +1,146 @@
+#include "StochasticImpulseIntegrator.h"
+#include "FlavorKernels.h"
+#include "internal/ParameterChecks.h"
+#include "internal/StiffProbe.h"
+#include "openmm/Context.h"
+#include "openmm/Force.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/internal/ContextImpl.h"
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::string;
+using std::vector;
+
+namespace {
+
+const string Owner = "StochasticImpulseIntegrator";
+
+void requireStiffForce(const System& system, int groups) {
+    for (int i = 0; i < system.getNumForces(); ++i)
+        if ((groups & (1 << system.getForce(i).getForceGroup())) != 0)
+            return;
+    throwInvalidParameter(Owner, "stiffGroups", std::to_string(groups),
+                          "the System has no force in these groups; stiffGroups must select the force group(s) of at "
+                          "least one force (Force.setForceGroup)");
+}
+
+void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting splitting, double friction,
+                                    const string& parameter) {
+    if (splitting == StochasticImpulseIntegrator::Yoshida4 && friction != 0.0)
+        throwInvalidParameter(Owner, parameter, parameter == "friction" ? formatNumber(friction) : string("Yoshida4"),
+                              "the Yoshida4 splitting has a substep backwards in time and is defined only for friction "
+                              "0 (friction is " +
+                                  formatNumber(friction) + " 1/ps); use Strang or LieTrotter with friction");
+}
+
+} // namespace
+
+StochasticImpulseIntegrator::StochasticImpulseIntegrator(double temperature, double frictionCoeff, double stepSize,
+                                                         int stiffGroups)
+    : temperature(0.0), friction(0.0), stiffGroups(0), splitting(Strang), randomNumberSeed(0), forcesAreValid(false),
+      stiffModesValid(false) {
+    requireNonNegative(Owner, "temperature", temperature, "K");
+    requireNonNegative(Owner, "friction", frictionCoeff, "1/ps");
+    requirePositive(Owner, "stepSize", stepSize, "ps");
+    requireGroupMask(Owner, "stiffGroups", stiffGroups);
+    this->temperature = temperature;
+    this->friction = frictionCoeff;
+    this->stiffGroups = stiffGroups;
+    Integrator::setStepSize(stepSize);
+    setConstraintTolerance(1e-5);
+}
+
+void StochasticImpulseIntegrator::setStepSize(double size) {
+    requirePositive(Owner, "stepSize", size, "ps");
+    Integrator::setStepSize(size);
+}
+
+void StochasticImpulseIntegrator::setTemperature(double temp) {
+    requireNonNegative(Owner, "temperature", temp, "K");
+    temperature = temp;
+}
+
+void StochasticImpulseIntegrator::setFriction(double coeff) {
+    requireNonNegative(Owner, "friction", coeff, "1/ps");
+    requireSplittingAllowsFriction(splitting, coeff, "friction");
+    friction = coeff;
+}
+
+void StochasticImpulseIntegrator::setStiffGroups(int groups) {
+    requireGroupMask(Owner, "stiffGroups", groups);
+    if (context != nullptr)
+        requireStiffForce(context->getSystem(), groups);
+    stiffGroups = groups;
+    stiffModesValid = false;
+}
+
+void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
+    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4)
+        throwInvalidParameter(Owner, "splitting", std::to_string((int)newSplitting),
+                              "splitting must be LieTrotter (0), Strang (1) or Yoshida4 (2)");
+    requireSplittingAllowsFriction(newSplitting, friction, "splitting");
+    splitting = newSplitting;
+}
+
+vector<double> StochasticImpulseIntegrator::getStiffModeFrequencies() {
+    if (context == nullptr)
+        throw OpenMMException(Owner + ": getStiffModeFrequencies() needs the integrator to be bound to a Context");
+    return kernel.getAs<IntegrateStochasticImpulseStepKernel>().getStiffModeFrequencies(*context, *this,
+                                                                                        stiffModesValid);
+}
+
+void StochasticImpulseIntegrator::updateStiffModes() {
+    stiffModesValid = false;
+}
+
+void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
+    if (owner != nullptr && &contextRef.getOwner() != owner)
+        throw OpenMMException("This Integrator is already bound to a context");
+    requireStiffForce(contextRef.getSystem(), stiffGroups);
+    rejectConstrainedStiffParticles(contextRef, bondedStiffParticles(contextRef, stiffGroups));
+    context = &contextRef;
+    owner = &contextRef.getOwner();
+    kernel = context->getPlatform().createKernel(IntegrateStochasticImpulseStepKernel::Name(), contextRef);
+    kernel.getAs<IntegrateStochasticImpulseStepKernel>().initialize(contextRef.getSystem(), *this);
+    forcesAreValid = false;
+    stiffModesValid = false;
+}
+
+void StochasticImpulseIntegrator::cleanup() {
+    kernel = Kernel();
+}
+
+vector<string> StochasticImpulseIntegrator::getKernelNames() {
+    return {IntegrateStochasticImpulseStepKernel::Name()};
+}
+
+void StochasticImpulseIntegrator::stateChanged(State::DataType changed) {
+    forcesAreValid = false;
+    // Parameters: a context parameter changed.  Energy: a force's updateParametersInContext() (or a checkpoint).
+    if (changed == State::Parameters || changed == State::Energy)
+        stiffModesValid = false;
+}
+
+double StochasticImpulseIntegrator::computeKineticEnergy() {
+    return kernel.getAs<IntegrateStochasticImpulseStepKernel>().computeKineticEnergy(*context, *this);
+}
+
+void StochasticImpulseIntegrator::step(int steps) {
+    if (context == nullptr)
+        throw OpenMMException("This Integrator is not bound to a context!");
+    for (int i = 0; i < steps; ++i) {
+        if (context->updateContextState())
+            forcesAreValid = false;
+        kernel.getAs<IntegrateStochasticImpulseStepKernel>().execute(*context, *this, forcesAreValid, stiffModesValid);
+    }
+}
+
+void StochasticImpulseIntegrator::createCheckpoint(std::ostream& stream) const {
+    kernel.getAs<IntegrateStochasticImpulseStepKernel>().createCheckpoint(*context, stream);
+}
+
+void StochasticImpulseIntegrator::loadCheckpoint(std::istream& stream) {
+    kernel.getAs<IntegrateStochasticImpulseStepKernel>().loadCheckpoint(*context, stream);
+    forcesAreValid = false;
+}

@@ -1,0 +1,40 @@
+#include "StochasticImpulseIntegratorProxy.h"
+#include "StochasticImpulseIntegrator.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/serialization/SerializationNode.h"
+#include <memory>
+#include <string>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+
+StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
+    : SerializationProxy("StochasticImpulseIntegrator") {}
+
+void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
+    const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
+    node.setIntProperty("version", 1);
+    node.setDoubleProperty("stepSize", integrator.getStepSize());
+    node.setDoubleProperty("temperature", integrator.getTemperature());
+    node.setDoubleProperty("friction", integrator.getFriction());
+    node.setIntProperty("stiffGroups", integrator.getStiffGroups());
+    node.setIntProperty("splitting", integrator.getSplitting());
+    node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
+    node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
+    node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
+}
+
+void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
+    int version = node.getIntProperty("version");
+    if (version != 1)
+        throw OpenMMException("StochasticImpulseIntegrator: unsupported serialization version " +
+                              std::to_string(version) + "; this library reads version 1");
+    auto integrator = std::make_unique<StochasticImpulseIntegrator>(
+        node.getDoubleProperty("temperature"), node.getDoubleProperty("friction"), node.getDoubleProperty("stepSize"),
+        node.getIntProperty("stiffGroups"));
+    integrator->setSplitting((StochasticImpulseIntegrator::Splitting)node.getIntProperty("splitting"));
+    integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
+    integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
+    integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
+    return integrator.release();
+}

@@ -1,0 +1,221 @@
+// Per-step costs of FlavorIntegrator and of the force evaluations it needs, timed in C++ so that no Python call
+// overhead enters.  The force-evaluation cost is measured directly: an Integrator whose step() is one
+// ContextImpl::calcForcesAndEnergy() call for the given force groups, which is exactly what FlavorIntegrator pays per
+// evaluation (OpenMM's VerletIntegrator with restricted force groups adds its own update loop on top).
+//
+// The system is `chains` independent Fermi-Pasta-Ulam chains (FLAVORS paper eq. 6.7: stiff HarmonicBondForce in group
+// 1, soft CustomBondForce "r^4" and walls CustomExternalForce "x^4" in group 0), spread along y.
+//
+// Usage: step_cost [--platform Reference|CPU] [--chains N] [--threads N] [--seconds S] [--repeats N]
+//                  [--steps N] [--plugins DIR] [measurement ...]
+// Measurements: force_soft force_stiff force_all flavor_verlet flavor_euler verlet verlet_soft verlet_stiff
+// (default: all).  Prints one JSON object: microseconds per step (minimum and median over the repeats).
+// --steps N times exactly one batch of N steps after a 10-step warm-up, for instruction counting under callgrind
+// (the difference of two runs with different N is the cost of those steps alone).
+
+#include "FlavorIntegrator.h"
+#include "OpenMM.h"
+#include "openmm/internal/ContextImpl.h"
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace OpenMM;
+
+namespace {
+
+constexpr int SoftGroup = 0, StiffGroup = 1;
+constexpr int M = 3;
+constexpr double Omega = 200.0;
+
+class ForceOnlyIntegrator : public Integrator {
+public:
+    explicit ForceOnlyIntegrator(int groups) : groups(groups) { setStepSize(1e-3); }
+    void step(int steps) override {
+        for (int i = 0; i < steps; ++i)
+            context->calcForcesAndEnergy(true, false, groups);
+    }
+
+protected:
+    void initialize(ContextImpl& impl) override {
+        context = &impl;
+        owner = &impl.getOwner();
+    }
+    std::vector<std::string> getKernelNames() override { return {}; }
+    double computeKineticEnergy() override { return 0.0; }
+
+private:
+    int groups;
+};
+
+System* fpuChains(int chains) {
+    System* system = new System();
+    HarmonicBondForce* stiff = new HarmonicBondForce();
+    CustomBondForce* soft = new CustomBondForce("r^4");
+    CustomExternalForce* walls = new CustomExternalForce("x^4");
+    stiff->setForceGroup(StiffGroup);
+    soft->setForceGroup(SoftGroup);
+    walls->setForceGroup(SoftGroup);
+    for (int c = 0; c < chains; ++c) {
+        int first = system->getNumParticles();
+        for (int k = 0; k < 2 * M; ++k)
+            system->addParticle(1.0);
+        for (int i = 0; i < M; ++i)
+            stiff->addBond(first + 2 * i, first + 2 * i + 1, 0.0, Omega * Omega / 2);
+        for (int i = 0; i + 1 < M; ++i)
+            soft->addBond(first + 2 * i + 1, first + 2 * i + 2);
+        walls->addParticle(first);
+        walls->addParticle(first + 2 * M - 1);
+    }
+    system->addForce(stiff);
+    system->addForce(soft);
+    system->addForce(walls);
+    return system;
+}
+
+// Chain 0 starts as in Fig. 6.5; the others at random slow and fast coordinates of the same size, so no two chains
+// move in lockstep.  Chain c lies at y = c.
+std::vector<Vec3> fpuPositions(int chains) {
+    std::mt19937 random(1234);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    std::vector<Vec3> positions;
+    const double s = std::sqrt(2.0);
+    for (int c = 0; c < chains; ++c)
+        for (int i = 0; i < M; ++i) {
+            double x0 = (c == 0 ? (i == 0 ? 1.0 : 0.0) : 0.5 * uniform(random));
+            double x1 = (c == 0 ? (i == 0 ? 1.0 : 0.0) : uniform(random)) / Omega;
+            positions.push_back(Vec3((x0 - x1) / s, c, 0));
+            positions.push_back(Vec3((x0 + x1) / s, c, 0));
+        }
+    return positions;
+}
+
+std::unique_ptr<Integrator> makeIntegrator(const std::string& name) {
+    const double delta = 2e-3, tau = 1e-4, h = 1e-4;
+    const int all = -1, soft = 1 << SoftGroup, stiff = 1 << StiffGroup;
+    if (name == "force_soft")
+        return std::make_unique<ForceOnlyIntegrator>(soft);
+    if (name == "force_stiff")
+        return std::make_unique<ForceOnlyIntegrator>(stiff);
+    if (name == "force_all")
+        return std::make_unique<ForceOnlyIntegrator>(all);
+    if (name == "flavor_verlet" || name == "flavor_euler") {
+        auto flavor = std::make_unique<FlavorPlugin::FlavorIntegrator>(delta, tau, stiff);
+        flavor->setScheme(name == "flavor_verlet" ? FlavorPlugin::FlavorIntegrator::Verlet
+                                                  : FlavorPlugin::FlavorIntegrator::SymplecticEuler);
+        return flavor;
+    }
+    if (name == "verlet" || name == "verlet_soft" || name == "verlet_stiff") {
+        auto verlet = std::make_unique<VerletIntegrator>(h);
+        if (name != "verlet")
+            verlet->setIntegrationForceGroups(name == "verlet_soft" ? soft : stiff);
+        return verlet;
+    }
+    return nullptr;
+}
+
+double seconds(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    std::string platformName = "Reference", plugins = FLAVORS_PLUGIN_DIR;
+    int chains = 1, threads = 0, repeats = 3;
+    long long fixedSteps = 0;
+    double target = 0.2;
+    std::vector<std::string> names;
+    for (int i = 1; i < argc; ++i) {
+        std::string arg = argv[i];
+        auto value = [&]() -> std::string {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "%s needs a value\n", arg.c_str());
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (arg == "--platform")
+            platformName = value();
+        else if (arg == "--chains")
+            chains = std::atoi(value().c_str());
+        else if (arg == "--threads")
+            threads = std::atoi(value().c_str());
+        else if (arg == "--seconds")
+            target = std::atof(value().c_str());
+        else if (arg == "--repeats")
+            repeats = std::max(1, std::atoi(value().c_str()));
+        else if (arg == "--steps")
+            fixedSteps = std::atoll(value().c_str());
+        else if (arg == "--plugins")
+            plugins = value();
+        else if (!arg.empty() && arg[0] == '-') {
+            std::fprintf(stderr, "unknown option %s\n", arg.c_str());
+            return 2;
+        } else
+            names.push_back(arg);
+    }
+    if (names.empty())
+        names = {"force_soft",   "force_stiff", "force_all",   "flavor_verlet",
+                 "flavor_euler", "verlet",      "verlet_soft", "verlet_stiff"};
+
+    Platform::loadPluginsFromDirectory(Platform::getDefaultPluginsDirectory());
+    Platform::loadPluginsFromDirectory(plugins);
+    Platform& platform = Platform::getPlatformByName(platformName);
+    std::map<std::string, std::string> properties;
+    if (threads > 0 && platformName == "CPU")
+        properties["Threads"] = std::to_string(threads);
+
+    std::unique_ptr<System> system(fpuChains(chains));
+    std::vector<Vec3> positions = fpuPositions(chains);
+    std::printf("{\"platform\": \"%s\", \"chains\": %d, \"particles\": %d, \"threads\": %d, \"results\": {",
+                platformName.c_str(), chains, system->getNumParticles(), threads);
+    for (size_t k = 0; k < names.size(); ++k) {
+        std::unique_ptr<Integrator> integrator = makeIntegrator(names[k]);
+        if (!integrator) {
+            std::fprintf(stderr, "unknown measurement %s\n", names[k].c_str());
+            return 2;
+        }
+        Context context(*system, *integrator, platform, properties);
+        context.setPositions(positions);
+        context.setVelocities(std::vector<Vec3>(positions.size()));
+        integrator->step(10);
+        // Grow the batch until it takes a tenth of the target, then size the timed batches from it.
+        long long n = 10;
+        double elapsed = 0.0;
+        if (fixedSteps > 0) {
+            n = fixedSteps;
+            repeats = 1;
+        }
+        while (fixedSteps == 0) {
+            auto start = std::chrono::steady_clock::now();
+            integrator->step((int)n);
+            elapsed = seconds(start);
+            if (elapsed > 0.1 * target || n > 100000000)
+                break;
+            n *= 4;
+        }
+        if (fixedSteps == 0)
+            n = std::max(1LL, (long long)(n * target / elapsed));
+        std::vector<double> perStep;
+        for (int r = 0; r < repeats; ++r) {
+            auto start = std::chrono::steady_clock::now();
+            integrator->step((int)n);
+            perStep.push_back(1e6 * seconds(start) / n);
+        }
+        std::sort(perStep.begin(), perStep.end());
+        std::printf("%s\"%s\": {\"us_per_step_min\": %.6g, \"us_per_step_median\": %.6g, \"steps\": %lld}",
+                    k == 0 ? "" : ", ", names[k].c_str(), perStep.front(), perStep[perStep.size() / 2], n);
+        std::fflush(stdout);
+        std::fprintf(stderr, "  [C++ %s] %s: %.4g us/step\n", platformName.c_str(), names[k].c_str(), perStep.front());
+    }
+    std::printf("}}\n");
+    return 0;
+}

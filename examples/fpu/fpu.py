@@ -1,0 +1,430 @@
+#!/usr/bin/env python3
+"""The Fermi-Pasta-Ulam chain of the FLAVORS paper (section 6.3, eq. 6.7, Fig. 6.5) with FlavorIntegrator.
+
+    H = 1/2 sum p^2 + omega^2/4 sum_{i=1..m} (q_2i - q_2i-1)^2 + sum_{i=0..m} (q_2i+1 - q_2i)^4,  q_0 = q_2m+1 = 0
+
+Unit masses, particles on the x axis.  Stiff springs: HarmonicBondForce (length 0, k = omega^2/2) in force group 1;
+soft quartic springs (CustomBondForce "r^4") and the walls (CustomExternalForce "x^4") in group 0.
+
+FLAVOR (mesostep delta, microstep tau) is compared with OpenMM's VerletIntegrator at a step that resolves the stiff
+springs, both against a fine VerletIntegrator reference whose own error is estimated by step halving.  Everything
+is measured in this run; speedups are wall-clock ratios of the integrator.step() calls.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/fpu/fpu.py [--quick] [--out DIR]
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import openmm as mm
+import openmm.unit as unit
+
+import openmmflavors
+
+SQRT2 = math.sqrt(2.0)
+SOFT_GROUP, STIFF_GROUP = 0, 1
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def fpu_system(m, omega):
+    """Eq. (6.7): particle k is q_{k+1}."""
+    system = mm.System()
+    stiff = mm.HarmonicBondForce()
+    soft = mm.CustomBondForce("r^4")
+    walls = mm.CustomExternalForce("x^4")
+    stiff.setForceGroup(STIFF_GROUP)
+    soft.setForceGroup(SOFT_GROUP)
+    walls.setForceGroup(SOFT_GROUP)
+    for _ in range(2 * m):
+        system.addParticle(1.0)
+    for i in range(m):
+        # k/2 r^2 with k = omega^2/2 is omega^2/4 (q_2i - q_2i-1)^2.
+        stiff.addBond(2 * i, 2 * i + 1, 0.0, omega * omega / 2)
+    for i in range(m - 1):
+        soft.addBond(2 * i + 1, 2 * i + 2)
+    walls.addParticle(0)
+    walls.addParticle(2 * m - 1)
+    for force in (stiff, soft, walls):
+        system.addForce(force)
+    return system
+
+
+def fpu_positions(x0, x1):
+    """q_2i-1 = (x0_i - x1_i)/sqrt2, q_2i = (x0_i + x1_i)/sqrt2."""
+    q = []
+    for a, b in zip(x0, x1):
+        q += [((a - b) / SQRT2, 0.0, 0.0), ((a + b) / SQRT2, 0.0, 0.0)]
+    return q
+
+
+def observables(q, v, omega):
+    """Slow x0, fast x1 and y1, and the stiff energies I_j = (y1_j^2 + omega^2 x1_j^2)/2."""
+    x0 = (q[1::2] + q[0::2]) / SQRT2
+    x1 = (q[1::2] - q[0::2]) / SQRT2
+    y1 = (v[1::2] - v[0::2]) / SQRT2
+    return x0, x1, y1, 0.5 * (y1 * y1 + omega * omega * x1 * x1)
+
+
+def sample_steps(times, dt):
+    steps = np.rint(times / dt).astype(np.int64)
+    if np.max(np.abs(steps * dt - times)) > 1e-9 * max(1.0, times[-1]):
+        raise SystemExit(f"step size {dt} does not divide the sampling times; choose --sample/--fine accordingly")
+    return steps
+
+
+class Progress:
+    """Progress lines on stderr, at most every `every` seconds."""
+
+    def __init__(self, label, every=2.0):
+        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
+
+    def update(self, t, total, force=False):
+        now = time.perf_counter()
+        if force or now - self.last >= self.every:
+            self.last = now
+            print(f"  [{self.label}] t = {t:8.2f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
+                  file=sys.stderr, flush=True)
+
+
+def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
+    """Run on the Reference platform and sample at `times`.
+
+    OpenMM's VerletIntegrator is a leapfrog: the velocities it stores lag the positions by dt/2 and the initial
+    velocities are read as v(-dt/2).  For those runs (leapfrog=True) the initial velocities are set to
+    v(0) - dt/2 F(q0)/m and the samples are synchronized with v(t) = v(t - dt/2) + dt/2 F(q(t))/m, which makes the run
+    exactly velocity Verlet from (q0, v0 = 0).  FlavorIntegrator's velocities are synchronous already.
+    """
+    platform = mm.Platform.getPlatformByName("Reference")
+    context = mm.Context(system, integrator, platform)
+    context.setPositions(positions)
+    n = system.getNumParticles()
+    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(n)])
+    v0 = np.zeros((n, 3))
+    if leapfrog:
+        forces = context.getState(getForces=True).getForces(asNumpy=True)
+        f0 = forces.value_in_unit(unit.kilojoule_per_mole / unit.nanometer)
+        v0 = v0 - 0.5 * dt * f0 / masses[:, None]
+    context.setVelocities(v0)
+
+    steps = sample_steps(times, dt)
+    qs = np.empty((len(times), n))
+    vs = np.empty((len(times), n))
+    pe = np.empty(len(times))
+    wall = 0.0
+    done = 0
+    progress = Progress(label)
+    for k, target in enumerate(steps):
+        if target > done:
+            start = time.perf_counter()
+            integrator.step(int(target - done))
+            wall += time.perf_counter() - start
+            done = int(target)
+        state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, getForces=leapfrog)
+        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
+        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
+        if leapfrog:
+            f = state.getForces(asNumpy=True).value_in_unit(unit.kilojoule_per_mole / unit.nanometer)[:, 0]
+            v = v + 0.5 * dt * f / masses
+        qs[k], vs[k] = q, v
+        pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
+        progress.update(times[k], times[-1])
+    progress.update(times[-1], times[-1], force=True)
+    x0, x1, y1, stiff = observables(qs.T, vs.T, omega)
+    energy = 0.5 * np.sum(masses * vs * vs, axis=1) + pe
+    return {"steps": int(steps[-1]), "wall_s": wall, "x0": x0.T, "x1": x1.T, "y1": y1.T, "I": stiff.T, "E": energy,
+            "Ix": (omega * x1.T) ** 2}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (T = 4, coarser reference)")
+    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "fpu"), help="output directory")
+    parser.add_argument("--T", type=float, default=None, help="simulated time (default omega = 200; 4 with --quick)")
+    parser.add_argument("--omega", type=float, default=200.0)
+    parser.add_argument("--m", type=int, default=3, help="number of stiff springs")
+    parser.add_argument("--delta", type=float, default=2e-3, help="FLAVOR mesostep")
+    parser.add_argument("--tau", type=float, nargs="+", default=[1e-4, 5e-4],
+                        help="FLAVOR microsteps, one Verlet-scheme run each (default: Figs. 6.5/6.7 and 6.8 values)")
+    parser.add_argument("--h", type=float, default=1e-4, help="VerletIntegrator step")
+    parser.add_argument("--href", type=float, default=None, help="reference step (default 1e-5; 2e-5 with --quick)")
+    parser.add_argument("--sample", type=float, default=None, help="sampling interval (default 0.1; 0.02 --quick)")
+    parser.add_argument("--window", type=float, default=None,
+                        help="final averaging window for I_j, finely sampled (default 2.0; 0.5 with --quick)")
+    parser.add_argument("--fine", type=float, default=0.01, help="sampling interval inside the final window")
+    parser.add_argument("--no-euler", action="store_true", help="skip the SymplecticEuler FLAVOR (first tau)")
+    parser.add_argument("--no-effective", action="store_true",
+                        help="skip the comparison of each Verlet FLAVOR with the FPU at omega sqrt(tau/delta)")
+    args = parser.parse_args()
+
+    omega, m = args.omega, args.m
+    T = args.T if args.T is not None else (4.0 if args.quick else omega)
+    href = args.href if args.href is not None else (2e-5 if args.quick else 1e-5)
+    sample = args.sample if args.sample is not None else (0.02 if args.quick else 0.1)
+    window = args.window if args.window is not None else (0.5 if args.quick else 2.0)
+    window = min(window, T)
+
+    # Fig. 6.5: energy starts in the leftmost soft and stiff springs.
+    x0_init = [1.0] + [0.0] * (m - 1)
+    x1_init = [1.0 / omega] + [0.0] * (m - 1)
+    system = fpu_system(m, omega)
+    positions = fpu_positions(x0_init, x1_init)
+
+    coarse = np.arange(0, int(round(T / sample)) + 1) * sample
+    fine = T - window + np.arange(0, int(round(window / args.fine)) + 1) * args.fine
+    times = np.unique(np.round(np.concatenate([coarse[coarse < T - window], fine]), 12))
+    in_window = times >= T - window - 1e-12
+    on_grid = np.abs(times / sample - np.rint(times / sample)) < 1e-6
+    checkpoints = [T / 20, T / 4, T]
+    checkpoint_index = [int(np.argmin(np.abs(times - t))) for t in checkpoints]
+
+    def flavor(scheme, tau):
+        # Quantities and a set of group numbers, as OpenMM's own integrators take them.
+        integrator = openmmflavors.FlavorIntegrator(args.delta * unit.picoseconds, tau * unit.picoseconds,
+                                                    {STIFF_GROUP})
+        integrator.setScheme(scheme)
+        return integrator
+
+    # key, label, make integrator, step, leapfrog velocities, tau/delta (the weight of the stiff forces)
+    runs = [
+        ("reference_check", f"Verlet h={2 * href:g} (ref. check)", lambda: mm.VerletIntegrator(2 * href),
+         2 * href, True, 1.0),
+        ("reference", f"Verlet h={href:g} (reference)", lambda: mm.VerletIntegrator(href), href, True, 1.0),
+        ("verlet", f"Verlet h={args.h:g}", lambda: mm.VerletIntegrator(args.h), args.h, True, 1.0),
+    ]
+    for k, tau in enumerate(args.tau):
+        key = "flavor_verlet" if k == 0 else f"flavor_verlet_tau{tau:g}"
+        runs.append((key, f"FLAVOR Verlet d={args.delta:g} t={tau:g}",
+                     lambda tau=tau: flavor(openmmflavors.FlavorIntegrator.Verlet, tau), args.delta, False,
+                     tau / args.delta))
+    if not args.no_euler:
+        tau = args.tau[0]
+        runs.append(("flavor_euler", f"FLAVOR SympEuler d={args.delta:g} t={tau:g}",
+                     lambda: flavor(openmmflavors.FlavorIntegrator.SymplecticEuler, tau), args.delta, False,
+                     tau / args.delta))
+
+    print(f"FPU m={m} omega={omega:g} T={T:g}: {len(times)} samples (every {sample:g}, every {args.fine:g} in the "
+          f"final window of {window:g})", file=sys.stderr)
+    results = {}
+    for key, label, make, dt, leapfrog, weight in runs:
+        print(f"running {label}: {int(round(T / dt))} steps", file=sys.stderr, flush=True)
+        r = simulate(system, make(), dt, leapfrog, positions, times, omega, label)
+        # Per mesostep FLAVOR drifts for delta but applies the stiff forces for tau only: to leading order (BCH) it
+        # is the flow of H_F = K + V_soft + (tau/delta) U_stiff, so its stiff oscillation keeps omega^2 <x1^2> but
+        # has <y1^2> scaled by tau/delta.  H_F = H for Verlet.
+        r["Ht"] = r["E"] - (1.0 - weight) * 0.5 * np.sum(r["Ix"], axis=1)
+        r.update(label=label, step=dt)
+        results[key] = r
+
+    ref, check = results["reference"], results["reference_check"]
+    verlet_wall = results["verlet"]["wall_s"]
+    summary = {}
+    for key, _, _, dt, _, _ in runs:
+        r = results[key]
+        err = np.abs(r["x0"][:, 0] - ref["x0"][:, 0])
+        if key == "reference":
+            # Velocity Verlet is second order: halving the step removes 3/4 of the error.
+            err = np.abs(check["x0"][:, 0] - ref["x0"][:, 0]) / 3.0
+        summary[key] = {
+            "label": r["label"],
+            "step": dt,
+            "steps": r["steps"],
+            "wall_s": r["wall_s"],
+            "us_per_step": 1e6 * r["wall_s"] / r["steps"],
+            "speedup_vs_verlet": verlet_wall / r["wall_s"],
+            "x0_1_T": float(r["x0"][-1, 0]),
+            "x0_1_error_at": {f"{times[i]:g}": float(err[i]) for i in checkpoint_index},
+            "x0_1_error_T": float(err[-1]),
+            "x0_1_error_max": float(err.max()),
+            "I_T": r["I"][-1].tolist(),
+            "I_window_mean": r["I"][in_window].mean(axis=0).tolist(),
+            "Ix_window_mean": r["Ix"][in_window].mean(axis=0).tolist(),
+            "stiff_total_window_mean": float(r["I"][in_window].sum(axis=1).mean()),
+            "stiff_total_Ix_window_mean": float(r["Ix"][in_window].sum(axis=1).mean()),
+            "energy_drift_T": float(r["E"][-1] - r["E"][0]),
+            "energy_drift_max": float(np.abs(r["E"] - r["E"][0]).max()),
+            "H_F_drift_T": float(r["Ht"][-1] - r["Ht"][0]),
+            "H_F_drift_max": float(np.abs(r["Ht"] - r["Ht"][0]).max()),
+        }
+    summary["reference"]["note"] = ("errors of the reference are its own estimate, |x(h) - x(2h)|/3 (step halving, "
+                                    "second order)")
+
+    # H_F above is the FPU Hamiltonian with omega replaced by omega sqrt(tau/delta).  Integrate that system from the
+    # same state with OpenMM's Verlet and compare: it tells what each Verlet FLAVOR run actually simulates.
+    effective = {}
+    if not args.no_effective:
+        for key, _, _, _, _, weight in runs:
+            if not key.startswith("flavor_verlet"):
+                continue
+            omega_eff = omega * math.sqrt(weight)
+            label = f"Verlet h={args.h:g}, FPU omega_eff={omega_eff:.4g}"
+            print(f"running {label} (compared with {results[key]['label']})", file=sys.stderr, flush=True)
+            e = simulate(fpu_system(m, omega_eff), mm.VerletIntegrator(args.h), args.h, True, positions, times, omega,
+                         label)
+            err = np.abs(results[key]["x0"][:, 0] - e["x0"][:, 0])
+            results[key]["effective_error"] = err
+            effective[key] = {
+                "label": label, "flavor": results[key]["label"], "omega_eff": omega_eff,
+                "x0_1_difference_at": {f"{times[i]:g}": float(err[i]) for i in checkpoint_index},
+                "x0_1_difference_max": float(err.max()),
+                "Ix_window_mean_effective": e["Ix"][in_window].mean(axis=0).tolist(),
+                "Ix_window_mean_flavor": summary[key]["Ix_window_mean"],
+            }
+
+    print_tables(summary, effective, [times[i] for i in checkpoint_index], T, window, omega)
+    os.makedirs(args.out, exist_ok=True)
+    data = {
+        "scene": "FPU (6.7), Fig. 6.5 initial condition",
+        "platform": "Reference",
+        "parameters": {"m": m, "omega": omega, "T": T, "delta": args.delta, "tau": args.tau, "h": args.h,
+                       "href": href, "sample": sample, "fine": args.fine, "window": window,
+                       "x0": x0_init, "x1": x1_init, "quick": args.quick},
+        "openmm_version": mm.__version__,
+        "summary": summary,
+        "flavor_vs_effective_fpu": effective,
+        "series": {"t": times.tolist(),
+                   **{key: {"x0_1": results[key]["x0"][:, 0].tolist(), "I": results[key]["I"].tolist(),
+                            "omega2_x1sq": results[key]["Ix"].tolist(), "E": results[key]["E"].tolist(),
+                            "H_F": results[key]["Ht"].tolist()} for key in results}},
+    }
+    json_path = os.path.join(args.out, "fpu.json")
+    with open(json_path, "w") as f:
+        json.dump(data, f, indent=1)
+    png_path = os.path.join(args.out, "fpu.png")
+    plot(times, on_grid, results, summary, T, window, omega, png_path)
+    print(f"\nwrote {json_path} and {png_path}")
+
+
+def print_tables(summary, effective, checkpoints, T, window, omega):
+    print(f"\nFPU, omega = {omega:g}, T = {T:g}.  Error |dx0,1| in the slow variable x0,1 against the reference "
+          f"(reference row: its own step-halving estimate).\nWall time: integrator.step() only; speedup = Verlet "
+          f"wall time / wall time.")
+    at = " ".join(f"{'t=' + format(t, 'g'):>10s}" for t in checkpoints)
+    head = f"{'method':36s} {'steps':>9s} {'wall s':>8s} {'us/step':>8s} {'speedup':>8s}   |dx0,1| at {at} " \
+           f"{'max':>10s}"
+    print(head)
+    print("-" * len(head))
+    for s in summary.values():
+        errs = " ".join(f"{v:10.2e}" for v in s["x0_1_error_at"].values())
+        print(f"{s['label']:36s} {s['steps']:9d} {s['wall_s']:8.3f} {s['us_per_step']:8.3f} "
+              f"{s['speedup_vs_verlet']:7.1f}x              {errs} {s['x0_1_error_max']:10.2e}")
+
+    print(f"\nStiff energies I_j = (y1_j^2 + omega^2 x1_j^2)/2: at T, and means over the final window [T-{window:g}, T]"
+          f" of I_j and of omega^2 x1_j^2\n(the position-only estimate of I_j: a harmonic oscillator's kinetic and "
+          f"potential energies have equal time averages)")
+    head = f"{'method':36s} {'I1(T)':>7s} {'I2(T)':>7s} {'I3(T)':>7s} | {'<I1>':>7s} {'<I2>':>7s} {'<I3>':>7s} " \
+           f"{'sum':>7s} | {'<w2x1²>':>7s} {'<w2x2²>':>7s} {'<w2x3²>':>7s} {'sum':>7s}"
+    print(head)
+    print("-" * len(head))
+    for s in summary.values():
+        print(f"{s['label']:36s} " + " ".join(f"{v:7.4f}" for v in s["I_T"]) + " | " +
+              " ".join(f"{v:7.4f}" for v in s["I_window_mean"]) + f" {s['stiff_total_window_mean']:7.4f} | " +
+              " ".join(f"{v:7.4f}" for v in s["Ix_window_mean"]) + f" {s['stiff_total_Ix_window_mean']:7.4f}")
+
+    print("\nTotal energy H(t) - H(0) at T and its maximum over the samples; for FLAVOR also H_F = K + V_soft + "
+          "(tau/delta) U_stiff,\nthe energy its step conserves to leading order (H_F = H for Verlet)")
+    head = f"{'method':36s} {'H(T)-H(0)':>11s} {'max|dH|':>10s} {'H_F(T)-H_F(0)':>14s} {'max|dH_F|':>10s}"
+    print(head)
+    print("-" * len(head))
+    for s in summary.values():
+        print(f"{s['label']:36s} {s['energy_drift_T']:11.3e} {s['energy_drift_max']:10.3e} "
+              f"{s['H_F_drift_T']:14.3e} {s['H_F_drift_max']:10.3e}")
+
+    if effective:
+        print("\nEach Verlet FLAVOR against OpenMM's Verlet on the FPU with omega_eff = omega sqrt(tau/delta), same "
+              "start: |x0,1 difference| and final-window omega^2 <x1_j^2>")
+        at = " ".join(f"{'t=' + format(t, 'g'):>10s}" for t in checkpoints)
+        head = f"{'FLAVOR run':36s} {'omega_eff':>9s} {at} {'max':>10s}   {'FLAVOR <w2x_j²>':>23s}   " \
+               f"{'FPU(omega_eff) <w2x_j²>':>23s}"
+        print(head)
+        print("-" * len(head))
+        for e in effective.values():
+            print(f"{e['flavor']:36s} {e['omega_eff']:9.4g} " +
+                  " ".join(f"{v:10.2e}" for v in e["x0_1_difference_at"].values()) +
+                  f" {e['x0_1_difference_max']:10.2e}   " + " ".join(f"{v:7.4f}" for v in e["Ix_window_mean_flavor"]) +
+                  "   " + " ".join(f"{v:7.4f}" for v in e["Ix_window_mean_effective"]))
+
+
+def running_mean(values, width):
+    """Centred running mean; the ends average over what is available."""
+    if width <= 1:
+        return values
+    kernel = np.ones(width)
+    return np.convolve(values, kernel, mode="same") / np.convolve(np.ones_like(values), kernel, mode="same")
+
+
+def plot(times, coarse, results, summary, T, window, omega, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    shown = [k for k in results if k != "reference_check"]
+    palette = ["tab:blue", "tab:red", "tab:purple", "tab:green", "tab:brown", "tab:olive"]
+    colors = {"reference": "k"}
+    colors.update({k: palette[i % len(palette)] for i, k in enumerate(k for k in shown if k != "reference")})
+    fig, axes = plt.subplots(2, 2, figsize=(14, 9))
+    fig.suptitle(f"FPU (FLAVORS paper eq. 6.7, Fig. 6.5 start), omega = {omega:g}, T = {T:g}, Reference platform")
+
+    ax = axes[0, 0]
+    w = times >= T - window - 1e-12
+    for key in shown:
+        ax.plot(times[w], results[key]["x0"][w, 0], color=colors[key], lw=1.4 if key == "reference" else 1,
+                ls="-" if key == "reference" else "--", label=summary[key]["label"])
+    ax.set_title("slow variable x0,1 = (q2+q1)/sqrt2, final window")
+    ax.set_xlabel("t")
+    ax.legend(fontsize=7)
+
+    ax = axes[0, 1]
+    for key in shown:
+        err = np.abs(results[key]["x0"][:, 0] - results["reference"]["x0"][:, 0])
+        label = summary[key]["label"]
+        if key == "reference":
+            err = np.abs(results["reference_check"]["x0"][:, 0] - results["reference"]["x0"][:, 0]) / 3.0
+            label += ": own error (step halving)"
+        ax.semilogy(times[coarse][1:], np.maximum(err[coarse][1:], 1e-16), color=colors[key], lw=0.7, label=label)
+        if "effective_error" in results[key]:
+            ax.semilogy(times[coarse][1:], np.maximum(results[key]["effective_error"][coarse][1:], 1e-16),
+                        color=colors[key], lw=0.7, ls=":", label=f"{label} vs FPU(omega sqrt(tau/delta))")
+    ax.set_title("|x0,1 - x0,1(reference)|; dotted: FLAVOR vs the FPU at omega sqrt(tau/delta)")
+    ax.set_xlabel("t")
+    ax.legend(fontsize=7)
+
+    ax = axes[1, 0]
+    tc = times[coarse]
+    step = tc[1] - tc[0] if len(tc) > 1 else 1.0
+    width = max(1, int(round(window / step)))
+    for j in range(results["reference"]["I"].shape[1]):
+        ax.plot(tc, results["reference"]["I"][coarse, j], color=f"C{j}", lw=1.4,
+                label="reference I_j" if j == 0 else None)
+        for key in shown:
+            if key.startswith("flavor_verlet"):
+                ls = "--" if key == "flavor_verlet" else ":"
+                ax.plot(tc, running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls,
+                        label=f"{summary[key]['label']}: mean omega^2 x1_j^2" if j == 0 else None)
+    ax.set_title(f"stiff energies I1 (blue), I2 (orange), I3 (green); FLAVOR: running means over {window:g}")
+    ax.set_xlabel("t")
+    ax.legend(fontsize=7)
+
+    ax = axes[1, 1]
+    for key in shown:
+        if key.startswith("flavor"):
+            ax.plot(tc, results[key]["Ht"][coarse] - results[key]["Ht"][0], color=colors[key], lw=1.0,
+                    label=summary[key]["label"] + ": H_F")
+        else:
+            ax.plot(tc, results[key]["E"][coarse] - results[key]["E"][0], color=colors[key], lw=1.0,
+                    label=summary[key]["label"] + ": H")
+    ax.set_title("energy drift: H(t) - H(0); for FLAVOR H_F = K + V_soft + (tau/delta) U_stiff\n"
+                 "(FLAVOR's H itself swings by up to (1 - tau/delta) of the stiff energy: see the table)", fontsize=10)
+    ax.set_xlabel("t")
+    ax.legend(fontsize=7)
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,217 @@
+// The exact stiff flow: against matrix exponentials (deterministic and stochastic) and equipartition.
+
+#include "LinearSdeReference.h"
+#include "PlatformTest.h"
+#include "StochasticImpulseIntegrator.h"
+#include "TestSystems.h"
+#include "openmm/Context.h"
+#include "openmm/reference/SimTKOpenMMRealType.h"
+#include <cmath>
+#include <memory>
+
+using namespace FlavorPlugin;
+using namespace FlavorTests;
+using namespace OpenMM;
+using std::vector;
+
+class ImpulseExact : public PlatformTest {};
+INSTANTIATE_ON_ALL_PLATFORMS(ImpulseExact);
+
+namespace {
+
+/** Adds a HarmonicBondForce-like isotropic spring of constant k between particles i and j to K. */
+void addSpring(MatrixL& K, int i, int j, double k) {
+    for (int d = 0; d < 3; ++d) {
+        K(3 * i + d, 3 * i + d) += k;
+        K(3 * j + d, 3 * j + d) += k;
+        K(3 * i + d, 3 * j + d) -= k;
+        K(3 * j + d, 3 * i + d) -= k;
+    }
+}
+
+VectorL stateOf(const vector<Vec3>& q, const vector<Vec3>& v) {
+    const int n = 3 * (int)q.size();
+    VectorL s(2 * n);
+    for (size_t i = 0; i < q.size(); ++i)
+        for (int d = 0; d < 3; ++d) {
+            s[3 * i + d] = q[i][d];
+            s[n + 3 * i + d] = v[i][d];
+        }
+    return s;
+}
+
+} // namespace
+
+TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
+    // Without soft forces and friction a step is the exact flow of the stiff potential, for any H and stiffness:
+    // a 2-particle spring with omega = 1e4, a 3-particle chain, a tethered particle (b != 0) and a particle pushed
+    // by a constant force.
+    System system;
+    const vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0};
+    for (double m : masses)
+        system.addParticle(m);
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    const double k01 = 1e8 * (1.0 * 3.0 / 4.0); // omega = 1e4 for the reduced mass 3/4
+    bonds->addBond(0, 1, 0.0, k01);
+    bonds->addBond(2, 3, 0.0, 2e4);
+    bonds->addBond(3, 4, 0.0, 5e2);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*kt*((x-0.3)^2+(y+0.1)^2+z^2)");
+    tether->addGlobalParameter("kt", 1e3);
+    tether->addParticle(5);
+    CustomExternalForce* push = new CustomExternalForce("2.5*x - 1.5*z");
+    push->addParticle(6);
+    for (Force* f : vector<Force*>{bonds, tether, push}) {
+        f->setForceGroup(StiffGroup);
+        system.addForce(f);
+    }
+    LinearSde sde;
+    sde.K = MatrixL::Zero(21, 21);
+    sde.b = VectorL::Zero(21);
+    addSpring(sde.K, 0, 1, k01);
+    addSpring(sde.K, 2, 3, 2e4);
+    addSpring(sde.K, 3, 4, 5e2);
+    for (int d = 0; d < 3; ++d)
+        sde.K(15 + d, 15 + d) = 1e3;
+    sde.b[15] = 0.3e3;
+    sde.b[16] = -0.1e3;
+    sde.b[18] = -2.5;
+    sde.b[20] = 1.5;
+    for (double m : masses)
+        for (int d = 0; d < 3; ++d)
+            sde.mass.push_back(m);
+
+    vector<Vec3> q0, v0;
+    for (int i = 0; i < 7; ++i) {
+        q0.push_back(Vec3(0.1 * i, 0.05 * (i % 3), -0.02 * i));
+        v0.push_back(Vec3(0.3 - 0.1 * i, 0.2, 0.05 * i));
+    }
+    const double H = 0.37;
+    for (auto splitting : {StochasticImpulseIntegrator::LieTrotter, StochasticImpulseIntegrator::Strang,
+                           StochasticImpulseIntegrator::Yoshida4}) {
+        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
+        integrator.setSplitting(splitting);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions(q0);
+        context.setVelocities(v0);
+        integrator.step(3);
+        VectorL expected = sde.mean(stateOf(q0, v0), 3 * H);
+        VectorL actual = stateOf(positionsOf(context), velocitiesOf(context));
+        const int n = 21;
+        long double positionError = (actual.head(n) - expected.head(n)).norm() / expected.head(n).norm();
+        long double velocityError = (actual.tail(n) - expected.tail(n)).norm() / expected.tail(n).norm();
+        EXPECT_LE((double)positionError, 1e-10) << "splitting " << splitting;
+        EXPECT_LE((double)velocityError, 1e-10) << "splitting " << splitting;
+    }
+}
+
+TEST_P(ImpulseExact, OneNoisyStepHasTheExactMeanAndCovariance) {
+    // 4000 independent copies of a spring (masses 1 and 2, omega = 50) with friction 5/ps at 300 K take one step of
+    // H = 0.1 from the same state.  The sample mean and covariance of the 12 coordinates of a copy must match the
+    // linear SDE's exact mean and covariance within 5 standard errors (mean: sqrt(S_ii/N); covariance entry:
+    // sqrt((S_ii S_jj + S_ij^2)/N)).
+    const int copies = 4000;
+    const double mu = 2.0 / 3.0, omega = 50, k = omega * omega * mu, gamma = 5, temperature = 300, H = 0.1;
+    System system;
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    bonds->setForceGroup(StiffGroup);
+    for (int c = 0; c < copies; ++c) {
+        system.addParticle(1.0);
+        system.addParticle(2.0);
+        bonds->addBond(2 * c, 2 * c + 1, 0.0, k);
+    }
+    system.addForce(bonds);
+    const vector<Vec3> q0 = {Vec3(0.1, 0.0, -0.05), Vec3(0.12, 0.01, -0.05)};
+    const vector<Vec3> v0 = {Vec3(1.0, -0.5, 0.2), Vec3(-0.3, 0.4, 0.0)};
+    vector<Vec3> q, v;
+    for (int c = 0; c < copies; ++c) {
+        q.insert(q.end(), q0.begin(), q0.end());
+        v.insert(v.end(), v0.begin(), v0.end());
+    }
+    StochasticImpulseIntegrator integrator(temperature, gamma, H, StiffMask);
+    integrator.setRandomNumberSeed(7);
+    Context context(system, integrator, platform(), properties());
+    context.setPositions(q);
+    context.setVelocities(v);
+    integrator.step(1);
+    vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
+
+    LinearSde sde;
+    sde.K = MatrixL::Zero(6, 6);
+    sde.b = VectorL::Zero(6);
+    addSpring(sde.K, 0, 1, k);
+    sde.mass = {1, 1, 1, 2, 2, 2};
+    sde.gamma = gamma;
+    sde.kT = BOLTZ * temperature;
+    VectorL mean = sde.mean(stateOf(q0, v0), H);
+    MatrixL covariance = sde.covariance(H);
+
+    vector<VectorL> samples;
+    for (int c = 0; c < copies; ++c)
+        samples.push_back(stateOf({q1[2 * c], q1[2 * c + 1]}, {v1[2 * c], v1[2 * c + 1]}));
+    VectorL sampleMean = VectorL::Zero(12);
+    for (const VectorL& s : samples)
+        sampleMean += s / copies;
+    MatrixL sampleCovariance = MatrixL::Zero(12, 12);
+    for (const VectorL& s : samples)
+        sampleCovariance += (s - sampleMean) * (s - sampleMean).transpose() / (copies - 1);
+    for (int i = 0; i < 12; ++i) {
+        EXPECT_NEAR((double)mean[i], (double)sampleMean[i], 5 * std::sqrt((double)covariance(i, i) / copies))
+            << "mean of coordinate " << i;
+        for (int j = 0; j <= i; ++j) {
+            double se =
+                std::sqrt((double)(covariance(i, i) * covariance(j, j) + covariance(i, j) * covariance(i, j)) / copies);
+            EXPECT_NEAR((double)covariance(i, j), (double)sampleCovariance(i, j), 5 * se)
+                << "covariance " << i << "," << j;
+        }
+    }
+}
+
+TEST_P(ImpulseExact, EquipartitionWithSoftForces) {
+    // 400 copies of a pair with a stiff spring k (omega = 100 for unit masses... relative frequency sqrt(2k)) and a
+    // soft harmonic tether a r^2/2 on each particle: the Boltzmann averages are <K> = (3/2) kT per particle and, per
+    // copy, <V_stiff> = (3/2) kT * 2k/(a + 2k).  Strang SIM with H = 0.02 (sqrt(a) H = 0.02: splitting bias
+    // ~(sqrt(a) H)^2 = 4e-4), friction 2/ps; 5 standard errors from 20 block means, plus 0.002 for the bias.
+    const int copies = 400;
+    const double a = 1.0, k = 5e3, temperature = 300, kT = BOLTZ * temperature;
+    System system;
+    HarmonicBondForce* stiff = new HarmonicBondForce();
+    stiff->setForceGroup(StiffGroup);
+    CustomExternalForce* soft = new CustomExternalForce("0.5*a*(x^2+y^2+z^2)");
+    soft->addGlobalParameter("a", a);
+    for (int c = 0; c < copies; ++c) {
+        system.addParticle(1.0);
+        system.addParticle(1.0);
+        stiff->addBond(2 * c, 2 * c + 1, 0.0, k);
+        soft->addParticle(2 * c);
+        soft->addParticle(2 * c + 1);
+    }
+    system.addForce(stiff);
+    system.addForce(soft);
+    StochasticImpulseIntegrator integrator(temperature, 2.0, 0.02, StiffMask);
+    integrator.setRandomNumberSeed(99);
+    Context context(system, integrator, platform(), properties());
+    context.setPositions(vector<Vec3>(2 * copies));
+    integrator.step(500);
+    const int blocks = 20, samples = 10;
+    vector<double> kinetic, stiffEnergy;
+    for (int b = 0; b < blocks; ++b) {
+        double kin = 0, pot = 0;
+        for (int s = 0; s < samples; ++s) {
+            integrator.step(50);
+            kin += context.getState(State::Energy).getKineticEnergy() / (2 * copies * 1.5 * kT);
+            pot += context.getState(State::Energy, false, StiffMask).getPotentialEnergy() /
+                   (copies * 1.5 * kT * 2 * k / (a + 2 * k));
+        }
+        kinetic.push_back(kin / samples);
+        stiffEnergy.push_back(pot / samples);
+    }
+    for (auto* series : {&kinetic, &stiffEnergy}) {
+        double mean = 0, variance = 0;
+        for (double x : *series)
+            mean += x / blocks;
+        for (double x : *series)
+            variance += (x - mean) * (x - mean) / (blocks - 1);
+        EXPECT_NEAR(1.0, mean, 5 * std::sqrt(variance / blocks) + 0.002)
+            << (series == &kinetic ? "kinetic" : "stiff potential") << " energy ratio";
+    }
+}

@@ -63,7 +63,7 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
     eigenvectors.assign(matrixSize, 0.0);
     omega.assign(modes, 0.0);
     modeForce.assign(modes, 0.0);
-    scratch.assign(4 * (size_t)modes, 0.0);
+    scratch.assign(6 * (size_t)modes, 0.0);
 
     // Assemble each component's mass-weighted stiffness and diagonalize it.
     vector<Eigen::MatrixXd> omegaSquared(components.size());
@@ -150,11 +150,15 @@ void StiffModes::Flow::apply(int begin, int end) const {
     for (int c = begin; c < end; ++c) {
         const Component& comp = modes.components[c];
         const int dim = 3 * comp.numParticles;
-        // Mass-weighted coordinates x, w and mode coordinates a, alpha, in this component's slice of scratch.
-        double* x = &modes.scratch[4 * (size_t)comp.firstMode];
+        // Mass-weighted coordinates x, w, mode coordinates a, alpha and the two noise vectors, in this component's
+        // slice of scratch.
+        double* x = &modes.scratch[6 * (size_t)comp.firstMode];
         double* w = x + dim;
         double* a = comp.stiff ? w + dim : x;
         double* alpha = comp.stiff ? a + dim : w;
+        double* noise1 = x + 4 * dim;
+        double* noise2 = noise1 + dim;
+        const bool noisy = (thermalScale != 0.0);
         for (int p = 0; p < comp.numParticles; ++p) {
             const int particle = modes.particleList[comp.firstParticle + p];
             const double s = modes.sqrtMass[particle];
@@ -162,11 +166,27 @@ void StiffModes::Flow::apply(int begin, int end) const {
                 x[3 * p + d] = s * positions[particle][d];
                 w[3 * p + d] = s * velocities[particle][d];
             }
+            if (noisy) {
+                // Drawn per particle and rotated into the modes, so the noise does not depend on which basis the
+                // eigensolver picked inside a degenerate subspace.
+                std::array<double, 3> xi1 = random->normals(stream, 2 * (std::uint32_t)particle);
+                std::array<double, 3> xi2 = random->normals(stream, 2 * (std::uint32_t)particle + 1);
+                for (int d = 0; d < 3; ++d) {
+                    noise1[3 * p + d] = xi1[d];
+                    noise2[3 * p + d] = xi2[d];
+                }
+            }
         }
         if (comp.stiff) {
             Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
             Vector(a, dim).noalias() = u.transpose() * Vector(x, dim);
             Vector(alpha, dim).noalias() = u.transpose() * Vector(w, dim);
+            if (noisy) {
+                // x and w are free until the modes are mapped back.
+                Vector(x, dim).noalias() = u.transpose() * Vector(noise1, dim);
+                Vector(w, dim).noalias() = u.transpose() * Vector(noise2, dim);
+                std::copy(x, x + 2 * dim, noise1);
+            }
         }
         for (int k = 0; k < dim; ++k) {
             const int mode = comp.firstMode + k;
@@ -174,10 +194,9 @@ void StiffModes::Flow::apply(int begin, int end) const {
             const double force = modes.modeForce[mode];
             double na = f.xx * a[k] + f.xv * alpha[k] + f.gx * force;
             double nalpha = f.vx * a[k] + f.vv * alpha[k] + f.gv * force;
-            if (thermalScale != 0.0) {
-                std::array<double, 3> xi = random->normals(stream, (std::uint32_t)mode);
-                na += thermalScale * f.lxx * xi[0];
-                nalpha += thermalScale * (f.lvx * xi[0] + f.lvv * xi[1]);
+            if (noisy) {
+                na += thermalScale * f.lxx * noise1[k];
+                nalpha += thermalScale * (f.lvx * noise1[k] + f.lvv * noise2[k]);
             }
             a[k] = na;
             alpha[k] = nalpha;

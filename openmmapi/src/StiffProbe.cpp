@@ -13,6 +13,7 @@
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
+using std::string;
 using std::vector;
 
 namespace {
@@ -138,7 +139,8 @@ double maxAbs(const BlockMap& blocks) {
 /**
  * Symmetrizes K into blocks with i <= j.  Returns false, naming a pair of particles, if K is not symmetric.
  */
-bool symmetricBlocks(const BlockMap& blocks, vector<StiffnessBlock>& result, std::pair<int, int>& asymmetric) {
+bool symmetricBlocks(const BlockMap& blocks, vector<StiffnessBlock>& result, std::pair<int, int>& asymmetric,
+                     double& asymmetry) {
     const double scale = maxAbs(blocks);
     result.clear();
     for (const auto& entry : blocks) {
@@ -154,6 +156,7 @@ bool symmetricBlocks(const BlockMap& blocks, vector<StiffnessBlock>& result, std
                 double other = (transposed == blocks.end() ? 0.0 : transposed->second.k[c][r]);
                 if (std::abs(b.k[r][c] - other) > LinearityTolerance * scale) {
                     asymmetric = {b.i, b.j};
+                    asymmetry = std::abs(b.k[r][c] - other) / scale;
                     return false;
                 }
                 s.k[r][c] = 0.5 * (b.k[r][c] + other);
@@ -237,6 +240,7 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
     ProbedStiffness result;
     result.linearityDeviation = INFINITY;
     std::pair<int, int> asymmetric(-1, -1);
+    double asymmetry = 0;
     for (bool everyParticleAlone : {false, true}) {
         vector<int> label(n, 0); // one group for all: one particle probed at a time
         if (!everyParticleAlone)
@@ -244,26 +248,29 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
         BlockMap blocks;
         if (!probeByGroups(probe, label, masses, blocks))
             continue;
-        if (!symmetricBlocks(blocks, result.blocks, asymmetric))
+        if (!symmetricBlocks(blocks, result.blocks, asymmetric, asymmetry))
             continue;
         asymmetric = {-1, -1};
         result.linearityDeviation = linearityDeviation(probe, result.blocks, masses, f0);
         if (result.linearityDeviation <= LinearityTolerance)
             break;
     }
+    const string quadraticExamples = "The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, "
+                                     "CustomBondForce \"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); use "
+                                     "FlavorIntegrator for nonlinear stiff forces";
     if (asymmetric.first >= 0)
         throw OpenMMException(Owner +
-                              ": the stiff forces are not the gradient of a quadratic potential (the measured "
+                              ": the stiff force groups are not quadratic in the positions: the measured "
                               "stiffness between particles " +
                               std::to_string(asymmetric.first) + " and " + std::to_string(asymmetric.second) +
-                              " is not symmetric); use FlavorIntegrator for such stiff forces");
+                              " is not symmetric (relative asymmetry " + formatNumber(asymmetry) + ", at most " +
+                              formatNumber(LinearityTolerance) + " allowed).  " + quadraticExamples);
     if (!(result.linearityDeviation <= LinearityTolerance))
         throw OpenMMException(
             Owner + ": the stiff force groups are not quadratic in the positions: at a random displacement of up to " +
             formatNumber(VerificationDisplacement) + " nm their forces differ from the linear prediction -K dq by " +
             formatNumber(result.linearityDeviation) + " (relative; at most " + formatNumber(LinearityTolerance) +
-            " allowed).  The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, CustomBondForce "
-            "\"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); use FlavorIntegrator for nonlinear stiff forces");
+            " allowed).  " + quadraticExamples);
     vector<Vec3> kq = multiply(result.blocks, probe.positions());
     result.constantForce.resize(n);
     for (int i = 0; i < n; ++i)

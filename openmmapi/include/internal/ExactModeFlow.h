@@ -119,8 +119,9 @@ inline Oscillation oscillation(double z) {
  * Sigma_xx/h^2}.
  */
 inline std::array<double, 2> smallStepSeries(double w, double b) {
-    // Dimensionless generator M = [[0, 1], [-w^2, -2b]]; column = M^k e2 / k!, p = k-th Taylor coefficient of the
-    // covariance, which solves P' = M P + P M^T + diag(0, 4b).
+    // In units of h, the generator is M = [[0, 1], [-w^2, -2b]].  (c1, c2) runs through M^k e2 / k!, whose integral
+    // over the unit step gives g; p through the Taylor coefficients of the covariance, which solves
+    // P' = M P + P M^T + diag(0, 4b).  With w, b <= SmallStep the terms shrink at least like 2.5^k/k!.
     const double w2 = w * w;
     double c1 = 0.0, c2 = 1.0, gx = 0.0;
     double p11 = 0.0, p12 = 0.0, p22 = 4 * b, sxx = 0.0;
@@ -186,11 +187,15 @@ inline FlowAndCovariance flowAndCovariance(double omega, double gamma, double h)
         q = e * o.s;
         xx = e * (o.c + b * o.s);
         vv = e * (o.c - b * o.s);
-        // Sigma_vv = 1 - e^-2b (1 + 2 b^2 S^2 - 2 b C S), regrouped with C^2 + z S^2 = 1.
+        // Sigma_vv = 1 - e^-2b (1 + 2 b^2 S^2 - 2 b C S) (using C^2 + z S^2 = 1), regrouped into terms that are
+        // non-negative (1 + C S >= 0.78) for z >= 0.
         const double tail3 = poissonTail(3, 2 * b), decay = 2 * b * e2, oneMinusS2 = o.oneMinusS * (1 + o.s);
         svv = tail3 + decay * ((1 + o.c * o.s) + b * oneMinusS2);
         if (!small) {
-            // Here omega*h > SmallStep, so dividing by omega^2 is harmless.  C S = sin(2 sqrt z)/(2 sqrt z).
+            // With T_k = poissonTail(k, .) and C S = sin(2 sqrt z)/(2 sqrt z):
+            //   gx       = [T_2(b) + e^-b (b (1 - S) + 1 - C)] / omega^2
+            //   Sigma_xx = [T_3(2b) + 2b e^-2b ((1 - C S) + b (1 - S^2))] / omega^2
+            // All terms are non-negative for z >= 0, and omega*h > SmallStep here, so the division is harmless.
             const Oscillation o4 = oscillation(4 * z);
             gx = (poissonTail(2, b) + e * (b * o.oneMinusS + o.oneMinusC)) / omega2;
             sxx = (tail3 + decay * (o4.oneMinusS + b * oneMinusS2)) / omega2;

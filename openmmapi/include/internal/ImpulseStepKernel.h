@@ -4,6 +4,7 @@
 #include "../FlavorKernels.h"
 #include "FlowStepRunner.h"
 #include "StiffModes.h"
+#include "StiffProbe.h"
 #include "windowsExportFlavors.h"
 #include <memory>
 
@@ -31,6 +32,7 @@ private:
     std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
     std::shared_ptr<const StiffModes> modes;
+    ProbedStiffness measured;
     std::vector<double> masses;
     bool configured;
     ImpulseParameters parameters;

@@ -28,9 +28,11 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
     masses.resize(numParticles);
     inverseMasses.resize(numParticles);
     thermalSpeeds.resize(numParticles);
+    movable.resize(numParticles);
     for (int i = 0; i < numParticles; ++i) {
         masses[i] = system.getParticleMass(i);
         inverseMasses[i] = (masses[i] == 0.0 ? 0.0 : 1.0 / masses[i]);
+        movable[i] = (masses[i] == 0.0 ? 0.0 : 1.0);
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     }
     if (hasConstraints)
@@ -126,6 +128,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool
         pass.positions = positions.data();
         pass.velocities = velocities.data();
         pass.inverseMasses = inverseMasses.data();
+        pass.movable = movable.data();
         pass.thermalSpeeds = thermalSpeeds.data();
         pass.random = &random;
         pass.firstStream = nextStream;

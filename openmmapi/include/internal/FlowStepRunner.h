@@ -68,7 +68,7 @@ private:
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
     bool hasConstraints, hasVirtualSites;
-    std::vector<double> masses, inverseMasses, thermalSpeeds;
+    std::vector<double> masses, inverseMasses, thermalSpeeds, movable;
     Schedule schedule;
     double kT, friction;
     StepPlan plan;

@@ -4,6 +4,8 @@
 #include "CounterRandom.h"
 #include "FlowSchedule.h"
 #include "openmm/Vec3.h"
+#include <algorithm>
+#include <array>
 #include <cstdint>
 
 namespace FlavorPlugin {
@@ -57,30 +59,51 @@ struct ParticlePass : public RangeTask {
     const CounterRandom* random = nullptr;
     std::uint64_t firstStream = 0;
 
+    /** 1 for particles that move, 0 for massless ones (which OpenMM's integrators never move). */
+    const double* movable = nullptr;
+
     void apply(int begin, int end) const override {
-        for (int i = begin; i < end; ++i) {
-            const double invMass = inverseMasses[i];
-            if (invMass == 0.0)
-                continue;
-            OpenMM::Vec3 x = positions[i], v = velocities[i];
+        // Flow by flow over cache-sized blocks: tight loops per flow, and the block stays in cache between flows.
+        constexpr int BlockSize = 256;
+        for (int first = begin; first < end; first += BlockSize) {
+            const int last = std::min(end, first + BlockSize);
             for (int k = 0; k < numFlows; ++k) {
                 const PreparedFlow& flow = flows[k];
                 switch (flow.kind) {
                 case SubFlow::Kick:
-                    v += slotForces[flow.slot][i] * (flow.h * invMass);
+                    kick(flow, first, last);
                     break;
                 case SubFlow::Drift:
-                    x += v * flow.h;
+                    drift(flow, first, last);
                     break;
-                case SubFlow::Thermostat: {
-                    std::array<double, 3> xi = random->normals(firstStream + flow.streamOffset, (std::uint32_t)i);
-                    v = v * flow.decay + OpenMM::Vec3(xi[0], xi[1], xi[2]) * (flow.noise * thermalSpeeds[i]);
+                case SubFlow::Thermostat:
+                    thermostat(flow, first, last);
                     break;
-                }
+                case SubFlow::StiffFlow:
+                    break; // never in a particle pass (compileStepPlan)
                 }
             }
-            positions[i] = x;
-            velocities[i] = v;
+        }
+    }
+
+private:
+    void kick(const PreparedFlow& flow, int first, int last) const {
+        const OpenMM::Vec3* force = slotForces[flow.slot];
+        for (int i = first; i < last; ++i)
+            velocities[i] += force[i] * (flow.h * inverseMasses[i]);
+    }
+    void drift(const PreparedFlow& flow, int first, int last) const {
+        for (int i = first; i < last; ++i)
+            positions[i] += velocities[i] * (flow.h * movable[i]);
+    }
+    void thermostat(const PreparedFlow& flow, int first, int last) const {
+        const std::uint64_t stream = firstStream + flow.streamOffset;
+        for (int i = first; i < last; ++i) {
+            if (movable[i] == 0.0)
+                continue;
+            std::array<double, 3> xi = random->normals(stream, (std::uint32_t)i);
+            velocities[i] =
+                velocities[i] * flow.decay + OpenMM::Vec3(xi[0], xi[1], xi[2]) * (flow.noise * thermalSpeeds[i]);
         }
     }
 };

@@ -1,5 +1,6 @@
 // Bad input, serialization and checkpoints.
 
+#include "ExpectRejected.h"
 #include "FlavorIntegrator.h"
 #include "PlatformTest.h"
 #include "TestSystems.h"
@@ -22,18 +23,6 @@ class FlavorApi : public PlatformTest {};
 INSTANTIATE_ON_ALL_PLATFORMS(FlavorApi);
 
 namespace {
-
-/** Expects action to throw an OpenMMException whose message contains every one of the given fragments. */
-void expectRejected(const std::function<void()>& action, const vector<string>& fragments) {
-    try {
-        action();
-        ADD_FAILURE() << "no exception; expected one mentioning " << fragments[0];
-    } catch (const OpenMMException& e) {
-        string message = e.what();
-        for (const string& fragment : fragments)
-            EXPECT_NE(string::npos, message.find(fragment)) << "'" << message << "' lacks '" << fragment << "'";
-    }
-}
 
 const double NaN = std::numeric_limits<double>::quiet_NaN();
 const double Inf = std::numeric_limits<double>::infinity();

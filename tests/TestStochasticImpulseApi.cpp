@@ -1,5 +1,6 @@
 // Rejections, stiff-mode spectrum, re-measurement when the stiff potential changes, serialization, checkpoints.
 
+#include "ExpectRejected.h"
 #include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
@@ -21,17 +22,6 @@ class ImpulseApi : public PlatformTest {};
 INSTANTIATE_ON_ALL_PLATFORMS(ImpulseApi);
 
 namespace {
-
-void expectRejected(const std::function<void()>& action, const vector<string>& fragments) {
-    try {
-        action();
-        ADD_FAILURE() << "no exception; expected one mentioning " << fragments[0];
-    } catch (const OpenMMException& e) {
-        string message = e.what();
-        for (const string& fragment : fragments)
-            EXPECT_NE(string::npos, message.find(fragment)) << "'" << message << "' lacks '" << fragment << "'";
-    }
-}
 
 /** Two particles (masses m1, m2) joined by a stiff HarmonicBondForce of length r0, and a soft tether on each. */
 System* springPair(double k, double r0, double m1 = 1.0, double m2 = 2.0) {

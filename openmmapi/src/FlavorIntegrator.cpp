@@ -16,20 +16,6 @@ namespace {
 
 const string Owner = "FlavorIntegrator";
 
-bool systemHasForceInGroups(const System& system, int groups) {
-    for (int i = 0; i < system.getNumForces(); ++i)
-        if ((groups & (1 << system.getForce(i).getForceGroup())) != 0)
-            return true;
-    return false;
-}
-
-void requireStiffForce(const System& system, int groups) {
-    if (!systemHasForceInGroups(system, groups))
-        throwInvalidParameter(Owner, "stiffGroups", std::to_string(groups),
-                              "the System has no force in these groups; stiffGroups must select the force group(s) "
-                              "of at least one force (Force.setForceGroup)");
-}
-
 } // namespace
 
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
@@ -70,7 +56,7 @@ void FlavorIntegrator::setMicroStep(double size) {
 void FlavorIntegrator::setStiffGroups(int groups) {
     requireGroupMask(Owner, "stiffGroups", groups);
     if (context != nullptr)
-        requireStiffForce(context->getSystem(), groups);
+        requireForceInGroups(Owner, context->getSystem(), groups);
     stiffGroups = groups;
 }
 
@@ -98,7 +84,7 @@ void FlavorIntegrator::setStiffFriction(bool stiff) {
 void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     if (owner != nullptr && &contextRef.getOwner() != owner)
         throw OpenMMException("This Integrator is already bound to a context");
-    requireStiffForce(contextRef.getSystem(), stiffGroups);
+    requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);

@@ -1,5 +1,7 @@
 #include "internal/ParameterChecks.h"
+#include "openmm/Force.h"
 #include "openmm/OpenMMException.h"
+#include "openmm/System.h"
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
@@ -43,4 +45,13 @@ void FlavorPlugin::requireGroupMask(const std::string& owner, const std::string&
     if (groups == 0)
         throwInvalidParameter(owner, parameter, "0",
                               parameter + " must be a nonzero bitmask of force groups 0..31 (bit i set = group i)");
+}
+
+void FlavorPlugin::requireForceInGroups(const std::string& owner, const OpenMM::System& system, int groups) {
+    for (int i = 0; i < system.getNumForces(); ++i)
+        if ((groups & (1 << system.getForce(i).getForceGroup())) != 0)
+            return;
+    throwInvalidParameter(owner, "stiffGroups", std::to_string(groups),
+                          "the System has no force in these groups; stiffGroups must select the force group(s) of at "
+                          "least one force (Force.setForceGroup)");
 }

@@ -16,15 +16,6 @@ namespace {
 
 const string Owner = "StochasticImpulseIntegrator";
 
-void requireStiffForce(const System& system, int groups) {
-    for (int i = 0; i < system.getNumForces(); ++i)
-        if ((groups & (1 << system.getForce(i).getForceGroup())) != 0)
-            return;
-    throwInvalidParameter(Owner, "stiffGroups", std::to_string(groups),
-                          "the System has no force in these groups; stiffGroups must select the force group(s) of at "
-                          "least one force (Force.setForceGroup)");
-}
-
 void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting splitting, double friction,
                                     const string& parameter) {
     if (splitting == StochasticImpulseIntegrator::Yoshida4 && friction != 0.0)
@@ -70,7 +61,7 @@ void StochasticImpulseIntegrator::setFriction(double coeff) {
 void StochasticImpulseIntegrator::setStiffGroups(int groups) {
     requireGroupMask(Owner, "stiffGroups", groups);
     if (context != nullptr)
-        requireStiffForce(context->getSystem(), groups);
+        requireForceInGroups(Owner, context->getSystem(), groups);
     stiffGroups = groups;
     stiffModesValid = false;
 }
@@ -97,7 +88,7 @@ void StochasticImpulseIntegrator::updateStiffModes() {
 void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
     if (owner != nullptr && &contextRef.getOwner() != owner)
         throw OpenMMException("This Integrator is already bound to a context");
-    requireStiffForce(contextRef.getSystem(), stiffGroups);
+    requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
     rejectConstrainedStiffParticles(contextRef, bondedStiffParticles(contextRef, stiffGroups));
     context = &contextRef;
     owner = &contextRef.getOwner();

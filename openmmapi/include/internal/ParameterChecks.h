@@ -4,6 +4,10 @@
 #include "windowsExportFlavors.h"
 #include <string>
 
+namespace OpenMM {
+class System;
+}
+
 namespace FlavorPlugin {
 
 /** Formats a number with the fewest digits that read back as the same double. */
@@ -26,6 +30,9 @@ OPENMM_EXPORT_FLAVORS void requireNonNegative(const std::string& owner, const st
 
 /** Throws unless groups is a nonzero force-group bitmask. */
 OPENMM_EXPORT_FLAVORS void requireGroupMask(const std::string& owner, const std::string& parameter, int groups);
+
+/** Throws, naming the parameter stiffGroups, unless the System has a force in one of the groups. */
+OPENMM_EXPORT_FLAVORS void requireForceInGroups(const std::string& owner, const OpenMM::System& system, int groups);
 
 } // namespace FlavorPlugin
 

@@ -10,8 +10,22 @@ import os as _os
 
 import openmm as _openmm
 
+from . import _config
+
 _here = _os.path.dirname(_os.path.abspath(__file__))
-# OpenMM's own plugins (the CPU platform among them) are loaded by `import openmm`; ours must come after them.
+
+
+def _hasPlatform(name):
+    return any(_openmm.Platform.getPlatform(i).getName() == name for i in range(_openmm.Platform.getNumPlatforms()))
+
+
+# `import openmm` loads OpenMM's plugins from OPENMM_PLUGIN_DIR; if that points elsewhere, the CPU platform is
+# missing, and our CPU kernels would have nothing to register with.
+if not _hasPlatform("CPU"):
+    _cpu = _os.path.join(_config.OPENMM_PLUGIN_DIR, "libOpenMMCPU.so")
+    if _os.path.exists(_cpu):
+        _openmm.Platform.loadPluginLibrary(_cpu)
+# Ours must come after OpenMM's own plugins.
 for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
     _openmm.Platform.loadPluginLibrary(_os.path.join(_here, "plugins", _name))
 

@@ -14,7 +14,7 @@ force.addParticle(0, [])
 force.setForceGroup(1)
 system.addForce(force)
 for platform in ("Reference", "CPU"):
-    for integrator in (openmmflavors.FlavorIntegrator(0.01, 0.001, {1}),
+    for integrator in (openmmflavors.FlavorIntegrator(0.01, 0.01, {1}),
                        openmmflavors.StochasticImpulseIntegrator(0, 0, 0.01, {1})):
         context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName(platform))
         context.setPositions([(0.1, 0, 0)])

@@ -1,0 +1,476 @@
+#!/usr/bin/env python3
+"""Langevin equations with fast noise and friction: the FLAVORS paper, section 6.9, eqs. (6.20)-(6.21), Fig. 6.16.
+
+    H = (p_y^2 + p_x^2)/2 + omega^4 y^4/4 + e^y (x - y)^2
+    dp_y = -omega^4 y^3 dt - (2 + y - x)(y - x) e^y dt - omega^2 c p_y dt + omega sigma dW
+    dp_x = -2 (x - y) e^y dt                                   (no friction, no noise on x)
+
+Friction omega^2 c and noise omega sigma act on y only; k_B T = sigma^2/(2c).  Unit masses on the x axis: y is pinned
+to the wall by the stiff quartic spring (CustomExternalForce, force group 1), x is tied to y by e^y (x-y)^2
+(CustomCompoundBondForce, group 0).  The ensemble is one System of n non-interacting copies.
+
+FlavorIntegrator's friction acts on every particle, so it cannot express this scene.  Runs:
+  gla                  GLA of eq. (6.21) itself, the paper's benchmark: O(h) K(h) D(h) with the Ornstein-Uhlenbeck
+                       step on y only, as an OpenMM CustomIntegrator (per-degree-of-freedom coefficients).
+  gla_isotropic        FlavorIntegrator(h, h): GLA of the SDE the library's parameters denote (friction omega^2 c
+                       on x too); it runs the same kernel as the library FLAVOR, so speedups are measured against it.
+  flavor_d*_t*         the library's FLAVOR, the closest thing it can express: FlavorIntegrator(delta, tau, {1}),
+                       SymplecticEuler, setStiffFriction(True), friction omega^2 c (eq. 4.8), which damps x as well.
+  flavor_y_only_d*_t*  eqs. (4.8)+(2.9) with friction on y only, as a CustomIntegrator: what the library would give
+                       with per-particle friction (not the library).
+  gla_x_damped         (--x-damped) GLA of eq. (6.21) plus friction omega^2 c tau/delta (and its noise) on x: the
+                       friction the library FLAVOR puts on x, averaged over a mesostep.
+FLAVOR runs at the paper's delta = 0.01, tau = 1e-4 and at tau = 1e-5, where the mesostep stays stable.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/langevin_fast_noise/langevin_fast_noise.py [--quick] [--out DIR]
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import openmm as mm
+import openmm.unit as unit
+
+import openmmflavors
+
+SOFT_GROUP, STIFF_GROUP = 0, 1
+KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BLOWUP_Y = 0.5
+MEAN_Z2_AGREE = 2.0
+LATE_Z_AGREE = 3.0
+
+QUANTITIES = {
+    "s": "E[x-y]  (Fig. 6.16)",
+    "y": "E[y]  (Fig. 6.16)",
+    "s2": "E[(x-y)^2]  (Fig. 6.16)",
+    "y2": "E[y^2]",
+    "px2": "E[p_x^2] / kT",
+    "py2": "E[p_y^2] / kT",
+}
+
+
+def build_system(n, omega):
+    """n copies; copy k is particle 2k (y) and 2k+1 (x)."""
+    system = mm.System()
+    stiff = mm.CustomExternalForce("omega4 * x^4 / 4")
+    stiff.addGlobalParameter("omega4", omega ** 4)
+    # Only the x coordinates interact: the thermostat also kicks the y and z components, which must stay inert.
+    soft = mm.CustomCompoundBondForce(2, "exp(x1) * (x2 - x1)^2")
+    stiff.setForceGroup(STIFF_GROUP)
+    soft.setForceGroup(SOFT_GROUP)
+    for k in range(n):
+        system.addParticle(1.0)
+        system.addParticle(1.0)
+        stiff.addParticle(2 * k, [])
+        soft.addBond([2 * k, 2 * k + 1], [])
+    system.addForce(stiff)
+    system.addForce(soft)
+    return system
+
+
+def flavor_integrator(delta, tau, temperature, friction, stiff_friction, seed):
+    integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
+    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
+    integrator.setTemperature(temperature * unit.kelvin)
+    integrator.setFriction(friction / unit.picosecond)
+    integrator.setStiffFriction(stiff_friction)
+    integrator.setRandomNumberSeed(seed)
+    return integrator
+
+
+def per_dof_ou(n, kT, h, friction_y, friction_x):
+    """exp(-gamma h) and sqrt(kT/m (1 - exp(-2 gamma h))) for every degree of freedom (unit masses)."""
+    def pair(gamma):
+        return math.exp(-gamma * h), math.sqrt(kT * -math.expm1(-2.0 * gamma * h))
+    (ay, by), (ax, bx) = pair(friction_y), pair(friction_x)
+    a = [mm.Vec3(ay, ay, ay) if i % 2 == 0 else mm.Vec3(ax, ax, ax) for i in range(2 * n)]
+    b = [mm.Vec3(by, by, by) if i % 2 == 0 else mm.Vec3(bx, bx, bx) for i in range(2 * n)]
+    return a, b
+
+
+def custom_gla(n, h, kT, friction_y, friction_x, seed):
+    """GLA with per-particle friction: O(h) K_all(h) D(h), the order FlavorIntegrator(h, h) uses."""
+    integrator = mm.CustomIntegrator(h)
+    integrator.addPerDofVariable("a", 1.0)
+    integrator.addPerDofVariable("b", 0.0)
+    integrator.addComputePerDof("v", "a*v + b*gaussian")
+    integrator.addComputePerDof("v", "v + dt*f/m")
+    integrator.addComputePerDof("x", "x + dt*v")
+    a, b = per_dof_ou(n, kT, h, friction_y, friction_x)
+    integrator.setPerDofVariableByName("a", a)
+    integrator.setPerDofVariableByName("b", b)
+    integrator.setRandomNumberSeed(seed)
+    return integrator
+
+
+def custom_flavor(n, delta, tau, kT, friction_y, seed):
+    """Eqs. (4.8) and (2.9) with the Ornstein-Uhlenbeck step on y only:
+    O_y(tau) K_all(tau) D(tau) K_soft(delta - tau) D(delta - tau)."""
+    integrator = mm.CustomIntegrator(delta)
+    integrator.addGlobalVariable("tau", tau)
+    integrator.addGlobalVariable("rest", delta - tau)
+    integrator.addPerDofVariable("a", 1.0)
+    integrator.addPerDofVariable("b", 0.0)
+    integrator.addComputePerDof("v", "a*v + b*gaussian")
+    integrator.addComputePerDof("v", "v + tau*f/m")
+    integrator.addComputePerDof("x", "x + tau*v")
+    integrator.addComputePerDof("v", f"v + rest*f{SOFT_GROUP}/m")
+    integrator.addComputePerDof("x", "x + rest*v")
+    a, b = per_dof_ou(n, kT, tau, friction_y, 0.0)
+    integrator.setPerDofVariableByName("a", a)
+    integrator.setPerDofVariableByName("b", b)
+    integrator.setRandomNumberSeed(seed)
+    return integrator
+
+
+class Progress:
+    """Progress lines on stderr, at most every `every` seconds."""
+
+    def __init__(self, label, every=2.0):
+        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
+
+    def update(self, t, total, force=False):
+        now = time.perf_counter()
+        if force or now - self.last >= self.every:
+            self.last = now
+            print(f"  [{self.label}] t = {t:7.2f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
+                  file=sys.stderr, flush=True)
+
+
+def simulate(system, integrator, dt, n, y0, x0, sample, T, label):
+    """Run the ensemble on the Reference platform; sample x, y, p_x, p_y of every copy every `sample`."""
+    every = int(round(sample / dt))
+    if every < 1 or abs(every * dt - sample) > 1e-9 * sample:
+        raise SystemExit(f"{label}: the step {dt:g} does not divide the sampling interval {sample:g}")
+    num = int(round(T / sample))
+    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
+    context.setPositions([mm.Vec3(p, 0.0, 0.0) for _ in range(n) for p in (y0, x0)])
+    context.setVelocities([mm.Vec3(0.0, 0.0, 0.0)] * (2 * n))
+    shape = (num + 1, n)
+    ys, xs, pys, pxs = np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape)
+    ys[0], xs[0], pys[0], pxs[0] = y0, x0, 0.0, 0.0
+    blown_at = np.full(n, np.nan)
+    wall = 0.0
+    progress = Progress(label)
+    for k in range(1, num + 1):
+        start = time.perf_counter()
+        integrator.step(every)
+        wall += time.perf_counter() - start
+        state = context.getState(getPositions=True, getVelocities=True)
+        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
+        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
+        ys[k], xs[k], pys[k], pxs[k] = q[0::2], q[1::2], v[0::2], v[1::2]
+        bad = ~(np.isfinite(ys[k]) & np.isfinite(xs[k]) & (np.abs(ys[k]) < BLOWUP_Y)) & np.isnan(blown_at)
+        blown_at[bad] = k * sample
+        progress.update(k * sample, T)
+    progress.update(T, T, force=True)
+    del context
+    steps = num * every
+    return {"label": label, "step": dt, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
+            "x": xs, "y": ys, "px": pxs, "py": pys, "blown_at": blown_at}
+
+
+def window_means(values, width):
+    """Means over consecutive windows of `width` samples (samples 1..end; sample 0 is the deterministic start)."""
+    body = values[1:]
+    m = body.shape[0] // width
+    return body[: m * width].reshape(m, width, -1).mean(axis=1)
+
+
+def mean_se(values):
+    """Ensemble mean and its standard error along the last axis (copies)."""
+    n = values.shape[-1]
+    mean = values.mean(axis=-1)
+    se = values.std(axis=-1, ddof=1) / math.sqrt(n) if n > 1 else np.full_like(mean, np.nan)
+    return mean, se
+
+
+def statistics(run, kT, width, t, late_from):
+    keep = np.isnan(run["blown_at"])
+    x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
+    series = {"s": x - y, "y": y, "s2": (x - y) ** 2, "y2": y * y, "px2": px * px / kT, "py2": py * py / kT}
+    late = t >= late_from - 1e-12
+    stats = {}
+    for key, values in series.items():
+        mean, se = mean_se(values)
+        w_mean, w_se = mean_se(window_means(values, width))
+        l_mean, l_se = mean_se(values[late].mean(axis=0))
+        stats[key] = {"mean": mean, "se": se, "w_mean": w_mean, "w_se": w_se, "late_mean": float(l_mean),
+                      "late_se": float(l_se)}
+    return stats, int(keep.sum())
+
+
+def compare(other, ref, t_window, late_from, regime_split):
+    """One run against the reference for one quantity: window z-scores and the late-time average."""
+    diff = other["w_mean"] - ref["w_mean"]
+    se = np.sqrt(other["w_se"] ** 2 + ref["w_se"] ** 2)
+    z = np.where(se > 0, diff / np.where(se > 0, se, 1.0), np.nan)
+    out = {}
+    for name, mask in (("all", np.ones_like(t_window, dtype=bool)), (f"t<{regime_split:g}", t_window < regime_split),
+                       (f"t>={regime_split:g}", t_window >= regime_split)):
+        zz = z[mask & np.isfinite(z)]
+        if zz.size:
+            out[name] = {"windows": int(zz.size), "mean_z2": float(np.mean(zz ** 2)),
+                         "max_abs_z": float(np.max(np.abs(zz))), "frac_abs_z_gt_2": float(np.mean(np.abs(zz) > 2)),
+                         "max_abs_diff": float(np.max(np.abs(diff[mask])))}
+    late_z = (other["late_mean"] - ref["late_mean"]) / math.sqrt(other["late_se"] ** 2 + ref["late_se"] ** 2)
+    out["late"] = {"from_t": late_from, "run": other["late_mean"], "run_se": other["late_se"],
+                   "gla": ref["late_mean"], "gla_se": ref["late_se"], "z": float(late_z),
+                   "ratio": float(other["late_mean"] / ref["late_mean"]) if ref["late_mean"] != 0 else None}
+    out["agree"] = bool(out["all"]["mean_z2"] <= MEAN_Z2_AGREE and abs(late_z) <= LATE_Z_AGREE)
+    return out
+
+
+def boltzmann(omega4, beta):
+    """Exact Boltzmann moments of V = omega4 y^4/4 + e^y s^2 (s = x - y): s given y is Gaussian with variance
+    1/(2 beta e^y), so the marginal of y is exp(-beta omega4 y^4/4 - y/2)."""
+    scale = (beta * omega4 / 4.0) ** -0.25
+    y = np.linspace(-10.0, 10.0, 400001) * scale
+    w = np.exp(-beta * omega4 * y ** 4 / 4.0 - y / 2.0)
+    z = np.trapz(w, y)
+    avg = lambda f: float(np.trapz(w * f, y) / z)
+    return {"s": 0.0, "y": avg(y), "s2": avg(np.exp(-y)) / (2.0 * beta), "y2": avg(y * y), "px2": 1.0, "py2": 1.0}
+
+
+def mesoscale_stability(delta, tau, omega, beta):
+    """Where the mesostep stops being stable for the stiff quartic spring, and how often H_eff reaches there.
+
+    Averaged over a mesostep the stiff force acts with weight tau/delta: y oscillates in (tau/delta) omega^4 y^4/4,
+    integrated with step delta.  Linearised at amplitude A the frequency is A omega^2 sqrt(3 tau/delta), unstable
+    for symplectic Euler when delta times it exceeds 2.  P(|y| > A_crit) is taken under exp(-beta (tau/delta)
+    omega^4 y^4/4) (the quartic part of the H_eff Boltzmann density).
+    """
+    a_crit = 2.0 / (delta * omega ** 2 * math.sqrt(3.0 * tau / delta))
+    a = beta * (tau / delta) * omega ** 4 / 4.0
+    u = np.linspace(0.0, 12.0, 200001) * a ** -0.25
+    density = np.exp(-a * u ** 4)
+    tail = np.trapz(np.where(u > a_crit, density, 0.0), u) / np.trapz(density, u)
+    return {"A_crit": a_crit, "beta_V_eff_at_A_crit": a * a_crit ** 4, "P_abs_y_gt_A_crit_H_eff": float(tail)}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (n = 8, T = 0.2)")
+    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "langevin_fast_noise"))
+    parser.add_argument("--n", type=int, default=None, help="ensemble size (default 50, the paper's; 8 with --quick)")
+    parser.add_argument("--T", type=float, default=None, help="simulated time (default 10; 0.2 with --quick)")
+    parser.add_argument("--omega", type=float, default=100.0)
+    parser.add_argument("--c", type=float, default=0.1, help="friction on y is omega^2 c (1/ps)")
+    parser.add_argument("--sigma", type=float, default=1.0, help="noise on y is omega sigma; k_B T = sigma^2/(2c)")
+    parser.add_argument("--flavor", nargs="+", default=["0.01,0.0001", "0.01,0.00001"], metavar="DELTA,TAU",
+                        help="FLAVOR parameters, each run with the library and with friction on y only (default: the "
+                             "paper's delta = 0.01, tau = 1e-4, and tau = 1e-5, which stays stable)")
+    parser.add_argument("--h", type=float, default=1e-4, help="GLA step (the paper's 1e-4)")
+    parser.add_argument("--sample", type=float, default=0.01, help="sampling interval")
+    parser.add_argument("--window", type=float, default=0.1, help="averaging window for the comparison")
+    parser.add_argument("--regime", type=float, default=2.0, help="split of the early/late summary (time)")
+    parser.add_argument("--no-y-only", action="store_true", help="skip the CustomIntegrator FLAVOR runs")
+    parser.add_argument("--x-damped", action="store_true",
+                        help="also run GLA with friction omega^2 c tau/delta on x (first FLAVOR's delta, tau)")
+    parser.add_argument("--seed", type=int, default=6921)
+    args = parser.parse_args()
+
+    n = args.n if args.n is not None else (8 if args.quick else 50)
+    T = args.T if args.T is not None else (0.2 if args.quick else 10.0)
+    omega = args.omega
+    y0 = 1.1 / omega
+    x0 = y0 + 1.8
+    kT = args.sigma ** 2 / (2 * args.c)
+    beta = 1.0 / kT
+    temperature = kT / KB
+    gamma = omega ** 2 * args.c
+    h = args.h
+    flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]
+    width = max(1, int(round(args.window / args.sample)))
+    late_from = 2.0 * T / 3.0
+    system = build_system(n, omega)
+
+    print(f"eqs. (6.20)-(6.21): n = {n} copies in one System, T = {T:g}, omega = {omega:g}, friction on y "
+          f"omega^2 c = {gamma:g}/ps, kT = {kT:g} kJ/mol ({temperature:.2f} K)", file=sys.stderr)
+    plan = [
+        ("gla", f"GLA h={h:g}, friction on y only (CustomIntegrator)",
+         lambda seed: custom_gla(n, h, kT, gamma, 0.0, seed), h, h),
+        ("gla_isotropic", f"GLA h={h:g}, friction on all (FlavorIntegrator)",
+         lambda seed: flavor_integrator(h, h, temperature, gamma, False, seed), h, h),
+    ]
+    for delta, tau in flavors:
+        plan.append((f"flavor_d{delta:g}_t{tau:g}", f"FLAVOR d={delta:g} t={tau:g}, stiff friction on all",
+                     lambda seed, delta=delta, tau=tau: flavor_integrator(delta, tau, temperature, gamma, True, seed),
+                     delta, tau))
+        if not args.no_y_only:
+            plan.append((f"flavor_y_only_d{delta:g}_t{tau:g}",
+                         f"FLAVOR d={delta:g} t={tau:g}, friction on y only (CustomIntegrator)",
+                         lambda seed, delta=delta, tau=tau: custom_flavor(n, delta, tau, kT, gamma, seed), delta, tau))
+    if args.x_damped:
+        delta, tau = flavors[0]
+        plan.append(("gla_x_damped", f"GLA h={h:g}, y friction + {gamma * tau / delta:g}/ps on x (CustomIntegrator)",
+                     lambda seed, x_friction=gamma * tau / delta: custom_gla(n, h, kT, gamma, x_friction, seed), h, h))
+    runs = {}
+    for i, (key, label, make, dt, micro) in enumerate(plan):
+        print(f"running {label}", file=sys.stderr, flush=True)
+        runs[key] = simulate(system, make(args.seed + i), dt, n, y0, x0, args.sample, T, label)
+        runs[key].update(delta=dt, tau=micro)
+
+    t = np.arange(int(round(T / args.sample)) + 1) * args.sample
+    t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
+    stats, used = {}, {}
+    for key, run in runs.items():
+        stats[key], used[key] = statistics(run, kT, width, t, late_from)
+    comparison = {key: {q: compare(stats[key][q], stats["gla"][q], t_window, late_from, args.regime)
+                        for q in QUANTITIES} for key in runs if key != "gla"}
+    # FLAVOR samples H_eff = K + V_soft + (tau/delta) V_stiff: omega^4 -> omega^4 tau/delta.
+    equilibrium = {"true": boltzmann(omega ** 4, beta)}
+    equilibrium.update({f"H_eff_d{delta:g}_t{tau:g}": boltzmann(omega ** 4 * tau / delta, beta)
+                        for delta, tau in flavors})
+
+    base = runs["gla_isotropic"]["wall_s"]
+    summary = {}
+    for key, run in runs.items():
+        blown = np.isfinite(run["blown_at"])
+        summary[key] = {"label": run["label"], "delta": run["delta"], "tau": run["tau"], "steps": run["steps"],
+                        "wall_s": run["wall_s"], "us_per_step": run["us_per_step"],
+                        "speedup_vs_gla_isotropic": base / run["wall_s"],
+                        "speedup_vs_gla": runs["gla"]["wall_s"] / run["wall_s"], "copies_used": used[key],
+                        "copies_blown_up": int(blown.sum()),
+                        "blowup_times": sorted(float(v) for v in run["blown_at"][blown]),
+                        "stability": mesoscale_stability(run["delta"], run["tau"], omega, beta)}
+    print_tables(summary, comparison, equilibrium, late_from, args.regime, T, n)
+
+    os.makedirs(args.out, exist_ok=True)
+    data = {
+        "scene": "FLAVORS paper section 6.9, eqs. (6.20)-(6.21), Fig. 6.16: Langevin with fast noise and friction "
+                 "on y only",
+        "platform": "Reference",
+        "openmm_version": mm.__version__,
+        "model": {"particles": "copy k: particle 2k = y, 2k+1 = x, unit masses, x axis",
+                  "stiff (group 1)": "CustomExternalForce omega^4 x^4/4 on y",
+                  "soft (group 0)": "CustomCompoundBondForce exp(x1) (x2-x1)^2 on (y, x)",
+                  "limitation": "FlavorIntegrator's friction acts on every particle; eq. (6.21) has friction and "
+                                "noise on y only.  The library FLAVOR (flavor_*) damps x too, with omega^2 c for tau "
+                                "per mesostep, i.e. omega^2 c tau/delta on average.",
+                  "runs": {"gla": "GLA of eq. (6.21): O_y(h) K(h) D(h), CustomIntegrator with per-DOF friction "
+                                  "(the paper's benchmark)",
+                           "flavor_d*_t*": "FlavorIntegrator(delta, tau, {1}), SymplecticEuler, "
+                                           "setStiffFriction(True), "
+                                     "friction omega^2 c on all particles: eq. (4.8) with isotropic c",
+                           "gla_isotropic": "FlavorIntegrator(h, h, {1}), SymplecticEuler, friction omega^2 c over "
+                                            "the whole step on all particles: GLA of eq. (4.2) with isotropic c",
+                           "flavor_y_only_d*_t*": "eqs. (4.8)+(2.9) with friction on y only, CustomIntegrator "
+                                                  "(not the library)",
+                           "gla_x_damped": "(--x-damped) GLA of eq. (6.21) plus friction omega^2 c tau/delta and "
+                                           "its noise on x, CustomIntegrator"}},
+        "parameters": {"n": n, "T": T, "omega": omega, "c": args.c, "sigma": args.sigma, "friction_y": gamma,
+                       "kT": kT, "temperature_K": temperature, "y0": y0, "x0": x0, "p0": 0.0,
+                       "flavor": [list(f) for f in flavors], "h": h, "sample": args.sample,
+                       "window": width * args.sample,
+                       "late_from": late_from, "regime_split": args.regime, "seed": args.seed, "quick": args.quick,
+                       "verdict": f"agree if mean z^2 over the windows <= {MEAN_Z2_AGREE} and |z| of the late-time "
+                                  f"average <= {LATE_Z_AGREE}"},
+        "quantities": QUANTITIES,
+        "runs": summary,
+        "equilibrium": equilibrium,
+        "comparison": comparison,
+        "series": {"t": t.tolist(), "t_window": t_window.tolist(),
+                   **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
+                                "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
+    }
+    json_path = os.path.join(args.out, "langevin_fast_noise.json")
+    with open(json_path, "w") as f:
+        json.dump(data, f, indent=1)
+    png_path = os.path.join(args.out, "langevin_fast_noise.png")
+    plot(t_window, stats, summary, equilibrium, data["parameters"], png_path)
+    print(f"\nwrote {json_path} and {png_path}")
+
+
+def print_tables(summary, comparison, equilibrium, late_from, regime, T, n):
+    print(f"\neqs. (6.20)-(6.21), {n} trajectories, T = {T:g}.  Wall time: integrator.step() only.  FlavorIntegrator "
+          f"and CustomIntegrator runs differ in cost per step, so the like-for-like speedup is against gla_isotropic.")
+    head = f"{'run':14s} {'method':56s} {'steps':>7s} {'wall s':>7s} {'us/step':>8s} {'vs gla_iso':>10s} " \
+           f"{'vs gla':>7s} {'used':>5s} {'blown':>5s} {'A_crit':>7s} {'P(|y|>A_crit)':>13s}"
+    print(head)
+    print("-" * len(head))
+    for key, s in summary.items():
+        print(f"{key:14s} {s['label']:56s} {s['steps']:7d} {s['wall_s']:7.2f} {s['us_per_step']:8.1f} "
+              f"{s['speedup_vs_gla_isotropic']:9.1f}x {s['speedup_vs_gla']:6.1f}x {s['copies_used']:5d} "
+              f"{s['copies_blown_up']:5d} {s['stability']['A_crit']:7.4f} "
+              f"{s['stability']['P_abs_y_gt_A_crit_H_eff']:13.2e}")
+    print("A_crit: amplitude of y above which a step of delta is unstable for the stiff spring (linearised); "
+          "P(|y| > A_crit) under the H_eff Boltzmann density.  Statistics use the copies that did not blow up.")
+    for key, comp in comparison.items():
+        print(f"\n{key} ({summary[key]['label']}) against gla.  Window z = (run - GLA)/sqrt(SE_run^2 + SE_GLA^2); "
+              f"late = per-copy time average over t >= {late_from:g}, mean +- SE.")
+        head = f"{'quantity':26s} {'mean z2':>8s} {'t<' + format(regime, 'g'):>7s} {'t>=' + format(regime, 'g'):>7s} " \
+               f"{'max|z|':>7s} {'max|diff|':>9s} {'late GLA':>19s} {'late run':>19s} {'z':>6s} {'ratio':>6s}  verdict"
+        print(head)
+        print("-" * len(head))
+        for q, c in comp.items():
+            early = c.get(f"t<{regime:g}", {}).get("mean_z2", float("nan"))
+            later = c.get(f"t>={regime:g}", {}).get("mean_z2", float("nan"))
+            late = c["late"]
+            ratio = f"{late['ratio']:6.2f}" if late["ratio"] is not None else "     -"
+            print(f"{QUANTITIES[q]:26s} {c['all']['mean_z2']:8.1f} {early:7.1f} {later:7.1f} "
+                  f"{c['all']['max_abs_z']:7.1f} {c['all']['max_abs_diff']:9.3g} "
+                  f"{late['gla']:10.4g}+-{late['gla_se']:7.2g} "
+                  f"{late['run']:10.4g}+-{late['run_se']:7.2g} {late['z']:6.1f} {ratio}  "
+                  f"{'agree' if c['agree'] else 'DIFFER'}")
+    print("\nExact Boltzmann values of the true H and of H_eff = K + V_soft + (tau/delta) V_stiff, which FLAVOR "
+          "samples:")
+    for name, values in equilibrium.items():
+        print(f"  {name:22s} " + ", ".join(f"{QUANTITIES[q].split('  ')[0]} = {values[q]:.4g}" for q in QUANTITIES))
+
+
+def plot(t_window, stats, summary, equilibrium, params, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fixed = {"gla": ("k", "-", 1.6), "gla_isotropic": ("tab:orange", "--", 1.0),
+             "gla_x_damped": ("tab:green", ":", 1.0)}
+    reds, blues = iter(["tab:red", "tab:pink", "tab:brown"]), iter(["tab:blue", "tab:cyan", "tab:purple"])
+    style = {}
+    for key in stats:
+        if key in fixed:
+            style[key] = fixed[key]
+        elif key.startswith("flavor_y_only"):
+            style[key] = (next(blues, "tab:gray"), "--", 1.2)
+        else:
+            style[key] = (next(reds, "tab:gray"), "-", 1.0)
+    panels = ["s", "y", "s2", "y2", "px2", "py2"]
+    fig, axes = plt.subplots(3, 2, figsize=(14, 13))
+    fig.suptitle(f"eqs. (6.20)-(6.21), FLAVORS paper Fig. 6.16: {params['n']} trajectories, "
+                 f"omega = {params['omega']:g}, "
+                 f"c = {params['c']:g}, sigma = {params['sigma']:g}, kT = {params['kT']:g}, h = {params['h']:g}\n"
+                 f"lines: means over windows of {params['window']:g}, bands: +-2 standard errors (copies that did not "
+                 f"blow up)\ngrey dotted: exact Boltzmann values of H, dash-dot: of H_eff; GLA (black) is drawn on "
+                 f"top of the y-only FLAVOR curves", fontsize=10)
+    for ax, q in zip(axes.flat, panels):
+        for key, s in stats.items():
+            color, ls, lw = style[key]
+            # GLA of the scene on top: the y-only FLAVOR curves lie on it.
+            ax.plot(t_window, s[q]["w_mean"], color=color, ls=ls, lw=lw, zorder=5 if key == "gla" else 2,
+                    label=f"{summary[key]['label']} ({summary[key]['copies_used']} copies)")
+            ax.fill_between(t_window, s[q]["w_mean"] - 2 * s[q]["w_se"], s[q]["w_mean"] + 2 * s[q]["w_se"],
+                            color=color, alpha=0.15, lw=0)
+        if q in ("s2", "y2", "px2", "py2"):
+            ax.axhline(equilibrium["true"][q], color="gray", ls=":", lw=1)
+            for name, values in equilibrium.items():
+                if name != "true" and values[q] != equilibrium["true"][q]:
+                    ax.axhline(values[q], color="gray", ls="-.", lw=1)
+        if q == "y2":
+            ax.set_yscale("log")
+        ax.set_title(QUANTITIES[q])
+        ax.set_xlabel("t")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.95))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

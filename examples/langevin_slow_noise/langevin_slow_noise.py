@@ -1,0 +1,418 @@
+#!/usr/bin/env python3
+"""Langevin equations with slow noise and friction: the FLAVORS paper, section 6.8, eq. (6.19), Figs. 6.14-6.15.
+
+    dy = p_y dt,  dp_y = -y^3/eps dt - 4(y - x)^3 dt - c p_y dt + sigma dW1
+    dx = p_x dt,  dp_x = -4(x - y)^3 dt - c p_x dt + sigma dW2
+
+i.e. H = (p_y^2 + p_x^2)/2 + y^4/(4 eps) + (x - y)^4 with friction c and noise sigma on both particles, which is
+the Langevin equation at k_B T = 1/beta = sigma^2/(2c).  Unit masses, particles on the x axis: y is pinned to the
+wall at 0 by the stiff quartic spring (CustomExternalForce, force group 1), x is tied to y by the soft quartic
+spring (CustomCompoundBondForce on the x coordinates, group 0).  The ensemble is one System holding n
+non-interacting copies of the pair.
+
+FLAVOR: FlavorIntegrator(delta, tau, {1}), SymplecticEuler scheme, friction over the whole mesostep, i.e. eqs. (4.7)
+and (2.9) as in the paper.  GLA, the paper's benchmark (the geometric Langevin algorithm): the same integrator with
+tau = delta = h, which is O(h) K_all(h) D(h) per step.  Both run from the same deterministic start; moments and the
+autocorrelations of Fig. 6.14 are ensemble means with standard errors, compared window by window.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/langevin_slow_noise/langevin_slow_noise.py [--quick] [--out DIR]
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import openmm as mm
+import openmm.unit as unit
+
+import openmmflavors
+
+SOFT_GROUP, STIFF_GROUP = 0, 1
+KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+# A copy is declared blown up once |y| exceeds this (V_stiff would be 1/(4 eps) ~ 1e7 kT) or a coordinate is not finite.
+BLOWUP_Y = 0.5
+# Verdict thresholds on the window z-scores z = (FLAVOR - GLA) / sqrt(SE_F^2 + SE_G^2): windows are correlated in
+# time, so mean z^2 fluctuates more than chi^2/dof would; 2 is loose enough for agreement, tight enough for a bias.
+MEAN_Z2_AGREE = 2.0
+LATE_Z_AGREE = 3.0
+
+QUANTITIES = {
+    # key: (label, function of (x, y, px, py, x0, y0) -> per-copy series)
+    "acf_y": ("E[y(t) y(0)]  (Fig. 6.14, dominantly fast)", lambda x, y, px, py, x0, y0: y * y0),
+    "acf_s": ("E[(x-y)(t) (x-y)(0)]  (Fig. 6.14, dominantly slow)",
+              lambda x, y, px, py, x0, y0: (x - y) * (x0 - y0)),
+    "s": ("E[x-y]", lambda x, y, px, py, x0, y0: x - y),
+    "y": ("E[y]", lambda x, y, px, py, x0, y0: y),
+    "x": ("E[x]", lambda x, y, px, py, x0, y0: x),
+    "s2": ("E[(x-y)^2]", lambda x, y, px, py, x0, y0: (x - y) ** 2),
+    "y2": ("E[y^2]", lambda x, y, px, py, x0, y0: y * y),
+    "px2": ("E[p_x^2] / kT", None),
+    "py2": ("E[p_y^2] / kT", None),
+}
+
+
+def build_system(n, eps):
+    """n copies of the two-particle chain; copy k is particle 2k (y) and 2k+1 (x)."""
+    system = mm.System()
+    stiff = mm.CustomExternalForce("x^4 / (4*eps)")
+    stiff.addGlobalParameter("eps", eps)
+    # Only the x coordinates interact: the thermostat also kicks the y and z components, which must stay inert.
+    soft = mm.CustomCompoundBondForce(2, "(x2 - x1)^4")
+    stiff.setForceGroup(STIFF_GROUP)
+    soft.setForceGroup(SOFT_GROUP)
+    for k in range(n):
+        system.addParticle(1.0)
+        system.addParticle(1.0)
+        stiff.addParticle(2 * k, [])
+        soft.addBond([2 * k, 2 * k + 1], [])
+    system.addForce(stiff)
+    system.addForce(soft)
+    return system
+
+
+def make_integrator(delta, tau, temperature, friction, seed):
+    integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
+    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
+    integrator.setTemperature(temperature * unit.kelvin)
+    integrator.setFriction(friction / unit.picosecond)
+    integrator.setStiffFriction(False)
+    integrator.setRandomNumberSeed(seed)
+    return integrator
+
+
+class Progress:
+    """Progress lines on stderr, at most every `every` seconds."""
+
+    def __init__(self, label, every=2.0):
+        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
+
+    def update(self, t, total, force=False):
+        now = time.perf_counter()
+        if force or now - self.last >= self.every:
+            self.last = now
+            print(f"  [{self.label}] t = {t:7.2f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
+                  file=sys.stderr, flush=True)
+
+
+def simulate(system, integrator, dt, n, y0, x0, sample, T, label):
+    """Run the ensemble on the Reference platform; sample x, y, p_x, p_y of every copy every `sample`."""
+    every = int(round(sample / dt))
+    if every < 1 or abs(every * dt - sample) > 1e-9 * sample:
+        raise SystemExit(f"{label}: the step {dt:g} does not divide the sampling interval {sample:g}")
+    num = int(round(T / sample))
+    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
+    context.setPositions([mm.Vec3(p, 0.0, 0.0) for _ in range(n) for p in (y0, x0)])
+    context.setVelocities([mm.Vec3(0.0, 0.0, 0.0)] * (2 * n))
+    shape = (num + 1, n)
+    ys, xs, pys, pxs = np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape)
+    ys[0], xs[0], pys[0], pxs[0] = y0, x0, 0.0, 0.0
+    blown_at = np.full(n, np.nan)
+    wall = 0.0
+    progress = Progress(label)
+    for k in range(1, num + 1):
+        start = time.perf_counter()
+        integrator.step(every)
+        wall += time.perf_counter() - start
+        state = context.getState(getPositions=True, getVelocities=True)
+        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
+        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
+        ys[k], xs[k], pys[k], pxs[k] = q[0::2], q[1::2], v[0::2], v[1::2]
+        bad = ~(np.isfinite(ys[k]) & np.isfinite(xs[k]) & (np.abs(ys[k]) < BLOWUP_Y)) & np.isnan(blown_at)
+        blown_at[bad] = k * sample
+        progress.update(k * sample, T)
+    progress.update(T, T, force=True)
+    del context
+    steps = num * every
+    return {"label": label, "step": dt, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
+            "x": xs, "y": ys, "px": pxs, "py": pys, "blown_at": blown_at}
+
+
+def per_copy_series(run, kT):
+    """Every quantity for every copy (samples x copies), for the copies that stayed finite up to T."""
+    keep = np.isnan(run["blown_at"])
+    x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
+    x0, y0 = x[0], y[0]
+    series = {}
+    for key, (_, f) in QUANTITIES.items():
+        if key == "px2":
+            series[key] = px * px / kT
+        elif key == "py2":
+            series[key] = py * py / kT
+        else:
+            series[key] = f(x, y, px, py, x0, y0)
+    return series, int(keep.sum())
+
+
+def window_means(values, width):
+    """Means over consecutive windows of `width` samples (samples 1..end; sample 0 is the deterministic start)."""
+    body = values[1:]
+    m = body.shape[0] // width
+    return body[: m * width].reshape(m, width, -1).mean(axis=1)
+
+
+def mean_se(values):
+    """Ensemble mean and its standard error along the last axis (copies)."""
+    n = values.shape[-1]
+    mean = values.mean(axis=-1)
+    se = values.std(axis=-1, ddof=1) / math.sqrt(n) if n > 1 else np.full_like(mean, np.nan)
+    return mean, se
+
+
+def compare(flavor, gla, t_window, late_from, regime_split):
+    """FLAVOR against GLA for one quantity: window z-scores, and the late-time average with its standard error."""
+    diff = flavor["w_mean"] - gla["w_mean"]
+    se = np.sqrt(flavor["w_se"] ** 2 + gla["w_se"] ** 2)
+    z = np.where(se > 0, diff / np.where(se > 0, se, 1.0), np.nan)
+    out = {}
+    for name, mask in (("all", np.ones_like(t_window, dtype=bool)), (f"t<{regime_split:g}", t_window < regime_split),
+                       (f"t>={regime_split:g}", t_window >= regime_split)):
+        zz = z[mask & np.isfinite(z)]
+        if zz.size:
+            out[name] = {"windows": int(zz.size), "mean_z2": float(np.mean(zz ** 2)),
+                         "max_abs_z": float(np.max(np.abs(zz))), "frac_abs_z_gt_2": float(np.mean(np.abs(zz) > 2)),
+                         "max_abs_diff": float(np.max(np.abs(diff[mask])))}
+    late_z = (flavor["late_mean"] - gla["late_mean"]) / math.sqrt(flavor["late_se"] ** 2 + gla["late_se"] ** 2)
+    out["late"] = {"from_t": late_from, "flavor": flavor["late_mean"], "flavor_se": flavor["late_se"],
+                   "gla": gla["late_mean"], "gla_se": gla["late_se"], "z": float(late_z),
+                   "ratio": float(flavor["late_mean"] / gla["late_mean"]) if gla["late_mean"] != 0 else None}
+    out["agree"] = bool(out["all"]["mean_z2"] <= MEAN_Z2_AGREE and abs(late_z) <= LATE_Z_AGREE)
+    return out
+
+
+def statistics(run, kT, width, t, late_from):
+    series, used = per_copy_series(run, kT)
+    late = t >= late_from - 1e-12
+    stats = {}
+    for key, values in series.items():
+        mean, se = mean_se(values)
+        w_mean, w_se = mean_se(window_means(values, width))
+        l_mean, l_se = mean_se(values[late].mean(axis=0))
+        stats[key] = {"mean": mean, "se": se, "w_mean": w_mean, "w_se": w_se, "late_mean": float(l_mean),
+                      "late_se": float(l_se)}
+    return stats, used
+
+
+def quartic_second_moment(a, beta):
+    """<u^2> for the density exp(-beta a u^4)."""
+    return (beta * a) ** -0.5 * math.gamma(0.75) / math.gamma(0.25)
+
+
+def mesoscale_stability(delta, tau, eps, beta):
+    """Where the mesostep stops being stable for the stiff quartic spring, and how often H_eff reaches there.
+
+    Averaged over a mesostep, the stiff force acts with weight tau/delta, so y oscillates in (tau/delta) y^4/(4 eps)
+    and is integrated with step delta.  Linearised at amplitude A the frequency is A sqrt(3 tau/(delta eps)), and
+    symplectic Euler is unstable for delta omega > 2: A_crit = 2/(delta sqrt(3 tau/(delta eps))).  The probability
+    of |y| > A_crit is taken under the H_eff Boltzmann density exp(-beta (tau/delta) y^4/(4 eps)).
+    """
+    a_crit = 2.0 / (delta * math.sqrt(3.0 * tau / (delta * eps)))
+    a = beta * (tau / delta) / (4.0 * eps)
+    scale = a ** -0.25
+    u = np.linspace(0.0, 12.0, 200001) * scale
+    density = np.exp(-a * u ** 4)
+    tail = np.trapz(np.where(u > a_crit, density, 0.0), u) / np.trapz(density, u)
+    return {"A_crit": a_crit, "beta_V_eff_at_A_crit": a * a_crit ** 4, "P_abs_y_gt_A_crit_H_eff": float(tail),
+            "rms_y_H_eff": math.sqrt(quartic_second_moment(a / beta, beta))}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (n = 8, T = 1)")
+    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "langevin_slow_noise"))
+    parser.add_argument("--n", type=int, default=None, help="ensemble size (default 100, the paper's; 8 with --quick)")
+    parser.add_argument("--T", type=float, default=None, help="simulated time (default 30; 1 with --quick)")
+    parser.add_argument("--eps", type=float, default=1e-8)
+    parser.add_argument("--c", type=float, default=0.1, help="friction (1/ps)")
+    parser.add_argument("--sigma", type=float, default=0.5, help="noise amplitude; k_B T = sigma^2 / (2c)")
+    parser.add_argument("--flavor", nargs="+", default=["0.01,0.001", "0.01,0.0001"], metavar="DELTA,TAU",
+                        help="FLAVOR runs (default: the paper's delta = 0.01, tau = 0.001, and delta = 0.01, "
+                             "tau = 1e-4, which stays stable)")
+    parser.add_argument("--h", type=float, default=0.001, help="GLA step (the paper's 0.001)")
+    parser.add_argument("--sample", type=float, default=0.01, help="sampling interval")
+    parser.add_argument("--window", type=float, default=0.2, help="averaging window for the comparison")
+    parser.add_argument("--regime", type=float, default=8.0,
+                        help="end of the regime dominated by deterministic dynamics (paper: about t = 8)")
+    parser.add_argument("--seed", type=int, default=6819)
+    args = parser.parse_args()
+
+    n = args.n if args.n is not None else (8 if args.quick else 100)
+    T = args.T if args.T is not None else (1.0 if args.quick else 30.0)
+    omega = 1.0 / math.sqrt(args.eps)
+    y0 = 2.1 / omega
+    x0 = y0 + 1.8
+    kT = args.sigma ** 2 / (2 * args.c)
+    beta = 1.0 / kT
+    temperature = kT / KB
+    flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]
+    width = max(1, int(round(args.window / args.sample)))
+    late_from = 2.0 * T / 3.0
+    system = build_system(n, args.eps)
+
+    print(f"eq. (6.19): n = {n} copies in one System, T = {T:g}, eps = {args.eps:g}, c = {args.c:g}, "
+          f"sigma = {args.sigma:g} (kT = {kT:g} kJ/mol, {temperature:.2f} K)", file=sys.stderr)
+    runs = {}
+    seed = args.seed
+    label = f"GLA h={args.h:g}"
+    print(f"running {label}: FlavorIntegrator(h, h), SymplecticEuler, friction over the whole step", file=sys.stderr)
+    runs["gla"] = simulate(system, make_integrator(args.h, args.h, temperature, args.c, seed), args.h, n, y0, x0,
+                           args.sample, T, label)
+    runs["gla"].update(delta=args.h, tau=args.h)
+    for delta, tau in flavors:
+        seed += 1
+        key = f"flavor_d{delta:g}_t{tau:g}"
+        label = f"FLAVOR d={delta:g} t={tau:g}"
+        print(f"running {label}: SymplecticEuler, friction over the whole mesostep (eq. 4.7)", file=sys.stderr)
+        runs[key] = simulate(system, make_integrator(delta, tau, temperature, args.c, seed), delta, n, y0, x0,
+                             args.sample, T, label)
+        runs[key].update(delta=delta, tau=tau)
+
+    t = np.arange(int(round(T / args.sample)) + 1) * args.sample
+    t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
+    stats, used = {}, {}
+    for key, run in runs.items():
+        stats[key], used[key] = statistics(run, kT, width, t, late_from)
+
+    # Exact Boltzmann values: V = y^4/(4 eps) + s^4 separates in (y, s = x - y).  The Langevin FLAVOR samples
+    # H_eff = K + V_soft + (tau/delta) V_stiff, i.e. eps -> eps delta/tau.
+    equilibrium = {"true": {"s2": quartic_second_moment(1.0, beta), "y2": quartic_second_moment(0.25 / args.eps, beta),
+                            "s": 0.0, "y": 0.0, "x": 0.0, "px2": 1.0, "py2": 1.0}}
+    for delta, tau in flavors:
+        key = f"flavor_d{delta:g}_t{tau:g}"
+        equilibrium[key] = dict(equilibrium["true"], y2=quartic_second_moment(0.25 * tau / (delta * args.eps), beta))
+
+    stability = {key: mesoscale_stability(run["delta"], run["tau"], args.eps, beta) for key, run in runs.items()}
+
+    comparison = {}
+    for key in runs:
+        if key == "gla":
+            continue
+        comparison[key] = {q: compare(stats[key][q], stats["gla"][q], t_window, late_from, args.regime)
+                           for q in QUANTITIES}
+
+    gla_wall = runs["gla"]["wall_s"]
+    summary = {}
+    for key, run in runs.items():
+        blown = np.isfinite(run["blown_at"])
+        summary[key] = {"label": run["label"], "delta": run["delta"], "tau": run["tau"], "steps": run["steps"],
+                        "wall_s": run["wall_s"], "us_per_step": run["us_per_step"],
+                        "speedup_vs_gla": gla_wall / run["wall_s"], "copies_used": used[key],
+                        "copies_blown_up": int(blown.sum()),
+                        "blowup_times": sorted(float(v) for v in run["blown_at"][blown]),
+                        "stability": stability[key]}
+    print_tables(summary, comparison, stats, equilibrium, late_from, args.regime, T, n)
+
+    os.makedirs(args.out, exist_ok=True)
+    data = {
+        "scene": "FLAVORS paper section 6.8, eq. (6.19), Figs. 6.14-6.15: Langevin with slow noise and friction",
+        "platform": "Reference",
+        "openmm_version": mm.__version__,
+        "model": {"particles": "copy k: particle 2k = y, 2k+1 = x, unit masses, x axis",
+                  "stiff (group 1)": "CustomExternalForce x^4/(4 eps) on y",
+                  "soft (group 0)": "CustomCompoundBondForce (x2-x1)^4 on (y, x)",
+                  "gla": "FlavorIntegrator(h, h, {1}), SymplecticEuler, friction over the whole step: "
+                         "O(h) K_all(h) D(h), the geometric Langevin algorithm",
+                  "flavor": "FlavorIntegrator(delta, tau, {1}), SymplecticEuler, setStiffFriction(False): eq. (4.7)"},
+        "parameters": {"n": n, "T": T, "eps": args.eps, "omega": omega, "c": args.c, "sigma": args.sigma, "kT": kT,
+                       "temperature_K": temperature, "y0": y0, "x0": x0, "p0": 0.0, "h": args.h,
+                       "flavor": [list(f) for f in flavors], "sample": args.sample, "window": width * args.sample,
+                       "late_from": late_from, "regime_split": args.regime, "seed": args.seed, "quick": args.quick,
+                       "verdict": f"agree if mean z^2 over the windows <= {MEAN_Z2_AGREE} and |z| of the late-time "
+                                  f"average <= {LATE_Z_AGREE}"},
+        "quantities": {k: v[0] for k, v in QUANTITIES.items()},
+        "runs": summary,
+        "equilibrium": equilibrium,
+        "comparison": comparison,
+        "series": {"t": t.tolist(), "t_window": t_window.tolist(),
+                   **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
+                                "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
+    }
+    json_path = os.path.join(args.out, "langevin_slow_noise.json")
+    with open(json_path, "w") as f:
+        json.dump(data, f, indent=1)
+    png_path = os.path.join(args.out, "langevin_slow_noise.png")
+    plot(t, t_window, stats, summary, equilibrium, data["parameters"], png_path)
+    print(f"\nwrote {json_path} and {png_path}")
+
+
+def print_tables(summary, comparison, stats, equilibrium, late_from, regime, T, n):
+    print(f"\neq. (6.19), {n} trajectories, T = {T:g}.  Wall time: integrator.step() only; speedup = GLA wall time / "
+          f"wall time.")
+    head = f"{'method':28s} {'steps':>7s} {'wall s':>7s} {'us/step':>8s} {'speedup':>8s} {'copies used':>12s} " \
+           f"{'blown up':>9s} {'A_crit':>7s} {'rms y':>7s} {'P(|y|>A_crit)':>13s}  first blow-ups (t)"
+    print(head)
+    print("-" * len(head))
+    for s in summary.values():
+        first = ", ".join(f"{v:.2f}" for v in s["blowup_times"][:4]) + (" ..." if len(s["blowup_times"]) > 4 else "")
+        print(f"{s['label']:28s} {s['steps']:7d} {s['wall_s']:7.2f} {s['us_per_step']:8.1f} "
+              f"{s['speedup_vs_gla']:7.1f}x {s['copies_used']:12d} {s['copies_blown_up']:9d} "
+              f"{s['stability']['A_crit']:7.4f} {s['stability']['rms_y_H_eff']:7.4f} "
+              f"{s['stability']['P_abs_y_gt_A_crit_H_eff']:13.2e}  {first}")
+    print("A_crit: amplitude of y above which a step of delta is unstable for the stiff spring (linearised); rms y and "
+          "P(|y| > A_crit) under the Boltzmann density of H_eff = K + V_soft + (tau/delta) V_stiff")
+    for key, comp in comparison.items():
+        print(f"\n{summary[key]['label']} against {summary['gla']['label']} (copies that stayed finite).  Window "
+              f"z = (F - G)/sqrt(SE_F^2 + SE_G^2); late = per-copy time average over t >= {late_from:g}, "
+              f"mean +- SE; eq = exact Boltzmann value (FLAVOR column: of H_eff).")
+        head = f"{'quantity':46s} {'mean z2':>8s} {'t<' + format(regime, 'g'):>7s} {'t>=' + format(regime, 'g'):>7s} " \
+               f"{'max|z|':>7s} {'late GLA':>19s} {'late FLAVOR':>19s} {'z':>6s} {'F/G':>6s} {'eq G':>8s} " \
+               f"{'eq F':>8s}  verdict"
+        print(head)
+        print("-" * len(head))
+        for q, c in comp.items():
+            early = c.get(f"t<{regime:g}", {}).get("mean_z2", float("nan"))
+            later = c.get(f"t>={regime:g}", {}).get("mean_z2", float("nan"))
+            late = c["late"]
+            ratio = f"{late['ratio']:6.2f}" if late["ratio"] is not None else "     -"
+            eq_g = equilibrium["true"].get(q)
+            eq_f = equilibrium[key].get(q)
+            fmt = lambda v: f"{v:8.3g}" if v is not None else "       -"
+            print(f"{QUANTITIES[q][0]:46s} {c['all']['mean_z2']:8.2f} {early:7.2f} {later:7.2f} "
+                  f"{c['all']['max_abs_z']:7.1f} {late['gla']:10.4g}+-{late['gla_se']:7.2g} "
+                  f"{late['flavor']:10.4g}+-{late['flavor_se']:7.2g} {late['z']:6.1f} {ratio} {fmt(eq_g)} "
+                  f"{fmt(eq_f)}  {'agree' if c['agree'] else 'DIFFER'}")
+
+
+def plot(t, t_window, stats, summary, equilibrium, params, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colors = {"gla": "k"}
+    palette = ["tab:red", "tab:blue", "tab:green", "tab:purple"]
+    colors.update({k: palette[i % len(palette)] for i, k in enumerate(k for k in stats if k != "gla")})
+    panels = [("acf_y", False), ("acf_s", False), ("s", False), ("y", False), ("s2", False), ("y2", True),
+              ("px2", False), ("py2", False)]
+    fig, axes = plt.subplots(4, 2, figsize=(14, 15))
+    fig.suptitle(f"eq. (6.19), FLAVORS paper Figs. 6.14-6.15: {params['n']} trajectories, eps = {params['eps']:g}, "
+                 f"c = {params['c']:g}, sigma = {params['sigma']:g}, kT = {params['kT']:g}; "
+                 f"GLA = FlavorIntegrator(h, h)\n"
+                 f"lines: means over windows of {params['window']:g}, bands: +-2 standard errors; thin: every sample "
+                 f"(first row)\ndotted: exact Boltzmann values (FLAVOR: of H_eff = K + V_soft + (tau/delta) V_stiff); "
+                 f"FLAVOR statistics use the copies that did not blow up", fontsize=10)
+    for ax, (q, logy) in zip(axes.flat, panels):
+        for key, s in stats.items():
+            lab = f"{summary[key]['label']} ({summary[key]['copies_used']} copies)"
+            if q.startswith("acf"):
+                ax.plot(t, s[q]["mean"], color=colors[key], lw=0.4, alpha=0.5)
+            ax.plot(t_window, s[q]["w_mean"], color=colors[key], lw=1.2, label=lab)
+            ax.fill_between(t_window, s[q]["w_mean"] - 2 * s[q]["w_se"], s[q]["w_mean"] + 2 * s[q]["w_se"],
+                            color=colors[key], alpha=0.2, lw=0)
+            eq = equilibrium["true" if key == "gla" else key].get(q)
+            if eq is not None and q in ("s2", "y2", "px2", "py2"):
+                ax.axhline(eq, color=colors[key], ls=":", lw=1)
+        ax.set_title(QUANTITIES[q][0])
+        ax.set_xlabel("t")
+        if logy:
+            ax.set_yscale("log")
+        ax.legend(fontsize=7)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

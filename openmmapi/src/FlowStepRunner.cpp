@@ -23,8 +23,7 @@ ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
 
 FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoop> loop)
     : loop(std::move(loop)), numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0),
-      hasVirtualSites(false), kT(-1.0), friction(-1.0), thermostatsPerStep(0), seed(0), nextStream(0),
-      forceEvaluations(0) {
+      hasVirtualSites(false), kT(-1.0), friction(-1.0), thermostatsPerStep(0), seed(0), nextStream(0) {
     masses.resize(numParticles);
     inverseMasses.resize(numParticles);
     thermalSpeeds.resize(numParticles);
@@ -111,7 +110,6 @@ void FlowStepRunner::ensureForces(ContextImpl& context, int slotIndex) {
     // Take the platform's force buffer instead of copying it; the platform refills whatever buffer it holds.
     std::swap(*platformData(context).forces, slot.forces);
     slot.valid = true;
-    forceEvaluations++;
 }
 
 void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool& forcesValid) {

@@ -50,8 +50,6 @@ public:
     double kineticEnergy(OpenMM::ContextImpl& context) const;
     void createCheckpoint(std::ostream& stream) const;
     void loadCheckpoint(std::istream& stream);
-    /** The number of force evaluations of each force-group set since construction, for diagnostics. */
-    long long getForceEvaluationCount() const { return forceEvaluations; }
 
 private:
     struct ForceSlot {
@@ -81,7 +79,6 @@ private:
     int thermostatsPerStep;
     std::uint64_t seed, nextStream;
     CounterRandom random;
-    long long forceEvaluations;
 };
 
 } // namespace FlavorPlugin

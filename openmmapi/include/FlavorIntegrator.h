@@ -11,6 +11,8 @@
 
 namespace FlavorPlugin {
 
+class IntegrateFlavorStepKernel;
+
 /**
  * This is a flow-averaging integrator (FLAVOR) for systems with stiff and soft forces.  Every force whose
  * force group is in the bitmask stiffGroups is stiff; every other force is soft, and no force group is ever
@@ -147,6 +149,8 @@ private:
     int randomNumberSeed;
     bool forcesAreValid;
     OpenMM::Kernel kernel;
+    // The kernel's implementation, looked up once (Kernel::getAs() costs a dynamic_cast per call).
+    IntegrateFlavorStepKernel* stepKernel;
 };
 
 } // namespace FlavorPlugin

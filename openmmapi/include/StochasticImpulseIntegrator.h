@@ -10,6 +10,8 @@
 
 namespace FlavorPlugin {
 
+class IntegrateStochasticImpulseStepKernel;
+
 /**
  * This is a stochastic impulse method (SIM) for Langevin dynamics with a quadratic stiff potential.  The forces in
  * the force groups of the bitmask stiffGroups must be linear in the positions (a quadratic potential such as
@@ -111,6 +113,8 @@ private:
     int randomNumberSeed;
     bool forcesAreValid, stiffModesValid;
     OpenMM::Kernel kernel;
+    // The kernel's implementation, looked up once (Kernel::getAs() costs a dynamic_cast per call).
+    IntegrateStochasticImpulseStepKernel* stepKernel;
 };
 
 } // namespace FlavorPlugin

@@ -20,7 +20,7 @@ const string Owner = "FlavorIntegrator";
 
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
     : microStep(0.0), stiffGroups(0), scheme(Verlet), temperature(0.0), friction(0.0), stiffFriction(false),
-      randomNumberSeed(0), forcesAreValid(false) {
+      randomNumberSeed(0), forcesAreValid(false), stepKernel(nullptr) {
     requirePositive(Owner, "mesoStep", mesoStep, "ps");
     requirePositive(Owner, "microStep", microStep, "ps");
     if (microStep > mesoStep)
@@ -88,11 +88,13 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);
-    kernel.getAs<IntegrateFlavorStepKernel>().initialize(contextRef.getSystem(), *this);
+    stepKernel = &kernel.getAs<IntegrateFlavorStepKernel>();
+    stepKernel->initialize(contextRef.getSystem(), *this);
     forcesAreValid = false;
 }
 
 void FlavorIntegrator::cleanup() {
+    stepKernel = nullptr;
     kernel = Kernel();
 }
 
@@ -105,7 +107,7 @@ void FlavorIntegrator::stateChanged(State::DataType changed) {
 }
 
 double FlavorIntegrator::computeKineticEnergy() {
-    return kernel.getAs<IntegrateFlavorStepKernel>().computeKineticEnergy(*context, *this);
+    return stepKernel->computeKineticEnergy(*context, *this);
 }
 
 void FlavorIntegrator::step(int steps) {
@@ -114,15 +116,15 @@ void FlavorIntegrator::step(int steps) {
     for (int i = 0; i < steps; ++i) {
         if (context->updateContextState())
             forcesAreValid = false;
-        kernel.getAs<IntegrateFlavorStepKernel>().execute(*context, *this, forcesAreValid);
+        stepKernel->execute(*context, *this, forcesAreValid);
     }
 }
 
 void FlavorIntegrator::createCheckpoint(std::ostream& stream) const {
-    kernel.getAs<IntegrateFlavorStepKernel>().createCheckpoint(*context, stream);
+    stepKernel->createCheckpoint(*context, stream);
 }
 
 void FlavorIntegrator::loadCheckpoint(std::istream& stream) {
-    kernel.getAs<IntegrateFlavorStepKernel>().loadCheckpoint(*context, stream);
+    stepKernel->loadCheckpoint(*context, stream);
     forcesAreValid = false;
 }

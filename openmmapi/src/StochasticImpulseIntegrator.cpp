@@ -30,7 +30,7 @@ void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting split
 StochasticImpulseIntegrator::StochasticImpulseIntegrator(double temperature, double frictionCoeff, double stepSize,
                                                          int stiffGroups)
     : temperature(0.0), friction(0.0), stiffGroups(0), splitting(Strang), randomNumberSeed(0), forcesAreValid(false),
-      stiffModesValid(false) {
+      stiffModesValid(false), stepKernel(nullptr) {
     requireNonNegative(Owner, "temperature", temperature, "K");
     requireNonNegative(Owner, "friction", frictionCoeff, "1/ps");
     requirePositive(Owner, "stepSize", stepSize, "ps");
@@ -77,8 +77,7 @@ void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
 vector<double> StochasticImpulseIntegrator::getStiffModeFrequencies() {
     if (context == nullptr)
         throw OpenMMException(Owner + ": getStiffModeFrequencies() needs the integrator to be bound to a Context");
-    return kernel.getAs<IntegrateStochasticImpulseStepKernel>().getStiffModeFrequencies(*context, *this,
-                                                                                        stiffModesValid);
+    return stepKernel->getStiffModeFrequencies(*context, *this, stiffModesValid);
 }
 
 void StochasticImpulseIntegrator::updateStiffModes() {
@@ -93,12 +92,14 @@ void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateStochasticImpulseStepKernel::Name(), contextRef);
-    kernel.getAs<IntegrateStochasticImpulseStepKernel>().initialize(contextRef.getSystem(), *this);
+    stepKernel = &kernel.getAs<IntegrateStochasticImpulseStepKernel>();
+    stepKernel->initialize(contextRef.getSystem(), *this);
     forcesAreValid = false;
     stiffModesValid = false;
 }
 
 void StochasticImpulseIntegrator::cleanup() {
+    stepKernel = nullptr;
     kernel = Kernel();
 }
 
@@ -114,7 +115,7 @@ void StochasticImpulseIntegrator::stateChanged(State::DataType changed) {
 }
 
 double StochasticImpulseIntegrator::computeKineticEnergy() {
-    return kernel.getAs<IntegrateStochasticImpulseStepKernel>().computeKineticEnergy(*context, *this);
+    return stepKernel->computeKineticEnergy(*context, *this);
 }
 
 void StochasticImpulseIntegrator::step(int steps) {
@@ -123,15 +124,15 @@ void StochasticImpulseIntegrator::step(int steps) {
     for (int i = 0; i < steps; ++i) {
         if (context->updateContextState())
             forcesAreValid = false;
-        kernel.getAs<IntegrateStochasticImpulseStepKernel>().execute(*context, *this, forcesAreValid, stiffModesValid);
+        stepKernel->execute(*context, *this, forcesAreValid, stiffModesValid);
     }
 }
 
 void StochasticImpulseIntegrator::createCheckpoint(std::ostream& stream) const {
-    kernel.getAs<IntegrateStochasticImpulseStepKernel>().createCheckpoint(*context, stream);
+    stepKernel->createCheckpoint(*context, stream);
 }
 
 void StochasticImpulseIntegrator::loadCheckpoint(std::istream& stream) {
-    kernel.getAs<IntegrateStochasticImpulseStepKernel>().loadCheckpoint(*context, stream);
+    stepKernel->loadCheckpoint(*context, stream);
     forcesAreValid = false;
 }

@@ -50,6 +50,8 @@ TEST(FlavorIntegratorInput, RejectedSettersLeaveTheOldValue) {
     expectRejected([&] { integrator.setFriction(-1); }, {"friction", "-1", ">= 0", "1/ps"});
     expectRejected([&] { integrator.setStiffGroups(0); }, {"stiffGroups", "0"});
     expectRejected([&] { integrator.setScheme((FlavorIntegrator::Scheme)7); }, {"scheme", "7"});
+    expectRejected([&] { integrator.setFrictionParticles({0, -2}); }, {"frictionParticles", "-2", ">= 0"});
+    EXPECT_TRUE(integrator.getFrictionParticles().empty());
     EXPECT_EQ(0.01, integrator.getMesoStep());
     EXPECT_EQ(0.001, integrator.getMicroStep());
     EXPECT_EQ(0.0, integrator.getTemperature());
@@ -87,6 +89,7 @@ TEST(FlavorIntegratorSerialization, XmlRoundTripKeepsEveryParameter) {
     integrator.setRandomNumberSeed(-17);
     integrator.setConstraintTolerance(3e-7);
     integrator.setIntegrationForceGroups(0x0F0F);
+    integrator.setFrictionParticles({4, 0, 7});
     std::stringstream buffer;
     XmlSerializer::serialize<Integrator>(&integrator, "Integrator", buffer);
     std::unique_ptr<Integrator> copy(XmlSerializer::deserialize<Integrator>(buffer));
@@ -102,6 +105,7 @@ TEST(FlavorIntegratorSerialization, XmlRoundTripKeepsEveryParameter) {
     EXPECT_EQ(-17, flavor->getRandomNumberSeed());
     EXPECT_EQ(3e-7, flavor->getConstraintTolerance());
     EXPECT_EQ(0x0F0F, flavor->getIntegrationForceGroups());
+    EXPECT_EQ((vector<int>{4, 0, 7}), flavor->getFrictionParticles());
 }
 
 TEST_P(FlavorApi, CheckpointsContinueIdentically) {

@@ -1,5 +1,6 @@
 // Langevin FLAVORs: exact Ornstein-Uhlenbeck friction, equipartition, seeds.
 
+#include "ExpectRejected.h"
 #include "FlavorIntegrator.h"
 #include "PlatformTest.h"
 #include "TestSystems.h"
@@ -184,4 +185,38 @@ TEST_P(FlavorLangevin, SeedsDetermineTheNoiseAndFrictionZeroIsHamiltonian) {
     EXPECT_EQ(0.0, relativeDifference(run(2.0, 300, 5), run(2.0, 300, 5)));
     EXPECT_GT(relativeDifference(run(2.0, 300, 5), run(2.0, 300, 6)), 1e-6);
     EXPECT_EQ(0.0, relativeDifference(run(0.0, 300, 5), run(0.0, 0, 0)));
+}
+
+TEST_P(FlavorLangevin, FrictionParticlesRestrictFrictionAndNoise) {
+    // Friction and noise on the odd particles only: at T = 0 their velocities decay exactly, the even ones keep
+    // theirs; at T > 0 the even particles are untouched by noise (free particles: constant velocity).
+    const int n = 6, steps = 20;
+    const double delta = 0.01, tau = 0.002, gamma = 4.0;
+    std::unique_ptr<System> system(freeParticles(n));
+    vector<Vec3> v0(n, Vec3(1.0, -2.0, 0.5));
+    for (double temperature : {0.0, 300.0}) {
+        FlavorIntegrator integrator(delta, tau, StiffMask);
+        integrator.setFriction(gamma);
+        integrator.setTemperature(temperature);
+        integrator.setFrictionParticles({1, 3, 5});
+        Context context(*system, integrator, platform(), properties());
+        context.setPositions(vector<Vec3>(n));
+        context.setVelocities(v0);
+        integrator.step(steps);
+        vector<Vec3> v = velocitiesOf(context);
+        for (int i = 0; i < n; i += 2)
+            EXPECT_EQ(v0[i], v[i]) << "particle " << i << " at " << temperature << " K";
+        if (temperature == 0.0)
+            for (int i = 1; i < n; i += 2)
+                EXPECT_NEAR(0.0,
+                            std::sqrt((v[i] - v0[i] * std::exp(-gamma * steps * delta))
+                                          .dot(v[i] - v0[i] * std::exp(-gamma * steps * delta))),
+                            1e-13);
+        else
+            EXPECT_GT(std::sqrt((v[1] - v0[1]).dot(v[1] - v0[1])), 0.1);
+    }
+    FlavorIntegrator integrator(delta, tau, StiffMask);
+    integrator.setFrictionParticles({2, 9});
+    expectRejected([&] { Context context(*system, integrator, platform(), properties()); },
+                   {"frictionParticles", "9", "< 6"});
 }

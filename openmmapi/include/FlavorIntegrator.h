@@ -114,6 +114,16 @@ public:
      */
     void setStiffFriction(bool stiff);
     /**
+     * Get the particles that friction and noise act on.  An empty list (the default) means every particle.
+     */
+    const std::vector<int>& getFrictionParticles() const { return frictionParticles; }
+    /**
+     * Restrict friction and noise to the given particles (an empty list means every particle).  The other particles
+     * follow the Hamiltonian scheme.  Indices must be non-negative and, once the integrator is bound to a Context,
+     * less than the number of particles.
+     */
+    void setFrictionParticles(const std::vector<int>& particles);
+    /**
      * Get the random number seed.  See setRandomNumberSeed() for details.
      */
     int getRandomNumberSeed() const { return randomNumberSeed; }
@@ -146,6 +156,7 @@ private:
     Scheme scheme;
     double temperature, friction;
     bool stiffFriction;
+    std::vector<int> frictionParticles;
     int randomNumberSeed;
     bool forcesAreValid;
     OpenMM::Kernel kernel;

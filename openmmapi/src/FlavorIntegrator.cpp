@@ -81,10 +81,30 @@ void FlavorIntegrator::setStiffFriction(bool stiff) {
     stiffFriction = stiff;
 }
 
+namespace {
+
+void requireParticleIndices(const vector<int>& particles, int numParticles) {
+    for (int p : particles)
+        if (p < 0 || (numParticles >= 0 && p >= numParticles))
+            throwInvalidParameter(Owner, "frictionParticles", "[..., " + std::to_string(p) + ", ...]",
+                                  "particle indices must be >= 0" +
+                                      (numParticles >= 0
+                                           ? " and < " + std::to_string(numParticles) + " (the number of particles)"
+                                           : string()));
+}
+
+} // namespace
+
+void FlavorIntegrator::setFrictionParticles(const vector<int>& particles) {
+    requireParticleIndices(particles, context == nullptr ? -1 : context->getSystem().getNumParticles());
+    frictionParticles = particles;
+}
+
 void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     if (owner != nullptr && &contextRef.getOwner() != owner)
         throw OpenMMException("This Integrator is already bound to a context");
     requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
+    requireParticleIndices(frictionParticles, contextRef.getSystem().getNumParticles());
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);

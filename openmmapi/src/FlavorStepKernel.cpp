@@ -38,6 +38,7 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         runner->setSchedule(flavorSchedule(parameters), kT, parameters.friction);
         configured = true;
     }
+    runner->setFrictionParticles(integrator.getFrictionParticles());
     runner->step(context, integrator.getConstraintTolerance(), forcesValid);
     ReferencePlatform::PlatformData& data =
         *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());

@@ -36,6 +36,16 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
     }
     if (hasConstraints)
         previousPositions.resize(numParticles);
+    thermostated.assign(numParticles, 1.0);
+}
+
+void FlowStepRunner::setFrictionParticles(const vector<int>& particles) {
+    if (particles == frictionParticles)
+        return;
+    frictionParticles = particles;
+    thermostated.assign(numParticles, particles.empty() ? 1.0 : 0.0);
+    for (int p : particles)
+        thermostated[p] = 1.0;
 }
 
 void FlowStepRunner::setSchedule(const Schedule& newSchedule, double newKT, double newFriction) {
@@ -127,6 +137,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool
         pass.velocities = velocities.data();
         pass.inverseMasses = inverseMasses.data();
         pass.movable = movable.data();
+        pass.thermostated = thermostated.data();
         pass.thermalSpeeds = thermalSpeeds.data();
         pass.random = &random;
         pass.firstStream = nextStream;

@@ -4,6 +4,7 @@
 #include "openmm/serialization/SerializationNode.h"
 #include <memory>
 #include <string>
+#include <vector>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -23,6 +24,9 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
     node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
     node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
     node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
+    SerializationNode& particles = node.createChildNode("FrictionParticles");
+    for (int p : integrator.getFrictionParticles())
+        particles.createChildNode("Particle").setIntProperty("index", p);
 }
 
 void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
@@ -39,5 +43,9 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
+    std::vector<int> particles;
+    for (const SerializationNode& particle : node.getChildNode("FrictionParticles").getChildren())
+        particles.push_back(particle.getIntProperty("index"));
+    integrator->setFrictionParticles(particles);
     return integrator.release();
 }

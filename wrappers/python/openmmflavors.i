@@ -47,6 +47,7 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %}
 
 %template(DoubleVector) std::vector<double>;
+%template(IntVector) std::vector<int>;
 
 // Quantities in, plain numbers in OpenMM's units to C++.
 %pythonprepend FlavorPlugin::FlavorIntegrator::FlavorIntegrator %{
@@ -107,6 +108,9 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %}
 %pythonappend FlavorPlugin::FlavorIntegrator::getMicroStep %{
     val = unit.Quantity(val, unit.picosecond)
+%}
+%pythonappend FlavorPlugin::FlavorIntegrator::getFrictionParticles %{
+    val = list(val)
 %}
 %pythonappend FlavorPlugin::FlavorIntegrator::getTemperature %{
     val = unit.Quantity(val, unit.kelvin)

@@ -39,6 +39,8 @@ public:
      * setSchedule()).
      */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    /** Restricts the thermostats to the given particles; an empty list means every particle. */
+    void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
     /**
@@ -67,6 +69,9 @@ private:
     int numParticles;
     bool hasConstraints, hasVirtualSites;
     std::vector<double> masses, inverseMasses, thermalSpeeds, movable;
+    // 1 for particles the thermostats act on, 0 for the others.
+    std::vector<double> thermostated;
+    std::vector<int> frictionParticles;
     Schedule schedule;
     double kT, friction;
     StepPlan plan;

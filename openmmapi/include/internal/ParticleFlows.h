@@ -61,6 +61,8 @@ struct ParticlePass : public RangeTask {
 
     /** 1 for particles that move, 0 for massless ones (which OpenMM's integrators never move). */
     const double* movable = nullptr;
+    /** 1 for particles the thermostats act on, 0 for the others. */
+    const double* thermostated = nullptr;
 
     void apply(int begin, int end) const override {
         // Flow by flow over cache-sized blocks: tight loops per flow, and the block stays in cache between flows.
@@ -113,7 +115,7 @@ private:
     void thermostat(const PreparedFlow& flow, int first, int last) const {
         const std::uint64_t stream = firstStream + flow.streamOffset;
         for (int i = first; i < last; ++i) {
-            if (movable[i] == 0.0)
+            if (movable[i] == 0.0 || thermostated[i] == 0.0)
                 continue;
             std::array<double, 3> xi = random->normals(stream, (std::uint32_t)i);
             velocities[i] =

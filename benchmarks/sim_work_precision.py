@@ -1,0 +1,643 @@
+#!/usr/bin/env python3
+"""Work-precision of StochasticImpulseIntegrator (SIM) against OpenMM's VerletIntegrator on the FPU chain, the
+set-up cost of the stiff modes, and the cost of a SIM step relative to a soft-force evaluation.
+
+(a) FPU chain (FLAVORS paper eq. 6.7, m = 3, Fig. 6.5 start: x0 = (1,0,0), x1 = (1/omega,0,0), y = 0), T = 50,
+    Reference platform, omega = 200 and 1000.  Strang SIM (friction 0) over a sweep of H, VerletIntegrator over a
+    sweep of h (LieTrotter and Yoshida4 SIMs too, for information).  Errors at T against an independent reference:
+    SciPy's DOP853 (explicit Runge-Kutta 8(5,3), Fortran core, Python right-hand side), rtol 1e-12, atol 1e-15.  Its
+    own error is bounded by its difference from a run at rtol 1e-10 (that difference is mostly the looser run's
+    error).  Criterion: relative error of x0,1(T) <= 1e-3 and of every stiff energy I_j(T) <= 1e-2.  For each
+    method the cheapest passing run (wall time of integrator.step(), minimum over repeats for short runs, fresh
+    Context each, SIM's first step with the stiffness measurement included) and the speedup of SIM over Verlet.
+(b) Set-up cost of the stiff modes against the number of stiff components: 10^3..10^5 independent springs
+    (HarmonicBondForce length 0) plus a soft x^4 on every particle: first step minus a later step, and
+    getStiffModeFrequencies() on a fresh Context; log-log slope.
+(c) One SIM step relative to one soft-group force evaluation on 1 and 1667 FPU chains (Reference and CPU).  The
+    soft evaluation is timed exactly by the C++ helper benchmarks/step_cost (ContextImpl::calcForcesAndEnergy for
+    group 0) when it is built, and always bounded from above by a VerletIntegrator restricted to group 0.
+
+This is a benchmark: it prints what it measures and asserts nothing.  Progress on stderr, tables on stdout, JSON and
+PNG in --out.
+
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/sim_work_precision.py [--quick] [--out DIR]
+"""
+import argparse
+import json
+import math
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+import openmm as mm
+import openmm.unit as unit
+from scipy.integrate import ode
+
+import openmmflavors
+
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SOFT, STIFF = 0, 1
+M = 3
+SQRT2 = math.sqrt(2.0)
+X0_TOL, I_TOL = 1e-3, 1e-2
+SIM = openmmflavors.StochasticImpulseIntegrator
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# FPU chain
+
+
+def fpu_system(omega, chains=1):
+    """`chains` copies of eq. (6.7); particle 2M c + k is q_{k+1} of chain c."""
+    system = mm.System()
+    stiff = mm.HarmonicBondForce()
+    soft = mm.CustomBondForce("r^4")
+    walls = mm.CustomExternalForce("x^4")
+    stiff.setForceGroup(STIFF)
+    soft.setForceGroup(SOFT)
+    walls.setForceGroup(SOFT)
+    for c in range(chains):
+        first = system.getNumParticles()
+        for _ in range(2 * M):
+            system.addParticle(1.0)
+        for i in range(M):
+            stiff.addBond(first + 2 * i, first + 2 * i + 1, 0.0, omega * omega / 2)
+        for i in range(M - 1):
+            soft.addBond(first + 2 * i + 1, first + 2 * i + 2)
+        walls.addParticle(first)
+        walls.addParticle(first + 2 * M - 1)
+    for force in (stiff, soft, walls):
+        system.addForce(force)
+    return system
+
+
+def initial_q(omega):
+    x0 = np.array([1.0] + [0.0] * (M - 1))
+    x1 = np.array([1.0 / omega] + [0.0] * (M - 1))
+    q = np.zeros(2 * M)
+    q[0::2] = (x0 - x1) / SQRT2
+    q[1::2] = (x0 + x1) / SQRT2
+    return q
+
+
+def chain_positions(omega, chains, seed=1234):
+    """Chain 0 as in Fig. 6.5, the others at random slow/fast coordinates of the same size; chain c at y = c."""
+    rng = np.random.default_rng(seed)
+    x0 = 0.5 * rng.uniform(-1, 1, (chains, M))
+    x1 = rng.uniform(-1, 1, (chains, M)) / omega
+    x0[0], x1[0] = [1.0] + [0.0] * (M - 1), [1.0 / omega] + [0.0] * (M - 1)
+    q = np.zeros((chains, 2 * M, 3))
+    q[:, 0::2, 0] = (x0 - x1) / SQRT2
+    q[:, 1::2, 0] = (x0 + x1) / SQRT2
+    q[:, :, 1] = np.arange(chains)[:, None]
+    return q.reshape(-1, 3)
+
+
+def observables(q, v, omega):
+    """x0,1 and I_j = (y1_j^2 + omega^2 x1_j^2)/2 from the x coordinates of one chain."""
+    x0 = (q[1::2] + q[0::2]) / SQRT2
+    x1 = (q[1::2] - q[0::2]) / SQRT2
+    y1 = (v[1::2] - v[0::2]) / SQRT2
+    return float(x0[0]), 0.5 * (y1 * y1 + omega * omega * x1 * x1)
+
+
+def reference_solution(omega, T, rtol):
+    """FPU eq. (6.7) with DOP853; returns (x0,1(T), I(T), wall seconds, right-hand-side evaluations)."""
+    k = omega * omega / 2
+    calls = [0]
+
+    def rhs(t, s):
+        # Unrolled for m = 3: the Python call overhead dominates this integration.
+        calls[0] += 1
+        q0, q1, q2, q3, q4, q5 = s[0], s[1], s[2], s[3], s[4], s[5]
+        d0, d1, d2 = k * (q1 - q0), k * (q3 - q2), k * (q5 - q4)
+        r0, r1 = q2 - q1, q4 - q3
+        g0, g1 = 4 * r0 * r0 * r0, 4 * r1 * r1 * r1
+        return [s[6], s[7], s[8], s[9], s[10], s[11], d0 - 4 * q0 * q0 * q0, -d0 + g0, d1 - g0, -d1 + g1, d2 - g1,
+                -d2 - 4 * q5 * q5 * q5]
+
+    start = time.perf_counter()
+    solver = ode(rhs).set_integrator("dop853", rtol=rtol, atol=1e-15, nsteps=10**9)
+    solver.set_initial_value(np.concatenate([initial_q(omega), np.zeros(2 * M)]), 0.0)
+    y = solver.integrate(T)
+    if not solver.successful():
+        raise RuntimeError(f"DOP853 failed at omega={omega}, rtol={rtol}")
+    x0, stiff = observables(y[:2 * M], y[2 * M:], omega)
+    return x0, stiff, time.perf_counter() - start, calls[0]
+
+
+def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3):
+    """Integrate one chain from the Fig. 6.5 start to T on Reference; returns x0,1(T), I(T), min wall, steps."""
+    steps = int(round(T / dt))
+    if abs(steps * dt - T) > 1e-9 * T:
+        raise ValueError(f"step {dt} does not divide T = {T}")
+    system = fpu_system(omega)
+    q = np.zeros((2 * M, 3))
+    q[:, 0] = initial_q(omega)
+    walls, final = [], None
+    while True:
+        integrator = make()
+        context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
+        context.setPositions(q)
+        v0 = np.zeros((2 * M, 3))
+        if leapfrog:
+            # VerletIntegrator reads v(-dt/2): this makes it velocity Verlet from v(0) = 0 (see examples/fpu/fpu.py).
+            f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(
+                unit.kilojoule_per_mole / unit.nanometer)
+            v0 -= 0.5 * dt * np.asarray(f0)
+        context.setVelocities(v0)
+        start = time.perf_counter()
+        integrator.step(steps)
+        walls.append(time.perf_counter() - start)
+        if final is None:
+            state = context.getState(getPositions=True, getVelocities=True, getForces=leapfrog)
+            pos = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
+            vel = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
+            if leapfrog:
+                vel = vel + 0.5 * dt * state.getForces(asNumpy=True).value_in_unit(
+                    unit.kilojoule_per_mole / unit.nanometer)[:, 0]
+            final = observables(np.asarray(pos), np.asarray(vel), omega)
+        # Short runs are repeated (fresh Context each) and the minimum kept: background load only adds time.
+        if len(walls) >= repeats_for_short or sum(walls) > enough:
+            break
+    return final[0], final[1], min(walls), steps
+
+
+def sweep_grid(start, stop, per_octave, T):
+    """Step sizes start, start 2^(-1/per_octave), ... down to stop, each adjusted to divide T."""
+    out = []
+    k = 0
+    while True:
+        h = start * 2.0 ** (-k / per_octave)
+        if h < stop * (1 - 1e-9):
+            break
+        n = int(math.ceil(T / h - 1e-9))
+        h = T / n
+        if not out or h < out[-1] * (1 - 1e-9):
+            out.append(h)
+        k += 1
+    return out
+
+
+def errors(x0, stiff, ref_x0, ref_I):
+    rel_x0 = abs(x0 - ref_x0) / abs(ref_x0)
+    rel_I = np.abs(stiff - ref_I) / np.abs(ref_I)
+    abs_I = np.abs(stiff - ref_I)
+    return rel_x0, rel_I, abs_I
+
+
+def work_precision(omega, T, args, log):
+    """Part (a) at one omega."""
+    print(f"[a] omega = {omega:g}: reference DOP853 rtol {args.rtol:g} and {args.rtol_check:g}", file=sys.stderr,
+          flush=True)
+    ref_x0, ref_I, ref_wall, ref_calls = reference_solution(omega, T, args.rtol)
+    chk_x0, chk_I, chk_wall, chk_calls = reference_solution(omega, T, args.rtol_check)
+    reference = {
+        "method": f"SciPy DOP853 (scipy.integrate.ode), rtol {args.rtol:g}, atol 1e-15",
+        "x0_1_T": ref_x0, "I_T": ref_I.tolist(), "wall_s": ref_wall, "rhs_evaluations": ref_calls,
+        "check": {"rtol": args.rtol_check, "x0_1_T": chk_x0, "I_T": chk_I.tolist(), "wall_s": chk_wall},
+        "own_error_bound_x0_1_relative": abs(chk_x0 - ref_x0) / abs(ref_x0),
+        "own_error_bound_I_relative": (np.abs(chk_I - ref_I) / np.abs(ref_I)).tolist(),
+    }
+    print(f"    reference x0,1(T) = {ref_x0:.12f}, I(T) = {ref_I}, {ref_wall:.1f} s; own error bound (relative) "
+          f"x0,1 {reference['own_error_bound_x0_1_relative']:.1e}, I_j "
+          f"{', '.join(f'{e:.1e}' for e in reference['own_error_bound_I_relative'])}", file=sys.stderr, flush=True)
+
+    def sim(splitting, H):
+        def make():
+            integrator = SIM(0.0, 0.0, H, {STIFF})
+            integrator.setSplitting(splitting)
+            return integrator
+        return make
+
+    methods = {
+        "sim_strang": ("SIM Strang", lambda H: sim(SIM.Strang, H), False,
+                       sweep_grid(args.H_max, args.H_min, args.per_octave, T), False),
+        "verlet": ("VerletIntegrator", lambda h: (lambda: mm.VerletIntegrator(h)), True,
+                   sweep_grid(args.verlet_start / omega, args.verlet_min, args.per_octave, T), True),
+    }
+    if not args.strang_only:
+        methods["sim_yoshida4"] = ("SIM Yoshida4", lambda H: sim(SIM.Yoshida4, H), False,
+                                   sweep_grid(args.H_max, args.H_min, args.per_octave, T), False)
+        methods["sim_lietrotter"] = ("SIM LieTrotter", lambda H: sim(SIM.LieTrotter, H), False,
+                                     sweep_grid(args.H_max, args.H_min / 2, args.per_octave, T), False)
+    results = {}
+    for key, (label, factory, leapfrog, grid, stop_after_pass) in methods.items():
+        rows = []
+        passed_at = None
+        for dt in grid:
+            x0, stiff, wall, steps = run_openmm(omega, T, factory(dt), dt, leapfrog, args.repeats)
+            rel_x0, rel_I, abs_I = errors(x0, stiff, ref_x0, ref_I)
+            ok = bool(rel_x0 <= X0_TOL and np.all(rel_I <= I_TOL))
+            rows.append({"step": dt, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
+                         "x0_1_T": x0, "I_T": stiff.tolist(), "rel_err_x0_1": rel_x0, "rel_err_I": rel_I.tolist(),
+                         "abs_err_I": abs_I.tolist(), "passes": ok})
+            log(f"    [{label} omega={omega:g}] step {dt:.4g}: {steps} steps {wall:.4f} s, rel err x0,1 "
+                f"{rel_x0:.1e}, I_j {', '.join(f'{e:.1e}' for e in rel_I)}{'  PASS' if ok else ''}")
+            if ok and passed_at is None:
+                passed_at = len(rows)
+            # Verlet's error falls steadily with h: two more points past the first pass confirm it.
+            if stop_after_pass and passed_at is not None and len(rows) >= passed_at + 2:
+                break
+        criteria = {"cheapest": lambda r: r["passes"],
+                    "cheapest_x0_only": lambda r: r["rel_err_x0_1"] <= X0_TOL,
+                    "cheapest_I_vs_total": lambda r: (r["rel_err_x0_1"] <= X0_TOL and
+                                                      max(r["abs_err_I"]) <= I_TOL * float(np.sum(ref_I)))}
+        # The few cheapest candidates under each criterion are timed again (min over more repeats, at least two
+        # runs): the sweep's single timings of long runs carry the machine's background load.
+        candidates = set()
+        for predicate in criteria.values():
+            passing = sorted((r for r in rows if predicate(r)), key=lambda r: r["wall_s"])
+            candidates.update(id(r) for r in passing[:3])
+        for r in rows:
+            if id(r) in candidates:
+                again = run_openmm(omega, T, factory(r["step"]), r["step"], leapfrog, max(args.repeats, 2),
+                                   enough=args.retime_seconds)[2]
+                r["wall_s_sweep"] = r["wall_s"]
+                r["wall_s"] = min(r["wall_s"], again)
+                r["us_per_step"] = 1e6 * r["wall_s"] / r["steps"]
+                log(f"    [{label} omega={omega:g}] step {r['step']:.4g} timed again: {r['wall_s']:.4f} s")
+        results[key] = {"label": label, "runs": rows,
+                        **{name: cheapest(rows, predicate) for name, predicate in criteria.items()}}
+    speedups = {}
+    for criterion in ("cheapest", "cheapest_x0_only", "cheapest_I_vs_total"):
+        a, b = results["verlet"][criterion], results["sim_strang"][criterion]
+        speedups[criterion] = (a["wall_s"] / b["wall_s"]) if a and b else None
+    return {"reference": reference, "methods": results, "speedup_sim_strang_over_verlet": speedups}
+
+
+def cheapest(rows, predicate):
+    passing = [r for r in rows if predicate(r)]
+    return min(passing, key=lambda r: r["wall_s"]) if passing else None
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# (b) set-up cost
+
+
+def springs_system(n, omega=200.0):
+    system = mm.System()
+    stiff = mm.HarmonicBondForce()
+    stiff.setForceGroup(STIFF)
+    soft = mm.CustomExternalForce("x^4")
+    soft.setForceGroup(SOFT)
+    for i in range(n):
+        system.addParticle(1.0)
+        system.addParticle(1.0)
+        stiff.addBond(2 * i, 2 * i + 1, 0.0, omega * omega / 2)
+        soft.addParticle(2 * i, [])
+        soft.addParticle(2 * i + 1, [])
+    system.addForce(stiff)
+    system.addForce(soft)
+    return system
+
+
+def setup_cost(sizes, platforms, threads, log):
+    rows = []
+    for platform in platforms:
+        properties = {"Threads": str(threads)} if platform == "CPU" else {}
+        for n in sizes:
+            system = springs_system(n)
+            rng = np.random.default_rng(n)
+            positions = rng.uniform(-1, 1, (2 * n, 3))
+            positions[1::2] = positions[0::2] + rng.uniform(-0.01, 0.01, (n, 3))
+
+            def context_for():
+                integrator = SIM(0.0, 0.0, 0.01, {STIFF})
+                context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
+                context.setPositions(positions)
+                context.setVelocities(np.zeros_like(positions))
+                return context, integrator
+
+            context, integrator = context_for()
+            start = time.perf_counter()
+            integrator.step(1)
+            first = time.perf_counter() - start
+            later = []
+            for _ in range(5):
+                start = time.perf_counter()
+                integrator.step(1)
+                later.append(time.perf_counter() - start)
+            del context, integrator
+            context, integrator = context_for()
+            start = time.perf_counter()
+            frequencies = integrator.getStiffModeFrequencies()
+            freq_time = time.perf_counter() - start
+            del context, integrator
+            later_step = statistics.median(later)
+            rows.append({"platform": platform, "springs": n, "particles": 2 * n, "first_step_s": first,
+                         "later_step_s": later_step, "setup_s": first - later_step,
+                         "get_frequencies_fresh_s": freq_time, "modes": len(frequencies),
+                         "setup_us_per_spring": 1e6 * (first - later_step) / n})
+            log(f"    [set-up {platform}] {n} springs: first step {first:.4f} s, later {later_step:.5f} s, "
+                f"getStiffModeFrequencies() fresh {freq_time:.4f} s")
+    slopes = {}
+    for platform in platforms:
+        sub = [r for r in rows if r["platform"] == platform]
+        if len(sub) >= 2:
+            n = np.log([r["springs"] for r in sub])
+            slopes[platform] = {
+                "first_step_minus_later": float(np.polyfit(n, np.log([max(r["setup_s"], 1e-9) for r in sub]), 1)[0]),
+                "get_frequencies_fresh": float(np.polyfit(n, np.log([r["get_frequencies_fresh_s"] for r in sub]),
+                                                          1)[0])}
+    return {"rows": rows, "loglog_slopes": slopes}
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# (c) step cost
+
+
+def batch_size(integrator, target):
+    """Steps per timed batch so that one batch takes about `target` seconds."""
+    integrator.step(3)
+    n = 1
+    while True:
+        start = time.perf_counter()
+        integrator.step(n)
+        elapsed = time.perf_counter() - start
+        if elapsed > 0.2 * target or n > 10**7:
+            break
+        n *= 4
+    return max(1, int(n * target / max(elapsed, 1e-9)))
+
+
+def time_round_robin(integrators, target, repeats):
+    """us/step of each integrator: batches taken in turn (background load then hits all alike), minimum kept."""
+    sizes = {key: batch_size(integrator, target) for key, integrator in integrators.items()}
+    times = {key: [] for key in integrators}
+    for _ in range(repeats):
+        for key, integrator in integrators.items():
+            start = time.perf_counter()
+            integrator.step(sizes[key])
+            times[key].append(1e6 * (time.perf_counter() - start) / sizes[key])
+    return {key: (min(t), statistics.median(t)) for key, t in times.items()}
+
+
+def find_helper():
+    for c in (os.environ.get("FLAVORS_STEP_COST", ""), os.path.join(REPO_ROOT, "build", "benchmarks", "step_cost")):
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return c
+    return shutil.which("step_cost")
+
+
+def helper_force_cost(helper, platform, chains, threads, seconds, repeats):
+    if helper is None:
+        return None
+    command = [helper, "--platform", platform, "--chains", str(chains), "--seconds", str(seconds), "--repeats",
+               str(repeats), "force_soft", "force_all"]
+    if platform == "CPU":
+        command[5:5] = ["--threads", str(threads)]
+    try:
+        out = subprocess.run(command, check=True, capture_output=True, text=True, timeout=300)
+        return json.loads(out.stdout)["results"]
+    except (subprocess.SubprocessError, OSError, ValueError, KeyError) as error:
+        print(f"    C++ helper failed: {error}", file=sys.stderr)
+        return None
+
+
+def step_cost(chain_counts, platforms, threads, target, repeats, log):
+    helper = find_helper()
+    rows = []
+    omega = 200.0
+    for platform in platforms:
+        properties = {"Threads": str(threads)} if platform == "CPU" else {}
+        for chains in chain_counts:
+            system = fpu_system(omega, chains)
+            positions = chain_positions(omega, chains)
+            cases = {
+                "sim_strang": lambda: SIM(0.0, 0.0, 0.005, {STIFF}),
+                "sim_lietrotter": lambda: _with_splitting(SIM(0.0, 0.0, 0.005, {STIFF}), SIM.LieTrotter),
+                "sim_yoshida4": lambda: _with_splitting(SIM(0.0, 0.0, 0.005, {STIFF}), SIM.Yoshida4),
+                "sim_strang_langevin": lambda: SIM(300.0, 1.0, 0.005, {STIFF}),
+                "verlet_all": lambda: mm.VerletIntegrator(1e-4),
+                "verlet_soft_only": lambda: _with_groups(mm.VerletIntegrator(1e-4), {SOFT}),
+            }
+            row = {"platform": platform, "chains": chains, "particles": 6 * chains}
+            integrators, contexts = {}, []
+            for key, make in cases.items():
+                integrator = make()
+                context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
+                context.setPositions(positions)
+                context.setVelocities(np.zeros_like(positions))
+                integrators[key] = integrator
+                contexts.append(context)
+            timed = time_round_robin(integrators, target, repeats)
+            row["us_per_step"] = {key: value[0] for key, value in timed.items()}
+            row["us_per_step_median"] = {key: value[1] for key, value in timed.items()}
+            del contexts, integrators
+            exact = helper_force_cost(helper, platform, chains, threads, target, repeats)
+            if exact:
+                row["force_soft_us_exact"] = exact["force_soft"]["us_per_step_min"]
+                row["force_all_us_exact"] = exact["force_all"]["us_per_step_min"]
+            soft = row.get("force_soft_us_exact", row["us_per_step"]["verlet_soft_only"])
+            row["soft_force_us_used"] = soft
+            row["soft_force_source"] = "C++ helper (calcForcesAndEnergy, group 0)" if exact else \
+                "VerletIntegrator restricted to group 0 (upper bound)"
+            row["ratio_to_soft_force"] = {k: v / soft for k, v in row["us_per_step"].items()}
+            rows.append(row)
+            log(f"    [step cost {platform}, {chains} chains] " +
+                ", ".join(f"{k} {v:.3g}" for k, v in row["us_per_step"].items()) +
+                f" us/step; soft force {soft:.3g} us ({row['soft_force_source']})")
+    return {"rows": rows, "helper": helper}
+
+
+def _with_splitting(integrator, splitting):
+    integrator.setSplitting(splitting)
+    return integrator
+
+
+def _with_groups(integrator, groups):
+    integrator.setIntegrationForceGroups(groups)
+    return integrator
+
+
+# ---------------------------------------------------------------------------------------------------------------
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="smoke run (T = 5, omega = 200, small sizes)")
+    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "sim_bench"), help="output directory")
+    parser.add_argument("--omega", type=float, nargs="+", default=None, help="default 200 1000 (200 with --quick)")
+    parser.add_argument("--T", type=float, default=None, help="default 50 (5 with --quick)")
+    parser.add_argument("--rtol", type=float, default=None, help="reference DOP853 rtol (default 1e-12)")
+    parser.add_argument("--rtol-check", type=float, default=None, help="check run rtol (default 1e-10)")
+    parser.add_argument("--H-max", type=float, default=0.2)
+    parser.add_argument("--H-min", type=float, default=None, help="smallest SIM step (default 2.5e-4)")
+    parser.add_argument("--verlet-start", type=float, default=1.0, help="largest Verlet step times omega")
+    parser.add_argument("--verlet-min", type=float, default=None, help="smallest Verlet step (default 2e-6)")
+    parser.add_argument("--per-octave", type=int, default=2, help="sweep points per halving of the step")
+    parser.add_argument("--repeats", type=int, default=5, help="max repeats of a short run (min kept)")
+    parser.add_argument("--retime-seconds", type=float, default=None,
+                        help="re-timing of the cheapest candidates stops after this much (default 2; 0.2 --quick)")
+    parser.add_argument("--strang-only", action="store_true", help="skip the LieTrotter and Yoshida4 sweeps")
+    parser.add_argument("--springs", type=int, nargs="+", default=None,
+                        help="set-up sizes (default 1000 3000 10000 30000 100000)")
+    parser.add_argument("--chains", type=int, nargs="+", default=None, help="step-cost sizes (default 1 1667)")
+    parser.add_argument("--platforms", nargs="+", default=["Reference", "CPU"], help="for parts (b) and (c)")
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--seconds", type=float, default=None, help="step-cost batch duration (default 0.1)")
+    args = parser.parse_args()
+
+    omegas = args.omega or ([200.0] if args.quick else [200.0, 1000.0])
+    T = args.T if args.T is not None else (5.0 if args.quick else 50.0)
+    args.rtol = args.rtol if args.rtol is not None else (1e-10 if args.quick else 1e-12)
+    args.rtol_check = args.rtol_check if args.rtol_check is not None else (1e-8 if args.quick else 1e-10)
+    args.H_min = args.H_min if args.H_min is not None else (2e-3 if args.quick else 2.5e-4)
+    args.verlet_min = args.verlet_min if args.verlet_min is not None else (2e-5 if args.quick else 2e-6)
+    springs = args.springs or ([1000, 3000, 10000] if args.quick else [1000, 3000, 10000, 30000, 100000])
+    chains = args.chains or ([1, 200] if args.quick else [1, 1667])
+    seconds = args.seconds if args.seconds is not None else (0.03 if args.quick else 0.1)
+    repeats = 2 if args.quick else max(args.repeats, 7)
+    args.retime_seconds = args.retime_seconds if args.retime_seconds is not None else (0.2 if args.quick else 2.0)
+
+    def log(message):
+        print(message, file=sys.stderr, flush=True)
+
+    started = time.perf_counter()
+    load = os.getloadavg()
+    part_a = {f"{omega:g}": work_precision(omega, T, args, log) for omega in omegas}
+    log("[b] set-up cost of the stiff modes")
+    part_b = setup_cost(springs, args.platforms, args.threads, log)
+    log("[c] step cost")
+    part_c = step_cost(chains, args.platforms, args.threads, seconds, repeats, log)
+
+    print_tables(part_a, part_b, part_c, T)
+    os.makedirs(args.out, exist_ok=True)
+    data = {
+        "openmm_version": mm.__version__, "cpu_count": os.cpu_count(), "load_average_at_start": load,
+        "T": T, "m": M, "criterion": {"x0_1_relative": X0_TOL, "every_I_j_relative": I_TOL},
+        "parameters": {k: v for k, v in vars(args).items()}, "wall_s": time.perf_counter() - started,
+        "a_work_precision": part_a, "b_setup": part_b, "c_step_cost": part_c,
+    }
+    json_path = os.path.join(args.out, "sim_work_precision.json")
+    with open(json_path, "w") as f:
+        json.dump(data, f, indent=1, default=float)
+    png_path = os.path.join(args.out, "sim_work_precision.png")
+    plot(part_a, part_b, part_c, T, png_path)
+    print(f"\nwrote {json_path} and {png_path} ({time.perf_counter() - started:.0f} s)")
+
+
+def describe(row):
+    if row is None:
+        return "not reached in the sweep"
+    return (f"step {row['step']:.4g} ({row['steps']} steps) {row['wall_s']:.4f} s: x0,1 {row['rel_err_x0_1']:.1e}, "
+            f"I_j {', '.join(f'{e:.1e}' for e in row['rel_err_I'])}")
+
+
+def print_tables(part_a, part_b, part_c, T):
+    print(f"(a) FPU m = {M}, T = {T:g}, Reference.  Criterion: relative error x0,1(T) <= {X0_TOL:g} and every "
+          f"I_j(T) <= {I_TOL:g} against DOP853.")
+    for omega, res in part_a.items():
+        ref = res["reference"]
+        print(f"\nomega = {omega}: reference x0,1(T) = {ref['x0_1_T']:.10f}, I(T) = "
+              f"{', '.join(f'{v:.6e}' for v in ref['I_T'])} ({ref['method']}, {ref['wall_s']:.1f} s);\n  own error "
+              f"bound (|rtol {ref['check']['rtol']:g} run - reference|, relative): x0,1 "
+              f"{ref['own_error_bound_x0_1_relative']:.1e}, I_j "
+              f"{', '.join(f'{e:.1e}' for e in ref['own_error_bound_I_relative'])}")
+        head = f"  {'method':16s} {'step':>9s} {'steps':>8s} {'wall s':>8s} {'us/step':>8s} {'x0,1 rel':>9s} " \
+               f"{'I1 rel':>8s} {'I2 rel':>8s} {'I3 rel':>8s}  pass"
+        print(head)
+        print("  " + "-" * (len(head) - 2))
+        for key, m in res["methods"].items():
+            for r in m["runs"]:
+                print(f"  {m['label']:16s} {r['step']:9.3g} {r['steps']:8d} {r['wall_s']:8.4f} {r['us_per_step']:8.3f} "
+                      f"{r['rel_err_x0_1']:9.1e} " + " ".join(f"{e:8.1e}" for e in r["rel_err_I"]) +
+                      ("  yes" if r["passes"] else ""))
+        print(f"\n  cheapest passing run (x0,1 <= {X0_TOL:g} and every I_j <= {I_TOL:g}):")
+        for key, m in res["methods"].items():
+            print(f"    {m['label']:16s} {describe(m['cheapest'])}")
+        s = res["speedup_sim_strang_over_verlet"]
+        fmt = (lambda v: f"{v:.1f}x" if v else "n/a (a method did not reach it)")
+        print(f"  speedup of Strang SIM over Verlet at omega = {omega}: {fmt(s['cheapest'])}   (for information: "
+              f"x0,1 criterion alone {fmt(s['cheapest_x0_only'])}; |dI_j| <= {I_TOL:g} * sum_j I_j "
+              f"{fmt(s['cheapest_I_vs_total'])})")
+
+    print("\n(b) Set-up cost of the stiff modes: independent springs (HarmonicBondForce length 0) + soft x^4")
+    head = f"  {'platform':9s} {'springs':>8s} {'1st step s':>10s} {'later s':>9s} {'set-up s':>9s} " \
+           f"{'us/spring':>9s} {'getFreq fresh s':>15s}"
+    print(head)
+    print("  " + "-" * (len(head) - 2))
+    for r in part_b["rows"]:
+        print(f"  {r['platform']:9s} {r['springs']:8d} {r['first_step_s']:10.4f} {r['later_step_s']:9.5f} "
+              f"{r['setup_s']:9.4f} {r['setup_us_per_spring']:9.2f} {r['get_frequencies_fresh_s']:15.4f}")
+    for platform, s in part_b["loglog_slopes"].items():
+        print(f"  log-log slope on {platform}: first step - later step {s['first_step_minus_later']:.2f}, "
+              f"getStiffModeFrequencies() on a fresh Context {s['get_frequencies_fresh']:.2f}")
+
+    print("\n(c) Step cost on FPU chains (omega = 200), us per step, and as a multiple of one soft-group force "
+          "evaluation")
+    keys = list(part_c["rows"][0]["us_per_step"])
+    head = f"  {'platform':9s} {'chains':>6s} {'soft F us':>9s} " + " ".join(f"{k:>19s}" for k in keys)
+    print(head)
+    print("  " + "-" * (len(head) - 2))
+    for r in part_c["rows"]:
+        print(f"  {r['platform']:9s} {r['chains']:6d} {r['soft_force_us_used']:9.3g} " +
+              " ".join(f"{r['us_per_step'][k]:9.3g} ({r['ratio_to_soft_force'][k]:5.2f}x)" for k in keys))
+    print(f"  soft force source: {part_c['rows'][0]['soft_force_source']}")
+
+
+def plot(part_a, part_b, part_c, T, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(14, 10))
+    fig.suptitle(f"StochasticImpulseIntegrator work-precision (FPU m = {M}, T = {T:g}, Reference), set-up and step "
+                 f"cost")
+    colors = {"sim_strang": "tab:blue", "verlet": "k", "sim_yoshida4": "tab:green", "sim_lietrotter": "tab:red"}
+    markers = {"200": "o", "1000": "s"}
+    for ax, quantity, tol, title in ((axes[0, 0], "x0", X0_TOL, "relative error of x0,1(T)"),
+                                     (axes[0, 1], "I", I_TOL, "max_j relative error of I_j(T)")):
+        for omega, res in part_a.items():
+            for key, m in res["methods"].items():
+                walls = [r["wall_s"] for r in m["runs"]]
+                errs = [r["rel_err_x0_1"] if quantity == "x0" else max(r["rel_err_I"]) for r in m["runs"]]
+                ax.loglog(walls, np.maximum(errs, 1e-16), color=colors.get(key, "gray"),
+                          marker=markers.get(omega, "^"), ms=4, lw=0.8,
+                          ls="-" if key in ("sim_strang", "verlet") else ":", label=f"{m['label']} omega={omega}")
+                best = m["cheapest"]
+                if best:
+                    ax.loglog([best["wall_s"]], [best["rel_err_x0_1"] if quantity == "x0" else max(best["rel_err_I"])],
+                              marker="*", ms=14, color=colors.get(key, "gray"), ls="none")
+        ax.axhline(tol, color="gray", ls="--", lw=0.8)
+        ax.set_xlabel("wall time of integrator.step() [s]")
+        ax.set_title(f"{title} (stars: cheapest run passing both criteria)")
+        ax.legend(fontsize=6)
+    ax = axes[1, 0]
+    for platform in sorted({r["platform"] for r in part_b["rows"]}):
+        rows = [r for r in part_b["rows"] if r["platform"] == platform]
+        n = [r["springs"] for r in rows]
+        slope = part_b["loglog_slopes"].get(platform, {})
+        ax.loglog(n, [max(r["setup_s"], 1e-9) for r in rows], marker="o",
+                  label=f"{platform}: first step - later step (slope {slope.get('first_step_minus_later', 0):.2f})")
+        fresh = slope.get("get_frequencies_fresh", 0)
+        ax.loglog(n, [r["get_frequencies_fresh_s"] for r in rows], marker="s", ls=":",
+                  label=f"{platform}: getStiffModeFrequencies() fresh (slope {fresh:.2f})")
+    ax.set_xlabel("independent stiff springs")
+    ax.set_ylabel("s")
+    ax.set_title("set-up cost of the stiff modes")
+    ax.legend(fontsize=7)
+    ax = axes[1, 1]
+    rows = part_c["rows"]
+    keys = list(rows[0]["ratio_to_soft_force"])
+    width = 0.8 / len(rows)
+    for i, r in enumerate(rows):
+        ax.bar(np.arange(len(keys)) + i * width, [r["ratio_to_soft_force"][k] for k in keys], width,
+               label=f"{r['platform']}, {r['chains']} chains (soft F {r['soft_force_us_used']:.3g} us)")
+    ax.set_xticks(np.arange(len(keys)) + 0.4 - width / 2)
+    ax.set_xticklabels(keys, rotation=20, fontsize=8)
+    ax.set_ylabel("step cost / one soft-group force evaluation")
+    ax.set_title("per-step cost relative to a soft force evaluation")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

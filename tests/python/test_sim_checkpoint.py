@@ -1,0 +1,144 @@
+"""Context checkpoints restore a StochasticImpulseIntegrator simulation so that it continues bit for bit, with and
+without friction (the checkpoint must carry the random state)."""
+import numpy as np
+import openmm.unit as unit
+import pytest
+
+from conftest import build_fpu_system, make_context, run_trajectory, state_arrays
+from openmmflavors import StochasticImpulseIntegrator
+
+N_BEFORE = 7
+M_AFTER = 12
+STEP = 0.05  # omega*H = 2: a large step, as SIM is meant to take
+
+CASES = {
+    "strang-friction0": dict(splitting=StochasticImpulseIntegrator.Strang, friction=0.0),
+    "lietrotter-friction0": dict(splitting=StochasticImpulseIntegrator.LieTrotter, friction=0.0),
+    "yoshida4-friction0": dict(splitting=StochasticImpulseIntegrator.Yoshida4, friction=0.0),
+    "strang-langevin": dict(splitting=StochasticImpulseIntegrator.Strang, friction=3.0, seed=2024),
+    "lietrotter-langevin": dict(splitting=StochasticImpulseIntegrator.LieTrotter, friction=3.0, seed=77),
+}
+LANGEVIN = [case for case in CASES if "langevin" in case]
+
+
+def case_integrator(case, seed=None):
+    options = CASES[case]
+    integrator = StochasticImpulseIntegrator(300.0, options["friction"], STEP, {1})
+    integrator.setSplitting(options["splitting"])
+    chosen = seed if seed is not None else options.get("seed")
+    if chosen is not None:
+        integrator.setRandomNumberSeed(chosen)
+    return integrator
+
+
+def time_and_steps(context):
+    state = context.getState()
+    return state.getTime().value_in_unit(unit.picosecond), state.getStepCount()
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_checkpoint_restores_and_continues_identically(platform_name, case):
+    context = make_context(build_fpu_system(), case_integrator(case), platform_name)
+    context.getIntegrator().step(N_BEFORE)
+    pos_at_checkpoint, vel_at_checkpoint = state_arrays(context)
+    time_at_checkpoint, steps_at_checkpoint = time_and_steps(context)
+    assert steps_at_checkpoint == N_BEFORE
+    assert time_at_checkpoint == pytest.approx(N_BEFORE * STEP, rel=1e-12)
+
+    checkpoint = context.createCheckpoint()
+    positions, velocities = run_trajectory(context, M_AFTER)
+    assert np.max(np.abs(positions[-1] - pos_at_checkpoint)) > 1e-3
+
+    context.loadCheckpoint(checkpoint)
+    pos_loaded, vel_loaded = state_arrays(context)
+    np.testing.assert_array_equal(pos_loaded, pos_at_checkpoint)
+    np.testing.assert_array_equal(vel_loaded, vel_at_checkpoint)
+    assert time_and_steps(context) == (time_at_checkpoint, steps_at_checkpoint)
+
+    positions_again, velocities_again = run_trajectory(context, M_AFTER)
+    np.testing.assert_array_equal(positions_again, positions)
+    np.testing.assert_array_equal(velocities_again, velocities)
+    assert time_and_steps(context)[1] == N_BEFORE + M_AFTER
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_checkpoint_loaded_into_new_context(platform_name, case):
+    context = make_context(build_fpu_system(), case_integrator(case), platform_name)
+    context.getIntegrator().step(N_BEFORE)
+    checkpoint = context.createCheckpoint()
+    positions, velocities = run_trajectory(context, M_AFTER)
+
+    # A different seed in the new context: the checkpoint's random state must win.
+    other = make_context(build_fpu_system(), case_integrator(case, seed=99), platform_name)
+    other.getIntegrator().step(2)
+    other.loadCheckpoint(checkpoint)
+    assert time_and_steps(other)[1] == N_BEFORE
+    positions_other, velocities_other = run_trajectory(other, M_AFTER)
+    np.testing.assert_array_equal(positions_other, positions)
+    np.testing.assert_array_equal(velocities_other, velocities)
+
+
+@pytest.mark.parametrize("case", LANGEVIN)
+def test_checkpoint_loaded_twice(platform_name, case):
+    # Loading must not consume or shift the random stream it restores.
+    context = make_context(build_fpu_system(), case_integrator(case), platform_name)
+    context.getIntegrator().step(N_BEFORE)
+    checkpoint = context.createCheckpoint()
+    first, _ = run_trajectory(context, M_AFTER)
+    context.loadCheckpoint(checkpoint)
+    context.getIntegrator().step(3)
+    context.loadCheckpoint(checkpoint)
+    second, _ = run_trajectory(context, M_AFTER)
+    np.testing.assert_array_equal(second, first)
+
+
+@pytest.mark.parametrize("case", LANGEVIN)
+def test_same_seed_same_trajectory_and_other_seed_differs(platform_name, case):
+    runs = []
+    for seed in (None, None, 12345):
+        context = make_context(build_fpu_system(), case_integrator(case, seed=seed), platform_name)
+        runs.append(run_trajectory(context, M_AFTER)[0])
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.max(np.abs(runs[2][-1] - runs[0][-1])) > 1e-4
+
+
+@pytest.mark.parametrize("case", LANGEVIN)
+def test_langevin_continuation_depends_on_the_random_state(platform_name, case):
+    # Restoring only positions and velocities must NOT reproduce the continuation; otherwise the tests above would
+    # not show that the random state is restored.
+    context = make_context(build_fpu_system(), case_integrator(case), platform_name)
+    context.getIntegrator().step(N_BEFORE)
+    state = context.getState(getPositions=True, getVelocities=True)
+    positions, _ = run_trajectory(context, M_AFTER)
+    context.setState(state)
+    positions_again, _ = run_trajectory(context, M_AFTER)
+    assert np.max(np.abs(positions_again[-1] - positions[-1])) > 1e-4
+
+
+@pytest.mark.parametrize("case", ["strang-friction0", "lietrotter-friction0"])
+def test_set_positions_invalidates_cached_forces(platform_name, case):
+    context = make_context(build_fpu_system(), case_integrator(case), platform_name)
+    context.getIntegrator().step(N_BEFORE)
+    pos, vel = state_arrays(context)
+    positions, velocities = run_trajectory(context, M_AFTER)
+    context.setPositions(pos * unit.nanometer)
+    context.setVelocities(vel * unit.nanometer / unit.picosecond)
+    positions_again, velocities_again = run_trajectory(context, M_AFTER)
+    np.testing.assert_array_equal(positions_again, positions)
+    np.testing.assert_array_equal(velocities_again, velocities)
+
+
+def test_step_size_change_after_checkpoint_is_used(platform_name):
+    # The checkpoint holds the dynamical state, not the integrator's parameters; the propagators must be rebuilt.
+    context = make_context(build_fpu_system(), case_integrator("strang-friction0"), platform_name)
+    integrator = context.getIntegrator()
+    integrator.step(N_BEFORE)
+    checkpoint = context.createCheckpoint()
+    positions, _ = run_trajectory(context, M_AFTER)
+    context.loadCheckpoint(checkpoint)
+    integrator.setStepSize(STEP / 2)
+    half, _ = run_trajectory(context, 2 * M_AFTER)
+    assert np.all(np.isfinite(half))
+    # Same end time, different discretization: close but not identical.
+    difference = np.max(np.abs(half[-1] - positions[-1]))
+    assert 1e-9 < difference < 0.1

@@ -111,6 +111,9 @@ TEST_P(ImpulseApi, NonquadraticStiffForcesNegativeCurvatureAndConstraintsAreReje
     Context context(*nonlinear, integrator, platform(), properties());
     context.setPositions({Vec3(0, 0, 0), Vec3(0.12, 0.01, 0)});
     expectRejected([&] { integrator.step(1); }, {"not quadratic in the positions", "allowed", "FlavorIntegrator"});
+    // Far from its rest length the bond is nearly linear, but not quite: still rejected.
+    context.setPositions({Vec3(0, 0, 0), Vec3(3.0, 0.2, 0)});
+    expectRejected([&] { integrator.step(1); }, {"not quadratic in the positions", "FlavorIntegrator"});
 
     // Negative curvature, reported with its value: k = -50 on a unit mass gives omega^2 = -50.
     System inverted;

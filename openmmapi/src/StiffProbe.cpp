@@ -18,9 +18,11 @@ using std::vector;
 
 namespace {
 
-const double ProbeStep = 1e-3;                // nm; exact for a quadratic potential, any step would do
-const double VerificationDisplacement = 1e-3; // nm
-const double LinearityTolerance = 1e-5;       // relative; well above double-precision rounding of the probes
+const double ProbeStep = 1e-3; // nm; exact for a quadratic potential, any step would do
+// nm; large enough that a nonlinear force far from its minimum (a bond of rest length 0.1 nm stretched to 3 nm)
+// still shows its curvature, harmless for a quadratic one, which is linear at any displacement.
+const double VerificationDisplacement = 0.05;
+const double LinearityTolerance = 1e-5; // relative; well above double-precision rounding of the probes
 
 const std::string Owner = "StochasticImpulseIntegrator";
 

@@ -7,19 +7,14 @@
 
 Friction omega^2 c and noise omega sigma act on y only; k_B T = sigma^2/(2c).  Unit masses on the x axis: y is pinned
 to the wall by the stiff quartic spring (CustomExternalForce, force group 1), x is tied to y by e^y (x-y)^2
-(CustomCompoundBondForce, group 0).  The ensemble is one System of n non-interacting copies.
-
-FlavorIntegrator's friction acts on every particle, so it cannot express this scene.  Runs:
-  gla                  GLA of eq. (6.21) itself, the paper's benchmark: O(h) K(h) D(h) with the Ornstein-Uhlenbeck
-                       step on y only, as an OpenMM CustomIntegrator (per-degree-of-freedom coefficients).
-  gla_isotropic        FlavorIntegrator(h, h): GLA of the SDE the library's parameters denote (friction omega^2 c
-                       on x too); it runs the same kernel as the library FLAVOR, so speedups are measured against it.
-  flavor_d*_t*         the library's FLAVOR, the closest thing it can express: FlavorIntegrator(delta, tau, {1}),
-                       SymplecticEuler, setStiffFriction(True), friction omega^2 c (eq. 4.8), which damps x as well.
-  flavor_y_only_d*_t*  eqs. (4.8)+(2.9) with friction on y only, as a CustomIntegrator: what the library would give
-                       with per-particle friction (not the library).
-  gla_x_damped         (--x-damped) GLA of eq. (6.21) plus friction omega^2 c tau/delta (and its noise) on x: the
-                       friction the library FLAVOR puts on x, averaged over a mesostep.
+(CustomCompoundBondForce, group 0).  The ensemble is one System of n non-interacting copies; every copy's y is
+listed in setFrictionParticles, so x gets neither friction nor noise.  Runs:
+  gla                  GLA of eq. (6.21), the paper's benchmark: FlavorIntegrator(h, h, {1}), SymplecticEuler,
+                       friction omega^2 c on y only.  Speedups of the library FLAVOR are measured against it.
+  flavor_d*_t*         the paper's fast-friction FLAVOR, eqs. (4.8) + (2.9): FlavorIntegrator(delta, tau, {1}),
+                       SymplecticEuler, setStiffFriction(True), friction omega^2 c on y only.
+  gla_custom           cross-check of gla: O_y(h) K(h) D(h) as an OpenMM CustomIntegrator (per-DOF coefficients).
+  flavor_custom_d*_t*  cross-check of flavor_d*_t*: O_y(tau) K(tau) D(tau) K_soft(delta-tau) D(delta-tau), same.
 FLAVOR runs at the paper's delta = 0.01, tau = 1e-4 and at tau = 1e-5, where the mesostep stays stable.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/langevin_fast_noise/langevin_fast_noise.py [--quick] [--out DIR]
@@ -73,35 +68,40 @@ def build_system(n, omega):
     return system
 
 
-def flavor_integrator(delta, tau, temperature, friction, stiff_friction, seed):
+def damped_particles(n):
+    """Every copy's y (particle 2k): eq. (6.21) puts friction and noise on y only."""
+    return list(range(0, 2 * n, 2))
+
+
+def flavor_integrator(n, delta, tau, temperature, friction, stiff_friction, seed):
+    """FlavorIntegrator(delta, tau), SymplecticEuler, friction and noise on every copy's y only."""
     integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
     integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
     integrator.setTemperature(temperature * unit.kelvin)
     integrator.setFriction(friction / unit.picosecond)
     integrator.setStiffFriction(stiff_friction)
+    integrator.setFrictionParticles(damped_particles(n))
     integrator.setRandomNumberSeed(seed)
     return integrator
 
 
-def per_dof_ou(n, kT, h, friction_y, friction_x):
-    """exp(-gamma h) and sqrt(kT/m (1 - exp(-2 gamma h))) for every degree of freedom (unit masses)."""
-    def pair(gamma):
-        return math.exp(-gamma * h), math.sqrt(kT * -math.expm1(-2.0 * gamma * h))
-    (ay, by), (ax, bx) = pair(friction_y), pair(friction_x)
-    a = [mm.Vec3(ay, ay, ay) if i % 2 == 0 else mm.Vec3(ax, ax, ax) for i in range(2 * n)]
-    b = [mm.Vec3(by, by, by) if i % 2 == 0 else mm.Vec3(bx, bx, bx) for i in range(2 * n)]
+def per_dof_ou(n, kT, h, friction_y):
+    """exp(-gamma h) and sqrt(kT/m (1 - exp(-2 gamma h))) per degree of freedom (unit masses); x is undamped."""
+    ay, by = math.exp(-friction_y * h), math.sqrt(kT * -math.expm1(-2.0 * friction_y * h))
+    a = [mm.Vec3(ay, ay, ay) if i % 2 == 0 else mm.Vec3(1.0, 1.0, 1.0) for i in range(2 * n)]
+    b = [mm.Vec3(by, by, by) if i % 2 == 0 else mm.Vec3(0.0, 0.0, 0.0) for i in range(2 * n)]
     return a, b
 
 
-def custom_gla(n, h, kT, friction_y, friction_x, seed):
-    """GLA with per-particle friction: O(h) K_all(h) D(h), the order FlavorIntegrator(h, h) uses."""
+def custom_gla(n, h, kT, friction_y, seed):
+    """Independent GLA with friction on y only: O_y(h) K_all(h) D(h), the order FlavorIntegrator(h, h) uses."""
     integrator = mm.CustomIntegrator(h)
     integrator.addPerDofVariable("a", 1.0)
     integrator.addPerDofVariable("b", 0.0)
     integrator.addComputePerDof("v", "a*v + b*gaussian")
     integrator.addComputePerDof("v", "v + dt*f/m")
     integrator.addComputePerDof("x", "x + dt*v")
-    a, b = per_dof_ou(n, kT, h, friction_y, friction_x)
+    a, b = per_dof_ou(n, kT, h, friction_y)
     integrator.setPerDofVariableByName("a", a)
     integrator.setPerDofVariableByName("b", b)
     integrator.setRandomNumberSeed(seed)
@@ -109,7 +109,7 @@ def custom_gla(n, h, kT, friction_y, friction_x, seed):
 
 
 def custom_flavor(n, delta, tau, kT, friction_y, seed):
-    """Eqs. (4.8) and (2.9) with the Ornstein-Uhlenbeck step on y only:
+    """Independent eqs. (4.8) and (2.9) with the Ornstein-Uhlenbeck step on y only:
     O_y(tau) K_all(tau) D(tau) K_soft(delta - tau) D(delta - tau)."""
     integrator = mm.CustomIntegrator(delta)
     integrator.addGlobalVariable("tau", tau)
@@ -121,7 +121,7 @@ def custom_flavor(n, delta, tau, kT, friction_y, seed):
     integrator.addComputePerDof("x", "x + tau*v")
     integrator.addComputePerDof("v", f"v + rest*f{SOFT_GROUP}/m")
     integrator.addComputePerDof("x", "x + rest*v")
-    a, b = per_dof_ou(n, kT, tau, friction_y, 0.0)
+    a, b = per_dof_ou(n, kT, tau, friction_y)
     integrator.setPerDofVariableByName("a", a)
     integrator.setPerDofVariableByName("b", b)
     integrator.setRandomNumberSeed(seed)
@@ -206,7 +206,7 @@ def statistics(run, kT, width, t, late_from):
 
 
 def compare(other, ref, t_window, late_from, regime_split):
-    """One run against the reference for one quantity: window z-scores and the late-time average."""
+    """One run against a reference run for one quantity: window z-scores and the late-time average."""
     diff = other["w_mean"] - ref["w_mean"]
     se = np.sqrt(other["w_se"] ** 2 + ref["w_se"] ** 2)
     z = np.where(se > 0, diff / np.where(se > 0, se, 1.0), np.nan)
@@ -220,7 +220,7 @@ def compare(other, ref, t_window, late_from, regime_split):
                          "max_abs_diff": float(np.max(np.abs(diff[mask])))}
     late_z = (other["late_mean"] - ref["late_mean"]) / math.sqrt(other["late_se"] ** 2 + ref["late_se"] ** 2)
     out["late"] = {"from_t": late_from, "run": other["late_mean"], "run_se": other["late_se"],
-                   "gla": ref["late_mean"], "gla_se": ref["late_se"], "z": float(late_z),
+                   "reference": ref["late_mean"], "reference_se": ref["late_se"], "z": float(late_z),
                    "ratio": float(other["late_mean"] / ref["late_mean"]) if ref["late_mean"] != 0 else None}
     out["agree"] = bool(out["all"]["mean_z2"] <= MEAN_Z2_AGREE and abs(late_z) <= LATE_Z_AGREE)
     return out
@@ -263,15 +263,13 @@ def main():
     parser.add_argument("--c", type=float, default=0.1, help="friction on y is omega^2 c (1/ps)")
     parser.add_argument("--sigma", type=float, default=1.0, help="noise on y is omega sigma; k_B T = sigma^2/(2c)")
     parser.add_argument("--flavor", nargs="+", default=["0.01,0.0001", "0.01,0.00001"], metavar="DELTA,TAU",
-                        help="FLAVOR parameters, each run with the library and with friction on y only (default: the "
-                             "paper's delta = 0.01, tau = 1e-4, and tau = 1e-5, which stays stable)")
+                        help="FLAVOR parameters (default: the paper's delta = 0.01, tau = 1e-4, and tau = 1e-5, "
+                             "which stays stable)")
     parser.add_argument("--h", type=float, default=1e-4, help="GLA step (the paper's 1e-4)")
     parser.add_argument("--sample", type=float, default=0.01, help="sampling interval")
     parser.add_argument("--window", type=float, default=0.1, help="averaging window for the comparison")
     parser.add_argument("--regime", type=float, default=2.0, help="split of the early/late summary (time)")
-    parser.add_argument("--no-y-only", action="store_true", help="skip the CustomIntegrator FLAVOR runs")
-    parser.add_argument("--x-damped", action="store_true",
-                        help="also run GLA with friction omega^2 c tau/delta on x (first FLAVOR's delta, tau)")
+    parser.add_argument("--no-custom", action="store_true", help="skip the CustomIntegrator cross-checks")
     parser.add_argument("--seed", type=int, default=6921)
     args = parser.parse_args()
 
@@ -292,29 +290,27 @@ def main():
 
     print(f"eqs. (6.20)-(6.21): n = {n} copies in one System, T = {T:g}, omega = {omega:g}, friction on y "
           f"omega^2 c = {gamma:g}/ps, kT = {kT:g} kJ/mol ({temperature:.2f} K)", file=sys.stderr)
-    plan = [
-        ("gla", f"GLA h={h:g}, friction on y only (CustomIntegrator)",
-         lambda seed: custom_gla(n, h, kT, gamma, 0.0, seed), h, h),
-        ("gla_isotropic", f"GLA h={h:g}, friction on all (FlavorIntegrator)",
-         lambda seed: flavor_integrator(h, h, temperature, gamma, False, seed), h, h),
-    ]
+    # (key, label, make(seed), mesostep, microstep, library run it cross-checks)
+    plan = [("gla", f"GLA h={h:g} (FlavorIntegrator)",
+             lambda seed: flavor_integrator(n, h, h, temperature, gamma, False, seed), h, h, None)]
     for delta, tau in flavors:
-        plan.append((f"flavor_d{delta:g}_t{tau:g}", f"FLAVOR d={delta:g} t={tau:g}, stiff friction on all",
-                     lambda seed, delta=delta, tau=tau: flavor_integrator(delta, tau, temperature, gamma, True, seed),
-                     delta, tau))
-        if not args.no_y_only:
-            plan.append((f"flavor_y_only_d{delta:g}_t{tau:g}",
-                         f"FLAVOR d={delta:g} t={tau:g}, friction on y only (CustomIntegrator)",
-                         lambda seed, delta=delta, tau=tau: custom_flavor(n, delta, tau, kT, gamma, seed), delta, tau))
-    if args.x_damped:
-        delta, tau = flavors[0]
-        plan.append(("gla_x_damped", f"GLA h={h:g}, y friction + {gamma * tau / delta:g}/ps on x (CustomIntegrator)",
-                     lambda seed, x_friction=gamma * tau / delta: custom_gla(n, h, kT, gamma, x_friction, seed), h, h))
-    runs = {}
-    for i, (key, label, make, dt, micro) in enumerate(plan):
+        plan.append((f"flavor_d{delta:g}_t{tau:g}", f"FLAVOR d={delta:g} t={tau:g} (FlavorIntegrator)",
+                     lambda seed, delta=delta, tau=tau: flavor_integrator(n, delta, tau, temperature, gamma, True,
+                                                                          seed), delta, tau, None))
+    if not args.no_custom:
+        plan.append(("gla_custom", f"GLA h={h:g} (CustomIntegrator)",
+                     lambda seed: custom_gla(n, h, kT, gamma, seed), h, h, "gla"))
+        for delta, tau in flavors:
+            plan.append((f"flavor_custom_d{delta:g}_t{tau:g}", f"FLAVOR d={delta:g} t={tau:g} (CustomIntegrator)",
+                         lambda seed, delta=delta, tau=tau: custom_flavor(n, delta, tau, kT, gamma, seed), delta, tau,
+                         f"flavor_d{delta:g}_t{tau:g}"))
+    runs, twins = {}, {}
+    for i, (key, label, make, dt, micro, twin) in enumerate(plan):
         print(f"running {label}", file=sys.stderr, flush=True)
         runs[key] = simulate(system, make(args.seed + i), dt, n, y0, x0, args.sample, T, label)
         runs[key].update(delta=dt, tau=micro)
+        if twin is not None:
+            twins[key] = twin
 
     t = np.arange(int(round(T / args.sample)) + 1) * args.sample
     t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
@@ -323,23 +319,29 @@ def main():
         stats[key], used[key] = statistics(run, kT, width, t, late_from)
     comparison = {key: {q: compare(stats[key][q], stats["gla"][q], t_window, late_from, args.regime)
                         for q in QUANTITIES} for key in runs if key != "gla"}
+    # Each CustomIntegrator run against the library run of the same scheme (different random streams).
+    cross_check = {key: {"against": twin, **{q: compare(stats[key][q], stats[twin][q], t_window, late_from,
+                                                        args.regime) for q in QUANTITIES}}
+                   for key, twin in twins.items()}
     # FLAVOR samples H_eff = K + V_soft + (tau/delta) V_stiff: omega^4 -> omega^4 tau/delta.
     equilibrium = {"true": boltzmann(omega ** 4, beta)}
     equilibrium.update({f"H_eff_d{delta:g}_t{tau:g}": boltzmann(omega ** 4 * tau / delta, beta)
                         for delta, tau in flavors})
 
-    base = runs["gla_isotropic"]["wall_s"]
     summary = {}
     for key, run in runs.items():
         blown = np.isfinite(run["blown_at"])
+        # Like for like: library runs against the library GLA, CustomIntegrator runs against the custom GLA.
+        baseline = "gla_custom" if key in twins else "gla"
         summary[key] = {"label": run["label"], "delta": run["delta"], "tau": run["tau"], "steps": run["steps"],
                         "wall_s": run["wall_s"], "us_per_step": run["us_per_step"],
-                        "speedup_vs_gla_isotropic": base / run["wall_s"],
-                        "speedup_vs_gla": runs["gla"]["wall_s"] / run["wall_s"], "copies_used": used[key],
-                        "copies_blown_up": int(blown.sum()),
+                        "speedup_vs_gla": runs["gla"]["wall_s"] / run["wall_s"],
+                        "speedup_baseline": baseline,
+                        "speedup_like_for_like": runs[baseline]["wall_s"] / run["wall_s"],
+                        "copies_used": used[key], "copies_blown_up": int(blown.sum()),
                         "blowup_times": sorted(float(v) for v in run["blown_at"][blown]),
                         "stability": mesoscale_stability(run["delta"], run["tau"], omega, beta)}
-    print_tables(summary, comparison, equilibrium, late_from, args.regime, T, n)
+    print_tables(summary, comparison, cross_check, equilibrium, late_from, args.regime, T, n)
 
     os.makedirs(args.out, exist_ok=True)
     data = {
@@ -350,20 +352,14 @@ def main():
         "model": {"particles": "copy k: particle 2k = y, 2k+1 = x, unit masses, x axis",
                   "stiff (group 1)": "CustomExternalForce omega^4 x^4/4 on y",
                   "soft (group 0)": "CustomCompoundBondForce exp(x1) (x2-x1)^2 on (y, x)",
-                  "limitation": "FlavorIntegrator's friction acts on every particle; eq. (6.21) has friction and "
-                                "noise on y only.  The library FLAVOR (flavor_*) damps x too, with omega^2 c for tau "
-                                "per mesostep, i.e. omega^2 c tau/delta on average.",
-                  "runs": {"gla": "GLA of eq. (6.21): O_y(h) K(h) D(h), CustomIntegrator with per-DOF friction "
-                                  "(the paper's benchmark)",
+                  "friction particles": "setFrictionParticles([0, 2, ..., 2n-2]): every copy's y; x undamped",
+                  "runs": {"gla": "FlavorIntegrator(h, h, {1}), SymplecticEuler, friction omega^2 c on y only: "
+                                  "GLA of eq. (6.21), the paper's benchmark",
                            "flavor_d*_t*": "FlavorIntegrator(delta, tau, {1}), SymplecticEuler, "
-                                           "setStiffFriction(True), "
-                                     "friction omega^2 c on all particles: eq. (4.8) with isotropic c",
-                           "gla_isotropic": "FlavorIntegrator(h, h, {1}), SymplecticEuler, friction omega^2 c over "
-                                            "the whole step on all particles: GLA of eq. (4.2) with isotropic c",
-                           "flavor_y_only_d*_t*": "eqs. (4.8)+(2.9) with friction on y only, CustomIntegrator "
-                                                  "(not the library)",
-                           "gla_x_damped": "(--x-damped) GLA of eq. (6.21) plus friction omega^2 c tau/delta and "
-                                           "its noise on x, CustomIntegrator"}},
+                                           "setStiffFriction(True), friction omega^2 c on y only: eqs. (4.8) + (2.9)",
+                           "gla_custom": "cross-check of gla: O_y(h) K(h) D(h), CustomIntegrator",
+                           "flavor_custom_d*_t*": "cross-check of flavor_d*_t*: eqs. (4.8) + (2.9) with the OU step "
+                                                  "on y only, CustomIntegrator"}},
         "parameters": {"n": n, "T": T, "omega": omega, "c": args.c, "sigma": args.sigma, "friction_y": gamma,
                        "kT": kT, "temperature_K": temperature, "y0": y0, "x0": x0, "p0": 0.0,
                        "flavor": [list(f) for f in flavors], "h": h, "sample": args.sample,
@@ -375,6 +371,7 @@ def main():
         "runs": summary,
         "equilibrium": equilibrium,
         "comparison": comparison,
+        "cross_check": cross_check,
         "series": {"t": t.tolist(), "t_window": t_window.tolist(),
                    **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
                                 "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
@@ -387,21 +384,24 @@ def main():
     print(f"\nwrote {json_path} and {png_path}")
 
 
-def print_tables(summary, comparison, equilibrium, late_from, regime, T, n):
-    print(f"\neqs. (6.20)-(6.21), {n} trajectories, T = {T:g}.  Wall time: integrator.step() only.  FlavorIntegrator "
-          f"and CustomIntegrator runs differ in cost per step, so the like-for-like speedup is against gla_isotropic.")
-    head = f"{'run':14s} {'method':56s} {'steps':>7s} {'wall s':>7s} {'us/step':>8s} {'vs gla_iso':>10s} " \
-           f"{'vs gla':>7s} {'used':>5s} {'blown':>5s} {'A_crit':>7s} {'P(|y|>A_crit)':>13s}"
+def print_tables(summary, comparison, cross_check, equilibrium, late_from, regime, T, n):
+    print(f"\neqs. (6.20)-(6.21), {n} trajectories, T = {T:g}, friction and noise on y only.  Wall time: "
+          f"integrator.step() only; like-for-like speedup: FlavorIntegrator runs against gla, CustomIntegrator runs "
+          f"against gla_custom.")
+    head = f"{'run':28s} {'method':40s} {'steps':>7s} {'wall s':>7s} {'us/step':>8s} {'vs gla':>7s} " \
+           f"{'like4like':>9s} {'used':>5s} {'blown':>5s} {'A_crit':>7s} {'P(|y|>A_crit)':>13s}"
     print(head)
     print("-" * len(head))
     for key, s in summary.items():
-        print(f"{key:14s} {s['label']:56s} {s['steps']:7d} {s['wall_s']:7.2f} {s['us_per_step']:8.1f} "
-              f"{s['speedup_vs_gla_isotropic']:9.1f}x {s['speedup_vs_gla']:6.1f}x {s['copies_used']:5d} "
+        print(f"{key:28s} {s['label']:40s} {s['steps']:7d} {s['wall_s']:7.2f} {s['us_per_step']:8.1f} "
+              f"{s['speedup_vs_gla']:6.1f}x {s['speedup_like_for_like']:8.1f}x {s['copies_used']:5d} "
               f"{s['copies_blown_up']:5d} {s['stability']['A_crit']:7.4f} "
               f"{s['stability']['P_abs_y_gt_A_crit_H_eff']:13.2e}")
     print("A_crit: amplitude of y above which a step of delta is unstable for the stiff spring (linearised); "
           "P(|y| > A_crit) under the H_eff Boltzmann density.  Statistics use the copies that did not blow up.")
     for key, comp in comparison.items():
+        if key.startswith("flavor_custom"):
+            continue
         print(f"\n{key} ({summary[key]['label']}) against gla.  Window z = (run - GLA)/sqrt(SE_run^2 + SE_GLA^2); "
               f"late = per-copy time average over t >= {late_from:g}, mean +- SE.")
         head = f"{'quantity':26s} {'mean z2':>8s} {'t<' + format(regime, 'g'):>7s} {'t>=' + format(regime, 'g'):>7s} " \
@@ -415,9 +415,22 @@ def print_tables(summary, comparison, equilibrium, late_from, regime, T, n):
             ratio = f"{late['ratio']:6.2f}" if late["ratio"] is not None else "     -"
             print(f"{QUANTITIES[q]:26s} {c['all']['mean_z2']:8.1f} {early:7.1f} {later:7.1f} "
                   f"{c['all']['max_abs_z']:7.1f} {c['all']['max_abs_diff']:9.3g} "
-                  f"{late['gla']:10.4g}+-{late['gla_se']:7.2g} "
+                  f"{late['reference']:10.4g}+-{late['reference_se']:7.2g} "
                   f"{late['run']:10.4g}+-{late['run_se']:7.2g} {late['z']:6.1f} {ratio}  "
                   f"{'agree' if c['agree'] else 'DIFFER'}")
+    if cross_check:
+        print("\nCross-checks: each CustomIntegrator run against the FlavorIntegrator run of the same scheme "
+              "(independent random streams).  Cell: mean window z2 / late z.")
+        names = [QUANTITIES[q].split("  ")[0] for q in QUANTITIES]
+        head = f"{'run':28s} {'against':20s} " + " ".join(f"{name:>17s}" for name in names)
+        print(head)
+        print("-" * len(head))
+        for key, comp in cross_check.items():
+            cells = []
+            for q in QUANTITIES:
+                c = comp[q]
+                cells.append(f"{c['all']['mean_z2']:5.1f}/{c['late']['z']:5.1f} {'ok' if c['agree'] else 'NO':>4s}")
+            print(f"{key:28s} {comp['against']:20s} " + " ".join(f"{cell:>17s}" for cell in cells))
     print("\nExact Boltzmann values of the true H and of H_eff = K + V_soft + (tau/delta) V_stiff, which FLAVOR "
           "samples:")
     for name, values in equilibrium.items():
@@ -429,29 +442,28 @@ def plot(t_window, stats, summary, equilibrium, params, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fixed = {"gla": ("k", "-", 1.6), "gla_isotropic": ("tab:orange", "--", 1.0),
-             "gla_x_damped": ("tab:green", ":", 1.0)}
-    reds, blues = iter(["tab:red", "tab:pink", "tab:brown"]), iter(["tab:blue", "tab:cyan", "tab:purple"])
+    fixed = {"gla": ("k", "-", 1.6), "gla_custom": ("tab:gray", "--", 1.0)}
+    reds, blues = iter(["tab:red", "tab:orange", "tab:brown"]), iter(["tab:blue", "tab:cyan", "tab:purple"])
     style = {}
     for key in stats:
         if key in fixed:
             style[key] = fixed[key]
-        elif key.startswith("flavor_y_only"):
+        elif key.startswith("flavor_custom"):
             style[key] = (next(blues, "tab:gray"), "--", 1.2)
         else:
             style[key] = (next(reds, "tab:gray"), "-", 1.0)
     panels = ["s", "y", "s2", "y2", "px2", "py2"]
     fig, axes = plt.subplots(3, 2, figsize=(14, 13))
     fig.suptitle(f"eqs. (6.20)-(6.21), FLAVORS paper Fig. 6.16: {params['n']} trajectories, "
-                 f"omega = {params['omega']:g}, "
-                 f"c = {params['c']:g}, sigma = {params['sigma']:g}, kT = {params['kT']:g}, h = {params['h']:g}\n"
+                 f"omega = {params['omega']:g}, c = {params['c']:g}, sigma = {params['sigma']:g}, "
+                 f"kT = {params['kT']:g}, h = {params['h']:g}, friction and noise on y only\n"
                  f"lines: means over windows of {params['window']:g}, bands: +-2 standard errors (copies that did not "
                  f"blow up)\ngrey dotted: exact Boltzmann values of H, dash-dot: of H_eff; GLA (black) is drawn on "
-                 f"top of the y-only FLAVOR curves", fontsize=10)
+                 f"top", fontsize=10)
     for ax, q in zip(axes.flat, panels):
         for key, s in stats.items():
             color, ls, lw = style[key]
-            # GLA of the scene on top: the y-only FLAVOR curves lie on it.
+            # The reference on top: the other GLA and the FLAVOR slow-variable curves lie on it.
             ax.plot(t_window, s[q]["w_mean"], color=color, ls=ls, lw=lw, zorder=5 if key == "gla" else 2,
                     label=f"{summary[key]['label']} ({summary[key]['copies_used']} copies)")
             ax.fill_between(t_window, s[q]["w_mean"] - 2 * s[q]["w_se"], s[q]["w_mean"] + 2 * s[q]["w_se"],

@@ -1,0 +1,71 @@
+"""Smoke tests of benchmarks/work_precision.py and benchmarks/stability.py: each runs with --quick into a temporary
+folder, exits 0 and writes its JSON, markdown and charts with the expected structure.  The numbers themselves are the
+benchmarks' business, not the tests'; only what must hold by construction is checked."""
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BENCHMARKS = os.path.join(REPO_ROOT, "benchmarks")
+METHODS = {"verlet", "rrespa", "flavor_verlet", "flavor_euler", "sim_lietrotter", "sim_strang", "sim_yoshida4"}
+
+
+def run_quick(script, out):
+    env = dict(os.environ)
+    # The child must find openmmflavors the way this process did.
+    env["PYTHONPATH"] = os.pathsep.join(p for p in [os.path.dirname(os.path.dirname(
+        importlib.util.find_spec("openmmflavors").origin)), env.get("PYTHONPATH", "")] if p)
+    env["MPLBACKEND"] = "Agg"
+    return subprocess.run([sys.executable, os.path.join(BENCHMARKS, script), "--quick", "--out", str(out)], env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_work_precision_quick(tmp_path):
+    result = run_quick("work_precision.py", tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    for name in ("work_precision.json", "work_precision.md", "work_precision.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with open(tmp_path / "work_precision.json") as f:
+        data = json.load(f)
+    case = data["cases"][0]
+    assert {r["method"] for r in case["runs"]} == METHODS
+    reference = case["reference"]["checkpoints"]
+    for info in reference.values():
+        # The reference's own error (difference of its h and 2h runs) is far below anything the table resolves.
+        assert info["self_check_x0_1"] < 1e-8
+    for run in case["runs"]:
+        for c in run["checkpoints"].values():
+            assert c["group_evals"] == c["steps"] * (run["soft_per_step"] + run["stiff_per_step"])
+            if run["method"] == "verlet" and run["params"]["omega_h"] <= 0.2:
+                assert c["slow_T"] < 1e-3  # a resolving Verlet run must agree with the independent reference
+    assert {row["method"] for row in data["table"]} == METHODS
+    assert "| omega" in result.stdout and "speedup vs Verlet" in result.stdout
+
+
+def test_stability_quick(tmp_path):
+    result = run_quick("stability.py", tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    for name in ("stability.json", "stability.png", "resonance.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with open(tmp_path / "stability.json") as f:
+        data = json.load(f)
+    domain = data["flavor_domain"]
+    assert set(domain["schemes"]) == {"SymplecticEuler", "Verlet"}
+    for scheme in domain["schemes"].values():
+        bounded = scheme["bounded"]
+        assert len(bounded) == len(domain["tau_omega2"]) and len(bounded[0]) == len(domain["deltas"])
+        # Theorem 5.1 at tau*omega^2 = 1e-3: the smallest delta is stable, delta = 3 is not.
+        assert bounded[0][0] == 1 and bounded[0][-1] == 0
+    resonance = data["resonance"]
+    n = len(resonance["omega_H"])
+    assert len(resonance["rrespa"]) == n and len(resonance["sim"]) == n
+    assert resonance["sim_langevin"] and all(len(v) == n for v in resonance["sim_langevin"].values())
+    # Away from resonance (omega*H = 0.5) the impulse methods conserve the energy well.
+    assert resonance["rrespa"][0][0] < 0.05 and resonance["sim"][0][0] < 0.05
+    boundary = domain["boundary"]
+    for scheme in ("SymplecticEuler", "Verlet"):
+        # The runs and the exact transfer matrix find the same boundary; Theorem 5.1's delta = 2 at small tau.
+        assert abs(boundary[scheme]["runs"][0] - boundary[scheme]["matrix"][0]) < 0.02
+        assert 1.9 < boundary[scheme]["runs"][0] <= 2.0

@@ -1,5 +1,6 @@
 # openmm-flavors: the commands a user needs.  Every target installs the Debian packages it needs first.
-#   make demo                 build, then run the FPU scene and print its table
+#   make demo                 build, then the FPU scene (FLAVOR vs Verlet) and a reduced work-precision comparison of
+#                             every integrator on the FPU chain, with tables; results in results/
 #   make test                 build, then run every C++ test (ctest) and every Python test (pytest)
 #   make install PREFIX=dir   install libraries, headers, kernel plugins and the Python package under dir
 #   make bench                run the benchmarks (not part of the tests)
@@ -31,10 +32,14 @@ test: build
 	$(PYTHON_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python
 
 demo: build
-	$(PYTHON_ENV) $(PYTHON) examples/fpu/fpu.py
+	$(PYTHON_ENV) $(PYTHON) examples/fpu/fpu.py --T 50
+	$(PYTHON_ENV) $(PYTHON) benchmarks/work_precision.py --demo
 
 bench: build
 	$(PYTHON_ENV) $(PYTHON) benchmarks/step_cost.py
+	$(PYTHON_ENV) $(PYTHON) benchmarks/work_precision.py
+	$(PYTHON_ENV) $(PYTHON) benchmarks/stability.py
+	$(PYTHON_ENV) $(PYTHON) benchmarks/sim_work_precision.py
 
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)

@@ -1,7 +1,7 @@
 """Shared pieces of benchmarks/work_precision.py and benchmarks/stability.py.
 
 - The FPU chain (FLAVORS paper eq. 6.7; Hairer-Lubich-Wanner, Geometric Numerical Integration, section I.5) as an
-  OpenMM System, its two initial conditions, and its slow/fast observables.
+  OpenMM System and its slow/fast observables (from examples/common/fpu_chain.py), and its two initial conditions.
 - The two-mass linear system (5.1) of the FLAVORS paper.
 - A high-accuracy reference for the FPU chain that shares no code with OpenMM or this plugin: an 8th-order
   triple-jump composition of velocity Verlet (Yoshida 1990) written in C, compiled at first use with the system's C
@@ -27,41 +27,15 @@ from openmm import mtsintegrator
 
 import openmmflavors
 
-SQRT2 = math.sqrt(2.0)
-SOFT_GROUP, STIFF_GROUP = 0, 1
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
+from fpu_chain import SOFT_GROUP, SQRT2, STIFF_GROUP, fpu_system, from_slow_fast, observables  # noqa: E402,F401
+from fpu_chain import leapfrog_start, masses_of, synchronized  # noqa: E402,F401
+
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 # ----------------------------------------------------------------------------------------------------------------------
 # Systems
-
-def fpu_system(m, omega, chains=1):
-    """Eq. (6.7) with unit masses on the x axis; particle 2m*c + k is q_{k+1} of chain c.
-
-    Stiff springs: HarmonicBondForce, length 0, k = omega^2/2 (so k/2 r^2 = omega^2/4 (q_2i - q_2i-1)^2), group 1.
-    Soft springs CustomBondForce("r^4") and walls CustomExternalForce("x^4") on the two end particles, group 0.
-    """
-    system = mm.System()
-    stiff = mm.HarmonicBondForce()
-    soft = mm.CustomBondForce("r^4")
-    walls = mm.CustomExternalForce("x^4")
-    stiff.setForceGroup(STIFF_GROUP)
-    soft.setForceGroup(SOFT_GROUP)
-    walls.setForceGroup(SOFT_GROUP)
-    for c in range(chains):
-        first = system.getNumParticles()
-        for _ in range(2 * m):
-            system.addParticle(1.0)
-        for i in range(m):
-            stiff.addBond(first + 2 * i, first + 2 * i + 1, 0.0, omega * omega / 2)
-        for i in range(m - 1):
-            soft.addBond(first + 2 * i + 1, first + 2 * i + 2)
-        walls.addParticle(first)
-        walls.addParticle(first + 2 * m - 1)
-    for force in (stiff, soft, walls):
-        system.addForce(force)
-    return system
-
 
 def fpu_initial(m, omega, setup):
     """(q, v) on the x axis, each of length 2m.
@@ -76,10 +50,7 @@ def fpu_initial(m, omega, setup):
         y0[0], y1[0] = 1.0, 1.0
     elif setup != "paper":
         raise ValueError(f"unknown FPU setup {setup!r}")
-    q, v = np.empty(2 * m), np.empty(2 * m)
-    q[0::2], q[1::2] = (x0 - x1) / SQRT2, (x0 + x1) / SQRT2
-    v[0::2], v[1::2] = (y0 - y1) / SQRT2, (y0 + y1) / SQRT2
-    return q, v
+    return from_slow_fast(x0, x1), from_slow_fast(y0, y1)
 
 
 def as_vec3(x, y=0.0):
@@ -87,16 +58,6 @@ def as_vec3(x, y=0.0):
     out[:, 0] = x
     out[:, 1] = y
     return out
-
-
-def observables(q, v, omega):
-    """Slow x0, fast x1, fast velocities y1, stiff energies I_j = (y1_j^2 + omega^2 x1_j^2)/2 and omega^2 x1_j^2 (the
-    last axis of q and v: particles)."""
-    x0 = (q[..., 1::2] + q[..., 0::2]) / SQRT2
-    x1 = (q[..., 1::2] - q[..., 0::2]) / SQRT2
-    y1 = (v[..., 1::2] - v[..., 0::2]) / SQRT2
-    return {"x0": x0, "x1": x1, "y1": y1, "I": 0.5 * (y1 * y1 + omega * omega * x1 * x1),
-            "Ix": omega * omega * x1 * x1}
 
 
 def fpu_energy(q, v, omega):
@@ -340,18 +301,13 @@ def make_context(system, integrator, q, v, leapfrog, platform="Reference", warm_
     warm_up: take one step first and then set the state again, so that one-time work (SIM's measurement of the stiff
     modes, CustomIntegrator's expression compilation) is not timed with the steps.  Returns (context, warm-up s)."""
     context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform))
-    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
+    masses = masses_of(system)
     step = integrator.getStepSize().value_in_unit(unit.picoseconds)
 
     def set_state():
         context.setTime(0.0)
         context.setPositions(q)
-        vel = v
-        if leapfrog:
-            f = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(
-                unit.kilojoule_per_mole / unit.nanometer)
-            vel = v - 0.5 * step * f / masses[:, None]
-        context.setVelocities(vel)
+        context.setVelocities(leapfrog_start(context, v, step, masses) if leapfrog else v)
 
     set_state()
     if not warm_up:
@@ -369,8 +325,7 @@ def read_state(context, leapfrog, step, masses, energy=False):
     q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
     v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
     if leapfrog:
-        f = state.getForces(asNumpy=True).value_in_unit(unit.kilojoule_per_mole / unit.nanometer)
-        v = v + 0.5 * step * f / masses[:, None]
+        v = synchronized(state, np.asarray(v), step, masses)
     if energy:
         return q, v, state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
     return q, v
@@ -380,7 +335,7 @@ def run_sampled(system, integrator, q0, v0, step, sample_steps, leapfrog):
     """Run to each of the increasing step counts in sample_steps and return (q_x, v_x) there (arrays [sample,
     particle]), the cumulative wall time of the step() calls at each sample, whether the run stayed finite, and the
     wall time of the untimed warm-up step."""
-    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
+    masses = masses_of(system)
     context, setup = make_context(system, integrator, as_vec3(q0), as_vec3(v0), leapfrog, warm_up=True)
     qs = np.full((len(sample_steps), len(q0)), np.nan)
     vs = np.full((len(sample_steps), len(q0)), np.nan)

@@ -39,10 +39,12 @@ from scipy.integrate import ode
 
 import openmmflavors
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
+import fpu_chain  # noqa: E402
+
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SOFT, STIFF = 0, 1
+SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
 M = 3
-SQRT2 = math.sqrt(2.0)
 X0_TOL, I_TOL = 1e-3, 1e-2
 SIM = openmmflavors.StochasticImpulseIntegrator
 
@@ -53,56 +55,22 @@ SIM = openmmflavors.StochasticImpulseIntegrator
 
 def fpu_system(omega, chains=1):
     """`chains` copies of eq. (6.7); particle 2M c + k is q_{k+1} of chain c."""
-    system = mm.System()
-    stiff = mm.HarmonicBondForce()
-    soft = mm.CustomBondForce("r^4")
-    walls = mm.CustomExternalForce("x^4")
-    stiff.setForceGroup(STIFF)
-    soft.setForceGroup(SOFT)
-    walls.setForceGroup(SOFT)
-    for c in range(chains):
-        first = system.getNumParticles()
-        for _ in range(2 * M):
-            system.addParticle(1.0)
-        for i in range(M):
-            stiff.addBond(first + 2 * i, first + 2 * i + 1, 0.0, omega * omega / 2)
-        for i in range(M - 1):
-            soft.addBond(first + 2 * i + 1, first + 2 * i + 2)
-        walls.addParticle(first)
-        walls.addParticle(first + 2 * M - 1)
-    for force in (stiff, soft, walls):
-        system.addForce(force)
-    return system
+    return fpu_chain.fpu_system(M, omega, chains)
 
 
 def initial_q(omega):
-    x0 = np.array([1.0] + [0.0] * (M - 1))
-    x1 = np.array([1.0 / omega] + [0.0] * (M - 1))
-    q = np.zeros(2 * M)
-    q[0::2] = (x0 - x1) / SQRT2
-    q[1::2] = (x0 + x1) / SQRT2
-    return q
+    return fpu_chain.from_slow_fast([1.0] + [0.0] * (M - 1), [1.0 / omega] + [0.0] * (M - 1))
 
 
 def chain_positions(omega, chains, seed=1234):
     """Chain 0 as in Fig. 6.5, the others at random slow/fast coordinates of the same size; chain c at y = c."""
-    rng = np.random.default_rng(seed)
-    x0 = 0.5 * rng.uniform(-1, 1, (chains, M))
-    x1 = rng.uniform(-1, 1, (chains, M)) / omega
-    x0[0], x1[0] = [1.0] + [0.0] * (M - 1), [1.0 / omega] + [0.0] * (M - 1)
-    q = np.zeros((chains, 2 * M, 3))
-    q[:, 0::2, 0] = (x0 - x1) / SQRT2
-    q[:, 1::2, 0] = (x0 + x1) / SQRT2
-    q[:, :, 1] = np.arange(chains)[:, None]
-    return q.reshape(-1, 3)
+    return fpu_chain.chain_positions(M, omega, chains, seed)
 
 
 def observables(q, v, omega):
     """x0,1 and I_j = (y1_j^2 + omega^2 x1_j^2)/2 from the x coordinates of one chain."""
-    x0 = (q[1::2] + q[0::2]) / SQRT2
-    x1 = (q[1::2] - q[0::2]) / SQRT2
-    y1 = (v[1::2] - v[0::2]) / SQRT2
-    return float(x0[0]), 0.5 * (y1 * y1 + omega * omega * x1 * x1)
+    o = fpu_chain.observables(q, v, omega)
+    return float(o["x0"][0]), o["I"]
 
 
 def reference_solution(omega, T, rtol):
@@ -136,6 +104,7 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3):
     if abs(steps * dt - T) > 1e-9 * T:
         raise ValueError(f"step {dt} does not divide T = {T}")
     system = fpu_system(omega)
+    masses = fpu_chain.masses_of(system)
     q = np.zeros((2 * M, 3))
     q[:, 0] = initial_q(omega)
     walls, final = [], None
@@ -145,10 +114,8 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3):
         context.setPositions(q)
         v0 = np.zeros((2 * M, 3))
         if leapfrog:
-            # VerletIntegrator reads v(-dt/2): this makes it velocity Verlet from v(0) = 0 (see examples/fpu/fpu.py).
-            f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(
-                unit.kilojoule_per_mole / unit.nanometer)
-            v0 -= 0.5 * dt * np.asarray(f0)
+            # VerletIntegrator reads v(-dt/2): this makes it velocity Verlet from v(0) = 0 (see fpu_chain).
+            v0 = fpu_chain.leapfrog_start(context, v0, dt, masses)
         context.setVelocities(v0)
         start = time.perf_counter()
         integrator.step(steps)
@@ -158,8 +125,7 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3):
             pos = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
             vel = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
             if leapfrog:
-                vel = vel + 0.5 * dt * state.getForces(asNumpy=True).value_in_unit(
-                    unit.kilojoule_per_mole / unit.nanometer)[:, 0]
+                vel = fpu_chain.synchronized(state, np.asarray(vel), dt, masses)
             final = observables(np.asarray(pos), np.asarray(vel), omega)
         # Short runs are repeated (fresh Context each) and the minimum kept: background load only adds time.
         if len(walls) >= repeats_for_short or sum(walls) > enough:

@@ -22,7 +22,6 @@ load-independent cost ratios.  This is a benchmark: it prints what it measures a
 """
 import argparse
 import json
-import math
 import os
 import re
 import shutil
@@ -38,48 +37,23 @@ from openmm import mtsintegrator
 
 import openmmflavors
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
+import fpu_chain  # noqa: E402
+
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SOFT, STIFF = 0, 1
+SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
 M, OMEGA = 3, 200.0
 DELTA, TAU, H = 2e-3, 1e-4, 1e-4
 
 
 def fpu_chains(chains):
     """`chains` copies of eq. (6.7); particle 6c + k is q_{k+1} of chain c."""
-    system = mm.System()
-    stiff = mm.HarmonicBondForce()
-    soft = mm.CustomBondForce("r^4")
-    walls = mm.CustomExternalForce("x^4")
-    stiff.setForceGroup(STIFF)
-    soft.setForceGroup(SOFT)
-    walls.setForceGroup(SOFT)
-    for c in range(chains):
-        first = system.getNumParticles()
-        for _ in range(2 * M):
-            system.addParticle(1.0)
-        for i in range(M):
-            stiff.addBond(first + 2 * i, first + 2 * i + 1, 0.0, OMEGA * OMEGA / 2)
-        for i in range(M - 1):
-            soft.addBond(first + 2 * i + 1, first + 2 * i + 2)
-        walls.addParticle(first)
-        walls.addParticle(first + 2 * M - 1)
-    for force in (stiff, soft, walls):
-        system.addForce(force)
-    return system
+    return fpu_chain.fpu_system(M, OMEGA, chains)
 
 
 def fpu_positions(chains, seed=1234):
     """Chain 0 as in Fig. 6.5; the others at random slow/fast coordinates of the same size.  Chain c lies at y = c."""
-    rng = np.random.default_rng(seed)
-    x0 = 0.5 * rng.uniform(-1, 1, (chains, M))
-    x1 = rng.uniform(-1, 1, (chains, M)) / OMEGA
-    x0[0], x1[0] = [1.0, 0.0, 0.0], [1.0 / OMEGA, 0.0, 0.0]
-    q = np.empty((chains, 2 * M, 3))
-    q[:, 0::2, 0] = (x0 - x1) / math.sqrt(2)
-    q[:, 1::2, 0] = (x0 + x1) / math.sqrt(2)
-    q[:, :, 1] = np.arange(chains)[:, None]
-    q[:, :, 2] = 0.0
-    return q.reshape(-1, 3)
+    return fpu_chain.chain_positions(M, OMEGA, chains, seed)
 
 
 def flavor(scheme):

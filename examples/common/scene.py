@@ -1,6 +1,7 @@
 """Shared plumbing for the deterministic example scenes (nonlinear_stiff_soft, primitive_md_2d, propane_clipper).
 
-Each scene script puts this folder on sys.path and imports `scene`.  What is here: the command line (--out, --quick),
+Each scene script puts this folder on sys.path and imports `scene`; the FPU, Langevin and SIM examples use its
+command line, progress and output helpers too.  What is here: the command line (--out, --quick),
 running one integrator on one System while sampling positions and velocities at given times (timing only the
 integrator.step() calls), the step-halving estimate of a reference's own error, oscillation periods of a sampled
 signal, JSON output and a few printing helpers.
@@ -20,25 +21,29 @@ REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__fi
 SOFT_GROUP, STIFF_GROUP = 0, 1
 
 
-def parser(doc, scene):
+def parser(doc, scene, quick_help="smoke run of a few seconds (short T, coarser reference)",
+           out_help="output directory"):
+    """--quick and --out (default results/<scene>); out_help=None leaves --out without help text."""
     p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--quick", action="store_true", help="smoke run of a few seconds (short T, coarser reference)")
-    p.add_argument("--out", default=os.path.join(REPO_ROOT, "results", scene), help="output directory")
+    p.add_argument("--quick", action="store_true", help=quick_help)
+    p.add_argument("--out", default=os.path.join(REPO_ROOT, "results", scene), help=out_help)
     return p
 
 
 class Progress:
-    """Progress lines on stderr, at most every `every` seconds."""
+    """Progress lines on stderr, at most every `every` seconds.  fmt: the format of the current time t (each
+    example keeps its own width)."""
 
-    def __init__(self, label, total, every=2.0):
-        self.label, self.total, self.every = label, total, every
+    def __init__(self, label, total=None, every=2.0, fmt="9.4g"):
+        self.label, self.total, self.every, self.fmt = label, total, every, fmt
         self.start = self.last = time.perf_counter()
 
-    def update(self, t, force=False):
+    def update(self, t, total=None, force=False):
+        total = self.total if total is None else total
         now = time.perf_counter()
         if force or now - self.last >= self.every:
             self.last = now
-            print(f"  [{self.label}] t = {t:9.4g} / {self.total:g}  ({100 * t / self.total:5.1f}%)  "
+            print(f"  [{self.label}] t = {t:{self.fmt}} / {total:g}  ({100 * t / total:5.1f}%)  "
                   f"{now - self.start:6.1f} s", file=sys.stderr, flush=True)
 
 
@@ -153,6 +158,18 @@ def write_json(path, data):
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w") as f:
         json.dump(jsonable(data), f, indent=1)
+
+
+def save_outputs(out, name, data, plot):
+    """<out>/<name>.json (json.dump as is: unlike write_json, NaN stays NaN) and <out>/<name>.png drawn by
+    plot(path)."""
+    os.makedirs(out, exist_ok=True)
+    json_path = os.path.join(out, f"{name}.json")
+    with open(json_path, "w") as f:
+        json.dump(data, f, indent=1)
+    png_path = os.path.join(out, f"{name}.png")
+    plot(png_path)
+    print(f"\nwrote {json_path} and {png_path}")
 
 
 def pyplot():

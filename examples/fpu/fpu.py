@@ -12,12 +12,9 @@ is measured in this run; speedups are wall-clock ratios of the integrator.step()
 
     PYTHONPATH=build/python /usr/bin/python3 examples/fpu/fpu.py [--quick] [--out DIR]
 """
-import argparse
-import json
 import math
 import os
 import sys
-import time
 
 import numpy as np
 import openmm as mm
@@ -25,124 +22,27 @@ import openmm.unit as unit
 
 import openmmflavors
 
-SQRT2 = math.sqrt(2.0)
-SOFT_GROUP, STIFF_GROUP = 0, 1
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def fpu_system(m, omega):
-    """Eq. (6.7): particle k is q_{k+1}."""
-    system = mm.System()
-    stiff = mm.HarmonicBondForce()
-    soft = mm.CustomBondForce("r^4")
-    walls = mm.CustomExternalForce("x^4")
-    stiff.setForceGroup(STIFF_GROUP)
-    soft.setForceGroup(SOFT_GROUP)
-    walls.setForceGroup(SOFT_GROUP)
-    for _ in range(2 * m):
-        system.addParticle(1.0)
-    for i in range(m):
-        # k/2 r^2 with k = omega^2/2 is omega^2/4 (q_2i - q_2i-1)^2.
-        stiff.addBond(2 * i, 2 * i + 1, 0.0, omega * omega / 2)
-    for i in range(m - 1):
-        soft.addBond(2 * i + 1, 2 * i + 2)
-    walls.addParticle(0)
-    walls.addParticle(2 * m - 1)
-    for force in (stiff, soft, walls):
-        system.addForce(force)
-    return system
-
-
-def fpu_positions(x0, x1):
-    """q_2i-1 = (x0_i - x1_i)/sqrt2, q_2i = (x0_i + x1_i)/sqrt2."""
-    q = []
-    for a, b in zip(x0, x1):
-        q += [((a - b) / SQRT2, 0.0, 0.0), ((a + b) / SQRT2, 0.0, 0.0)]
-    return q
-
-
-def observables(q, v, omega):
-    """Slow x0, fast x1 and y1, and the stiff energies I_j = (y1_j^2 + omega^2 x1_j^2)/2."""
-    x0 = (q[1::2] + q[0::2]) / SQRT2
-    x1 = (q[1::2] - q[0::2]) / SQRT2
-    y1 = (v[1::2] - v[0::2]) / SQRT2
-    return x0, x1, y1, 0.5 * (y1 * y1 + omega * omega * x1 * x1)
-
-
-def sample_steps(times, dt):
-    steps = np.rint(times / dt).astype(np.int64)
-    if np.max(np.abs(steps * dt - times)) > 1e-9 * max(1.0, times[-1]):
-        raise SystemExit(f"step size {dt} does not divide the sampling times; choose --sample/--fine accordingly")
-    return steps
-
-
-class Progress:
-    """Progress lines on stderr, at most every `every` seconds."""
-
-    def __init__(self, label, every=2.0):
-        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
-
-    def update(self, t, total, force=False):
-        now = time.perf_counter()
-        if force or now - self.last >= self.every:
-            self.last = now
-            print(f"  [{self.label}] t = {t:8.2f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
-                  file=sys.stderr, flush=True)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
+import fpu_chain  # noqa: E402
+import scene  # noqa: E402
+from fpu_chain import STIFF_GROUP, fpu_positions, fpu_system  # noqa: E402
 
 
 def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
-    """Run on the Reference platform and sample at `times`.
-
-    OpenMM's VerletIntegrator is a leapfrog: the velocities it stores lag the positions by dt/2 and the initial
-    velocities are read as v(-dt/2).  For those runs (leapfrog=True) the initial velocities are set to
-    v(0) - dt/2 F(q0)/m and the samples are synchronized with v(t) = v(t - dt/2) + dt/2 F(q(t))/m, which makes the run
-    exactly velocity Verlet from (q0, v0 = 0).  FlavorIntegrator's velocities are synchronous already.
-    """
-    platform = mm.Platform.getPlatformByName("Reference")
-    context = mm.Context(system, integrator, platform)
-    context.setPositions(positions)
-    n = system.getNumParticles()
-    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(n)])
-    v0 = np.zeros((n, 3))
-    if leapfrog:
-        forces = context.getState(getForces=True).getForces(asNumpy=True)
-        f0 = forces.value_in_unit(unit.kilojoule_per_mole / unit.nanometer)
-        v0 = v0 - 0.5 * dt * f0 / masses[:, None]
-    context.setVelocities(v0)
-
-    steps = sample_steps(times, dt)
-    qs = np.empty((len(times), n))
-    vs = np.empty((len(times), n))
-    pe = np.empty(len(times))
-    wall = 0.0
-    done = 0
-    progress = Progress(label)
-    for k, target in enumerate(steps):
-        if target > done:
-            start = time.perf_counter()
-            integrator.step(int(target - done))
-            wall += time.perf_counter() - start
-            done = int(target)
-        state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, getForces=leapfrog)
-        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-        if leapfrog:
-            f = state.getForces(asNumpy=True).value_in_unit(unit.kilojoule_per_mole / unit.nanometer)[:, 0]
-            v = v + 0.5 * dt * f / masses
-        qs[k], vs[k] = q, v
-        pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-        progress.update(times[k], times[-1])
-    progress.update(times[-1], times[-1], force=True)
-    x0, x1, y1, stiff = observables(qs.T, vs.T, omega)
-    energy = 0.5 * np.sum(masses * vs * vs, axis=1) + pe
-    return {"steps": int(steps[-1]), "wall_s": wall, "x0": x0.T, "x1": x1.T, "y1": y1.T, "I": stiff.T, "E": energy,
-            "Ix": (omega * x1.T) ** 2}
+    """Run on the Reference platform and sample at `times` (Verlet runs leapfrog-corrected: see fpu_chain)."""
+    run = fpu_chain.simulate(system, integrator, dt, leapfrog, positions, times, label,
+                             scene.Progress(label, fmt="8.2f"),
+                             "step size {dt} does not divide the sampling times; choose --sample/--fine accordingly")
+    o = fpu_chain.observables(run["q"], run["v"], omega)
+    vs = run["v"]
+    energy = 0.5 * np.sum(run["masses"] * vs * vs, axis=1) + run["pe"]
+    return {"steps": run["steps"], "wall_s": run["wall_s"], "x0": o["x0"], "x1": o["x1"], "y1": o["y1"], "I": o["I"],
+            "E": energy, "Ix": (omega * o["x1"]) ** 2}
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (T = 4, coarser reference)")
-    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "fpu"), help="output directory")
+    parser = scene.parser(__doc__, "fpu",
+                          quick_help="smoke run of a few seconds (T = 4, coarser reference)")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default omega = 200; 4 with --quick)")
     parser.add_argument("--omega", type=float, default=200.0)
     parser.add_argument("--m", type=int, default=3, help="number of stiff springs")
@@ -275,7 +175,6 @@ def main():
             }
 
     print_tables(summary, effective, [times[i] for i in checkpoint_index], T, window, omega)
-    os.makedirs(args.out, exist_ok=True)
     data = {
         "scene": "FPU (6.7), Fig. 6.5 initial condition",
         "platform": "Reference",
@@ -290,12 +189,8 @@ def main():
                             "omega2_x1sq": results[key]["Ix"].tolist(), "E": results[key]["E"].tolist(),
                             "H_F": results[key]["Ht"].tolist()} for key in results}},
     }
-    json_path = os.path.join(args.out, "fpu.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1)
-    png_path = os.path.join(args.out, "fpu.png")
-    plot(times, on_grid, results, summary, T, window, omega, png_path)
-    print(f"\nwrote {json_path} and {png_path}")
+    scene.save_outputs(args.out, "fpu", data,
+                       lambda png_path: plot(times, on_grid, results, summary, T, window, omega, png_path))
 
 
 def print_tables(summary, effective, checkpoints, T, window, omega):
@@ -348,18 +243,8 @@ def print_tables(summary, effective, checkpoints, T, window, omega):
                   "   " + " ".join(f"{v:7.4f}" for v in e["Ix_window_mean_effective"]))
 
 
-def running_mean(values, width):
-    """Centred running mean; the ends average over what is available."""
-    if width <= 1:
-        return values
-    kernel = np.ones(width)
-    return np.convolve(values, kernel, mode="same") / np.convolve(np.ones_like(values), kernel, mode="same")
-
-
 def plot(times, coarse, results, summary, T, window, omega, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = scene.pyplot()
 
     shown = [k for k in results if k != "reference_check"]
     palette = ["tab:blue", "tab:red", "tab:purple", "tab:green", "tab:brown", "tab:olive"]
@@ -402,7 +287,7 @@ def plot(times, coarse, results, summary, T, window, omega, path):
         for key in shown:
             if key.startswith("flavor_verlet"):
                 ls = "--" if key == "flavor_verlet" else ":"
-                ax.plot(tc, running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls,
+                ax.plot(tc, scene.running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls,
                         label=f"{summary[key]['label']}: mean omega^2 x1_j^2" if j == 0 else None)
     ax.set_title(f"stiff energies I1 (blue), I2 (orange), I3 (green); FLAVOR: running means over {window:g}")
     ax.set_xlabel("t")

@@ -19,12 +19,9 @@ FLAVOR runs at the paper's delta = 0.01, tau = 1e-4 and at tau = 1e-5, where the
 
     PYTHONPATH=build/python /usr/bin/python3 examples/langevin_fast_noise/langevin_fast_noise.py [--quick] [--out DIR]
 """
-import argparse
-import json
 import math
 import os
 import sys
-import time
 
 import numpy as np
 import openmm as mm
@@ -32,12 +29,14 @@ import openmm.unit as unit
 
 import openmmflavors
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
+import ensemble  # noqa: E402
+import scene  # noqa: E402
+from ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, window_means  # noqa: E402
+
 SOFT_GROUP, STIFF_GROUP = 0, 1
 KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BLOWUP_Y = 0.5
-MEAN_Z2_AGREE = 2.0
-LATE_Z_AGREE = 3.0
 
 QUANTITIES = {
     "s": "E[x-y]  (Fig. 6.16)",
@@ -128,102 +127,12 @@ def custom_flavor(n, delta, tau, kT, friction_y, seed):
     return integrator
 
 
-class Progress:
-    """Progress lines on stderr, at most every `every` seconds."""
-
-    def __init__(self, label, every=2.0):
-        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
-
-    def update(self, t, total, force=False):
-        now = time.perf_counter()
-        if force or now - self.last >= self.every:
-            self.last = now
-            print(f"  [{self.label}] t = {t:7.2f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
-                  file=sys.stderr, flush=True)
-
-
-def simulate(system, integrator, dt, n, y0, x0, sample, T, label):
-    """Run the ensemble on the Reference platform; sample x, y, p_x, p_y of every copy every `sample`."""
-    every = int(round(sample / dt))
-    if every < 1 or abs(every * dt - sample) > 1e-9 * sample:
-        raise SystemExit(f"{label}: the step {dt:g} does not divide the sampling interval {sample:g}")
-    num = int(round(T / sample))
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-    context.setPositions([mm.Vec3(p, 0.0, 0.0) for _ in range(n) for p in (y0, x0)])
-    context.setVelocities([mm.Vec3(0.0, 0.0, 0.0)] * (2 * n))
-    shape = (num + 1, n)
-    ys, xs, pys, pxs = np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape)
-    ys[0], xs[0], pys[0], pxs[0] = y0, x0, 0.0, 0.0
-    blown_at = np.full(n, np.nan)
-    wall = 0.0
-    progress = Progress(label)
-    for k in range(1, num + 1):
-        start = time.perf_counter()
-        integrator.step(every)
-        wall += time.perf_counter() - start
-        state = context.getState(getPositions=True, getVelocities=True)
-        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-        ys[k], xs[k], pys[k], pxs[k] = q[0::2], q[1::2], v[0::2], v[1::2]
-        bad = ~(np.isfinite(ys[k]) & np.isfinite(xs[k]) & (np.abs(ys[k]) < BLOWUP_Y)) & np.isnan(blown_at)
-        blown_at[bad] = k * sample
-        progress.update(k * sample, T)
-    progress.update(T, T, force=True)
-    del context
-    steps = num * every
-    return {"label": label, "step": dt, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
-            "x": xs, "y": ys, "px": pxs, "py": pys, "blown_at": blown_at}
-
-
-def window_means(values, width):
-    """Means over consecutive windows of `width` samples (samples 1..end; sample 0 is the deterministic start)."""
-    body = values[1:]
-    m = body.shape[0] // width
-    return body[: m * width].reshape(m, width, -1).mean(axis=1)
-
-
-def mean_se(values):
-    """Ensemble mean and its standard error along the last axis (copies)."""
-    n = values.shape[-1]
-    mean = values.mean(axis=-1)
-    se = values.std(axis=-1, ddof=1) / math.sqrt(n) if n > 1 else np.full_like(mean, np.nan)
-    return mean, se
-
-
 def statistics(run, kT, width, t, late_from):
     keep = np.isnan(run["blown_at"])
     x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
     series = {"s": x - y, "y": y, "s2": (x - y) ** 2, "y2": y * y, "px2": px * px / kT, "py2": py * py / kT}
-    late = t >= late_from - 1e-12
-    stats = {}
-    for key, values in series.items():
-        mean, se = mean_se(values)
-        w_mean, w_se = mean_se(window_means(values, width))
-        l_mean, l_se = mean_se(values[late].mean(axis=0))
-        stats[key] = {"mean": mean, "se": se, "w_mean": w_mean, "w_se": w_se, "late_mean": float(l_mean),
-                      "late_se": float(l_se)}
+    stats = ensemble.series_statistics(series, width, t, late_from)
     return stats, int(keep.sum())
-
-
-def compare(other, ref, t_window, late_from, regime_split):
-    """One run against a reference run for one quantity: window z-scores and the late-time average."""
-    diff = other["w_mean"] - ref["w_mean"]
-    se = np.sqrt(other["w_se"] ** 2 + ref["w_se"] ** 2)
-    z = np.where(se > 0, diff / np.where(se > 0, se, 1.0), np.nan)
-    out = {}
-    for name, mask in (("all", np.ones_like(t_window, dtype=bool)), (f"t<{regime_split:g}", t_window < regime_split),
-                       (f"t>={regime_split:g}", t_window >= regime_split)):
-        zz = z[mask & np.isfinite(z)]
-        if zz.size:
-            out[name] = {"windows": int(zz.size), "mean_z2": float(np.mean(zz ** 2)),
-                         "max_abs_z": float(np.max(np.abs(zz))), "frac_abs_z_gt_2": float(np.mean(np.abs(zz) > 2)),
-                         "max_abs_diff": float(np.max(np.abs(diff[mask])))}
-    late_z = (other["late_mean"] - ref["late_mean"]) / math.sqrt(other["late_se"] ** 2 + ref["late_se"] ** 2)
-    out["late"] = {"from_t": late_from, "run": other["late_mean"], "run_se": other["late_se"],
-                   "reference": ref["late_mean"], "reference_se": ref["late_se"], "z": float(late_z),
-                   "ratio": float(other["late_mean"] / ref["late_mean"]) if ref["late_mean"] != 0 else None}
-    out["agree"] = bool(out["all"]["mean_z2"] <= MEAN_Z2_AGREE and abs(late_z) <= LATE_Z_AGREE)
-    return out
 
 
 def boltzmann(omega4, beta):
@@ -254,9 +163,8 @@ def mesoscale_stability(delta, tau, omega, beta):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (n = 8, T = 0.2)")
-    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "langevin_fast_noise"))
+    parser = scene.parser(__doc__, "langevin_fast_noise",
+                          quick_help="smoke run of a few seconds (n = 8, T = 0.2)", out_help=None)
     parser.add_argument("--n", type=int, default=None, help="ensemble size (default 50, the paper's; 8 with --quick)")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default 10; 0.2 with --quick)")
     parser.add_argument("--omega", type=float, default=100.0)
@@ -307,7 +215,7 @@ def main():
     runs, twins = {}, {}
     for i, (key, label, make, dt, micro, twin) in enumerate(plan):
         print(f"running {label}", file=sys.stderr, flush=True)
-        runs[key] = simulate(system, make(args.seed + i), dt, n, y0, x0, args.sample, T, label)
+        runs[key] = ensemble.simulate(system, make(args.seed + i), dt, n, y0, x0, args.sample, T, label, BLOWUP_Y)
         runs[key].update(delta=dt, tau=micro)
         if twin is not None:
             twins[key] = twin
@@ -343,7 +251,6 @@ def main():
                         "stability": mesoscale_stability(run["delta"], run["tau"], omega, beta)}
     print_tables(summary, comparison, cross_check, equilibrium, late_from, args.regime, T, n)
 
-    os.makedirs(args.out, exist_ok=True)
     data = {
         "scene": "FLAVORS paper section 6.9, eqs. (6.20)-(6.21), Fig. 6.16: Langevin with fast noise and friction "
                  "on y only",
@@ -376,12 +283,8 @@ def main():
                    **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
                                 "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
     }
-    json_path = os.path.join(args.out, "langevin_fast_noise.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1)
-    png_path = os.path.join(args.out, "langevin_fast_noise.png")
-    plot(t_window, stats, summary, equilibrium, data["parameters"], png_path)
-    print(f"\nwrote {json_path} and {png_path}")
+    scene.save_outputs(args.out, "langevin_fast_noise", data,
+                       lambda png_path: plot(t_window, stats, summary, equilibrium, data["parameters"], png_path))
 
 
 def print_tables(summary, comparison, cross_check, equilibrium, late_from, regime, T, n):
@@ -438,9 +341,7 @@ def print_tables(summary, comparison, cross_check, equilibrium, late_from, regim
 
 
 def plot(t_window, stats, summary, equilibrium, params, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = scene.pyplot()
 
     fixed = {"gla": ("k", "-", 1.6), "gla_custom": ("tab:gray", "--", 1.0)}
     reds, blues = iter(["tab:red", "tab:orange", "tab:brown"]), iter(["tab:blue", "tab:cyan", "tab:purple"])

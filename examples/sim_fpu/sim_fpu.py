@@ -17,9 +17,6 @@ speedup = Verlet peer wall time / wall time.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/sim_fpu/sim_fpu.py [--quick] [--out DIR]
 """
-import argparse
-import json
-import math
 import os
 import sys
 import time
@@ -30,125 +27,35 @@ import openmm.unit as unit
 
 import openmmflavors
 
-SQRT2 = math.sqrt(2.0)
-SOFT_GROUP, STIFF_GROUP = 0, 1
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def fpu_system(m, omega):
-    """Eq. (9): particle k is q_{k+1}."""
-    system = mm.System()
-    stiff = mm.HarmonicBondForce()
-    soft = mm.CustomBondForce("r^4")
-    walls = mm.CustomExternalForce("x^4")
-    stiff.setForceGroup(STIFF_GROUP)
-    soft.setForceGroup(SOFT_GROUP)
-    walls.setForceGroup(SOFT_GROUP)
-    for _ in range(2 * m):
-        system.addParticle(1.0)
-    for i in range(m):
-        # k/2 r^2 with k = omega^2/2 is omega^2/4 (q_2i - q_2i-1)^2.
-        stiff.addBond(2 * i, 2 * i + 1, 0.0, omega * omega / 2)
-    for i in range(m - 1):
-        soft.addBond(2 * i + 1, 2 * i + 2)
-    walls.addParticle(0)
-    walls.addParticle(2 * m - 1)
-    for force in (stiff, soft, walls):
-        system.addForce(force)
-    return system
-
-
-def fpu_positions(x0, x1):
-    """Inverse of eq. (10): q_2i-1 = (x_i - x_m+i)/sqrt2, q_2i = (x_i + x_m+i)/sqrt2."""
-    q = []
-    for a, b in zip(x0, x1):
-        q += [((a - b) / SQRT2, 0.0, 0.0), ((a + b) / SQRT2, 0.0, 0.0)]
-    return q
-
-
-def observables(q, v, omega):
-    """Eq. (10): slow x_i, fast x_m+i and y_m+i, and the stiff energies I_j = (y_m+j^2 + omega^2 x_m+j^2)/2."""
-    x0 = (q[1::2] + q[0::2]) / SQRT2
-    x1 = (q[1::2] - q[0::2]) / SQRT2
-    y1 = (v[1::2] - v[0::2]) / SQRT2
-    return x0, x1, 0.5 * (y1 * y1 + omega * omega * x1 * x1)
-
-
-def sample_steps(times, dt):
-    steps = np.rint(times / dt).astype(np.int64)
-    if np.max(np.abs(steps * dt - times)) > 1e-9 * max(1.0, times[-1]):
-        raise SystemExit(f"step {dt} does not divide the sampling times; choose --sample accordingly")
-    return steps
-
-
-class Progress:
-    def __init__(self, label, every=2.0):
-        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
-
-    def update(self, t, total, force=False):
-        now = time.perf_counter()
-        if force or now - self.last >= self.every:
-            self.last = now
-            print(f"  [{self.label}] t = {t:9.2f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
-                  file=sys.stderr, flush=True)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
+import fpu_chain  # noqa: E402
+import scene  # noqa: E402
+from fpu_chain import STIFF_GROUP, fpu_positions, fpu_system  # noqa: E402
 
 
 def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
-    """Run on the Reference platform, sampling at `times`.
-
-    VerletIntegrator is a leapfrog: its stored velocities lag by dt/2.  For it (leapfrog=True) the initial velocities
-    are set to v(0) - dt/2 F(q0) and samples are synchronized with v(t) = v(t - dt/2) + dt/2 F(q(t)): exactly velocity
-    Verlet from v(0) = 0.  StochasticImpulseIntegrator's velocities are synchronous already.
-    """
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-    context.setPositions(positions)
-    n = system.getNumParticles()
-    v0 = np.zeros((n, 3))
-    if leapfrog:
-        f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(
-            unit.kilojoule_per_mole / unit.nanometer)
-        v0 = v0 - 0.5 * dt * np.asarray(f0)
-    context.setVelocities(v0)
-    steps = sample_steps(times, dt)
-    qs = np.empty((len(times), n))
-    vs = np.empty((len(times), n))
-    pe = np.empty(len(times))
-    wall, done = 0.0, 0
-    progress = Progress(label)
-    for k, target in enumerate(steps):
-        if target > done:
-            start = time.perf_counter()
-            integrator.step(int(target - done))
-            wall += time.perf_counter() - start
-            done = int(target)
-        state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, getForces=leapfrog)
-        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-        if leapfrog:
-            v = v + 0.5 * dt * state.getForces(asNumpy=True).value_in_unit(
-                unit.kilojoule_per_mole / unit.nanometer)[:, 0]
-        qs[k], vs[k] = q, v
-        pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-        progress.update(times[k], times[-1])
-    progress.update(times[-1], times[-1], force=True)
-    x0, x1, stiff = observables(qs.T, vs.T, omega)
-    energy = 0.5 * np.sum(vs * vs, axis=1) + pe
-    return {"steps": int(steps[-1]), "wall_s": wall, "x0": x0.T, "x1": x1.T, "I": stiff.T, "E": energy}
+    """Run on the Reference platform, sampling at `times` (Verlet runs leapfrog-corrected: see fpu_chain)."""
+    run = fpu_chain.simulate(system, integrator, dt, leapfrog, positions, times, label,
+                             scene.Progress(label, fmt="9.2f"),
+                             "step {dt} does not divide the sampling times; choose --sample accordingly")
+    o = fpu_chain.observables(run["q"], run["v"], omega)
+    vs = run["v"]
+    energy = 0.5 * np.sum(vs * vs, axis=1) + run["pe"]
+    return {"steps": run["steps"], "wall_s": run["wall_s"], "x0": o["x0"], "x1": o["x1"], "I": o["I"], "E": energy}
 
 
 def retime(system, make, dt, leapfrog, positions, steps, repeats):
     """Minimum wall time of integrator.step(steps) over fresh unsampled runs (the machine may be shared: the minimum
     is the least disturbed)."""
     best = float("inf")
+    masses = fpu_chain.masses_of(system)
     for _ in range(repeats):
         integrator = make()
         context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
         context.setPositions(positions)
         v0 = np.zeros((system.getNumParticles(), 3))
         if leapfrog:
-            f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(
-                unit.kilojoule_per_mole / unit.nanometer)
-            v0 = v0 - 0.5 * dt * np.asarray(f0)
+            v0 = fpu_chain.leapfrog_start(context, v0, dt, masses)
         context.setVelocities(v0)
         start = time.perf_counter()
         integrator.step(steps)
@@ -157,9 +64,8 @@ def retime(system, make, dt, leapfrog, positions, steps, repeats):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (T = 4, coarse reference)")
-    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "sim_fpu"), help="output directory")
+    parser = scene.parser(__doc__, "sim_fpu",
+                          quick_help="smoke run of a few seconds (T = 4, coarse reference)")
     parser.add_argument("--omega", type=float, default=200.0)
     parser.add_argument("--m", type=int, default=3, help="number of stiff springs")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default 5 omega; 4 with --quick)")
@@ -267,7 +173,6 @@ def main():
 
     print_tables(summary, [times[i] for i in checkpoint_index], T, window, omega)
     print_horizons(summary, window)
-    os.makedirs(args.out, exist_ok=True)
     data = {
         "scene": "FPU, SIM paper eq. (9), Fig. 4 initial condition",
         "platform": "Reference",
@@ -279,12 +184,8 @@ def main():
                    **{key: {"x0_1": r["x0"][:, 0].tolist(), "x1": r["x1"].tolist(), "I": r["I"].tolist(),
                             "E": r["E"].tolist()} for key, r in results.items()}},
     }
-    json_path = os.path.join(args.out, "sim_fpu.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1)
-    png_path = os.path.join(args.out, "sim_fpu.png")
-    plot(times, results, summary, T, omega, window, png_path)
-    print(f"\nwrote {json_path} and {png_path}")
+    scene.save_outputs(args.out, "sim_fpu", data,
+                       lambda png_path: plot(times, results, summary, T, omega, window, png_path))
 
 
 def print_tables(summary, checkpoints, T, window, omega):
@@ -336,9 +237,7 @@ def print_horizons(summary, window):
 
 
 def plot(times, results, summary, T, omega, window, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = scene.pyplot()
 
     shown = [k for k in results if k not in ("reference_check", "verlet")]
     colors = {"reference": "k"}

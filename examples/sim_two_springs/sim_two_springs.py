@@ -29,8 +29,6 @@ over the same simulated time, same platform, same ensemble size.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/sim_two_springs/sim_two_springs.py [--quick] [--out DIR]
 """
-import argparse
-import json
 import math
 import os
 import sys
@@ -42,8 +40,10 @@ import openmm.unit as unit
 
 import openmmflavors
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
+import scene  # noqa: E402
+
 SOFT_GROUP, STIFF_GROUP = 0, 1
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 R_KJ = unit.MOLAR_GAS_CONSTANT_R.value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
 # Positions are compared with the paper's uniform error bound; momenta are shown but SIM's p error is not uniform.
 POSITION_MOMENTS = ["E[x]", "E[y]", "E[x^2]", "E[y^2]"]
@@ -73,18 +73,6 @@ def moments(q, v):
     return np.stack([x, y, x * x, y * y, px * px, py * py])
 
 
-class Progress:
-    def __init__(self, label, every=2.0):
-        self.label, self.every, self.start, self.last = label, every, time.perf_counter(), time.perf_counter()
-
-    def update(self, t, total, force=False):
-        now = time.perf_counter()
-        if force or now - self.last >= self.every:
-            self.last = now
-            print(f"  [{self.label}] t = {t:7.3f} / {total:g}  ({100 * t / total:5.1f}%)  {now - self.start:6.1f} s",
-                  file=sys.stderr, flush=True)
-
-
 def simulate(system, integrator, platform, properties, x0, y0, samples, steps_per_sample, dt, label):
     """Run all realizations from the paper's initial data; sample at every steps_per_sample steps."""
     context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
@@ -97,7 +85,7 @@ def simulate(system, integrator, platform, properties, x0, y0, samples, steps_pe
     se = np.empty_like(mean)
     wall = 0.0
     first_step = None
-    progress = Progress(label)
+    progress = scene.Progress(label, fmt="7.3f")
     total = samples * steps_per_sample * dt
     for k in range(samples + 1):
         if k > 0:
@@ -160,10 +148,8 @@ def bonferroni_threshold(tests, alpha=0.01):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="smoke run of a few seconds (400 copies, T = 2)")
-    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "sim_two_springs"),
-                        help="output directory")
+    parser = scene.parser(__doc__, "sim_two_springs",
+                          quick_help="smoke run of a few seconds (400 copies, T = 2)")
     parser.add_argument("--copies", type=int, default=None, help="realizations (default 5000 as in the paper)")
     parser.add_argument("--fine-copies", type=int, default=None,
                         help="realizations of the GLA run at h/fine-factor (default 1000; 200 with --quick; 0 skips)")
@@ -284,7 +270,6 @@ def main():
                  for key in references}
 
     print_tables(results, comparison, speedups, gla_phase)
-    os.makedirs(args.out, exist_ok=True)
     data = {
         "scene": "SIM paper section 4.1, Fig. 2: wall - stiff spring - x - soft quartic spring - y, Langevin",
         "model": "one particle per realization: x,y coordinates = paper's x,y; stiff CustomExternalForce "
@@ -309,12 +294,8 @@ def main():
                    **{key: {"t": r["times"].tolist(), "mean": r["mean"].tolist(), "se": r["se"].tolist()}
                       for key, r in results.items()}},
     }
-    json_path = os.path.join(args.out, "sim_two_springs.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1)
-    png_path = os.path.join(args.out, "sim_two_springs.png")
-    plot(results, comparison, data["parameters"], args.platform, png_path)
-    print(f"\nwrote {json_path} and {png_path}")
+    scene.save_outputs(args.out, "sim_two_springs", data,
+                       lambda png_path: plot(results, comparison, data["parameters"], args.platform, png_path))
 
 
 def compare_runs(a, b):
@@ -385,9 +366,7 @@ def print_tables(results, comparison, speedups, gla_phase):
 
 
 def plot(results, comparison, parameters, platform, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = scene.pyplot()
 
     palette = {"gla": "k", "gla_fine": "tab:gray", "sim_lietrotter": "tab:red", "sim_strang": "tab:blue",
                "sim_lietrotter_nonresonant": "tab:orange", "sim_strang_nonresonant": "tab:cyan"}

@@ -4,6 +4,11 @@ The test system is a small Fermi-Pasta-Ulam chain: 6 unit-mass particles on the 
 of rest length 0 between (0,1), (2,3), (4,5) in force group 1, and soft quartic springs r^4 between (1,2), (3,4)
 plus quartic walls x^4 on particles 0 and 5 in force group 0.
 """
+import importlib.util
+import os
+import subprocess
+import sys
+
 import numpy as np
 import openmm
 import openmm.unit as unit
@@ -120,3 +125,16 @@ def platform_name(request):
 @pytest.fixture
 def fpu_system():
     return build_fpu_system()
+
+
+def run_quick(script, out, timeout=120):
+    """Run an example or benchmark script (full path) with --quick --out OUT in a child process."""
+    env = dict(os.environ)
+    # The child must find openmmflavors the way this process did.
+    package_root = os.path.dirname(os.path.dirname(importlib.util.find_spec("openmmflavors").origin))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in [package_root, env.get("PYTHONPATH", "")] if p)
+    # The scripts select Agg themselves; this also covers any pyplot import before that.
+    env["MPLBACKEND"] = "Agg"
+    return subprocess.run([sys.executable, script, "--quick", "--out", str(out)], env=env, capture_output=True,
+                          text=True, timeout=timeout)
+

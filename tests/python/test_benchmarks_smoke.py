@@ -1,11 +1,10 @@
 """Smoke tests of benchmarks/work_precision.py and benchmarks/stability.py: each runs with --quick into a temporary
 folder, exits 0 and writes its JSON, markdown and charts with the expected structure.  The numbers themselves are the
 benchmarks' business, not the tests'; only what must hold by construction is checked."""
-import importlib.util
 import json
 import os
-import subprocess
-import sys
+
+import conftest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BENCHMARKS = os.path.join(REPO_ROOT, "benchmarks")
@@ -13,13 +12,7 @@ METHODS = {"verlet", "rrespa", "flavor_verlet", "flavor_euler", "sim_lietrotter"
 
 
 def run_quick(script, out):
-    env = dict(os.environ)
-    # The child must find openmmflavors the way this process did.
-    env["PYTHONPATH"] = os.pathsep.join(p for p in [os.path.dirname(os.path.dirname(
-        importlib.util.find_spec("openmmflavors").origin)), env.get("PYTHONPATH", "")] if p)
-    env["MPLBACKEND"] = "Agg"
-    return subprocess.run([sys.executable, os.path.join(BENCHMARKS, script), "--quick", "--out", str(out)], env=env,
-                          capture_output=True, text=True, timeout=120)
+    return conftest.run_quick(os.path.join(BENCHMARKS, script), out)
 
 
 def test_work_precision_quick(tmp_path):

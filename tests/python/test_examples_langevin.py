@@ -4,12 +4,12 @@ FlavorIntegrator runs (friction on every copy's y via setFrictionParticles) wher
 import importlib.util
 import json
 import os
-import subprocess
-import sys
 
 import numpy as np
 import openmm
 import pytest
+
+import conftest
 
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -18,12 +18,7 @@ KEYS = {"scene", "platform", "model", "parameters", "quantities", "runs", "equil
 
 
 def run_quick(script, out):
-    env = dict(os.environ)
-    # The child must find openmmflavors the way this process did.
-    env["PYTHONPATH"] = os.pathsep.join(p for p in [os.path.dirname(os.path.dirname(
-        importlib.util.find_spec("openmmflavors").origin)), env.get("PYTHONPATH", "")] if p)
-    return subprocess.run([sys.executable, os.path.join(EXAMPLES, script), "--quick", "--out", str(out)], env=env,
-                          capture_output=True, text=True, timeout=120)
+    return conftest.run_quick(os.path.join(EXAMPLES, script), out)
 
 
 @pytest.mark.parametrize("scene, runs", [

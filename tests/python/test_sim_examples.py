@@ -1,26 +1,19 @@
 """Smoke tests of the StochasticImpulseIntegrator example scenes (examples/sim_two_springs, examples/sim_fpu): each
 runs with --quick in a child process and writes its JSON and PNG."""
-import importlib.util
 import json
 import math
 import os
-import subprocess
-import sys
 
 import pytest
+
+import conftest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 EXAMPLES = os.path.join(REPO_ROOT, "examples")
 
 
 def run_quick(script, out):
-    env = dict(os.environ)
-    # The child must find openmmflavors the way this process did.
-    package_root = os.path.dirname(os.path.dirname(importlib.util.find_spec("openmmflavors").origin))
-    env["PYTHONPATH"] = os.pathsep.join(p for p in [package_root, env.get("PYTHONPATH", "")] if p)
-    env["MPLBACKEND"] = "Agg"
-    return subprocess.run([sys.executable, os.path.join(EXAMPLES, script), "--quick", "--out", str(out)], env=env,
-                          capture_output=True, text=True, timeout=120)
+    return conftest.run_quick(os.path.join(EXAMPLES, script), out)
 
 
 def load(path):

@@ -9,7 +9,7 @@ PREFIX ?= /usr/local
 BUILD ?= build
 PYTHON := /usr/bin/python3
 JOBS ?= $(shell nproc)
-APT_PACKAGES := cmake make g++ swig libopenmm-dev libopenmm-plugins python3-simtk python3-dev libeigen3-dev \
+APT_PACKAGES := cmake make gcc g++ swig libopenmm-dev libopenmm-plugins python3-simtk python3-dev libeigen3-dev \
                 libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy
 PYTHON_ENV := PYTHONPATH=$(CURDIR)/$(BUILD)/python PYTHONDONTWRITEBYTECODE=1
 

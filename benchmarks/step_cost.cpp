@@ -14,6 +14,7 @@
 // (the difference of two runs with different N is the cost of those steps alone).
 
 #include "FlavorIntegrator.h"
+#include "FpuChain.h"
 #include "OpenMM.h"
 #include "openmm/internal/ContextImpl.h"
 #include <algorithm>
@@ -56,28 +57,7 @@ private:
 };
 
 System* fpuChains(int chains) {
-    System* system = new System();
-    HarmonicBondForce* stiff = new HarmonicBondForce();
-    CustomBondForce* soft = new CustomBondForce("r^4");
-    CustomExternalForce* walls = new CustomExternalForce("x^4");
-    stiff->setForceGroup(StiffGroup);
-    soft->setForceGroup(SoftGroup);
-    walls->setForceGroup(SoftGroup);
-    for (int c = 0; c < chains; ++c) {
-        int first = system->getNumParticles();
-        for (int k = 0; k < 2 * M; ++k)
-            system->addParticle(1.0);
-        for (int i = 0; i < M; ++i)
-            stiff->addBond(first + 2 * i, first + 2 * i + 1, 0.0, Omega * Omega / 2);
-        for (int i = 0; i + 1 < M; ++i)
-            soft->addBond(first + 2 * i + 1, first + 2 * i + 2);
-        walls->addParticle(first);
-        walls->addParticle(first + 2 * M - 1);
-    }
-    system->addForce(stiff);
-    system->addForce(soft);
-    system->addForce(walls);
-    return system;
+    return FlavorExamples::fpuSystem(M, Omega, chains);
 }
 
 // Chain 0 starts as in Fig. 6.5; the others at random slow and fast coordinates of the same size, so no two chains

@@ -6,6 +6,7 @@
 #include "TestSystems.h"
 #include "openmm/Context.h"
 #include "openmm/OpenMMException.h"
+#include "openmm/VirtualSite.h"
 #include "openmm/serialization/XmlSerializer.h"
 #include <cmath>
 #include <functional>
@@ -172,4 +173,39 @@ TEST_P(ImpulseApi, CheckpointsContinueIdentically) {
     integrator.step(10);
     EXPECT_EQ(0.0, relativeDifference(positionsOf(context), q));
     EXPECT_EQ(0.0, relativeDifference(velocitiesOf(context), v));
+}
+
+TEST_P(ImpulseApi, ConstraintsOutsideStiffComponentsAndVirtualSitesWork) {
+    // A stiff spring pair (particles 0, 1), a constrained diatomic (2, 3) held by soft tethers, and a virtual site
+    // (4) at the diatomic's midpoint.
+    System system;
+    for (double m : {1.0, 2.0, 1.0, 3.0, 0.0})
+        system.addParticle(m);
+    system.setVirtualSite(4, new TwoParticleAverageSite(2, 3, 0.5, 0.5));
+    system.addConstraint(2, 3, 0.15);
+    HarmonicBondForce* stiff = new HarmonicBondForce();
+    stiff->addBond(0, 1, 0.0, 1e5);
+    stiff->setForceGroup(StiffGroup);
+    CustomExternalForce* soft = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
+    for (int i = 0; i < 4; ++i)
+        soft->addParticle(i);
+    system.addForce(stiff);
+    system.addForce(soft);
+    StochasticImpulseIntegrator integrator(300, 2.0, 0.005, StiffMask);
+    integrator.setConstraintTolerance(1e-8);
+    integrator.setRandomNumberSeed(3);
+    Context context(system, integrator, platform(), properties());
+    context.setPositions({Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.3, 0, 0), Vec3(0.45, 0, 0), Vec3()});
+    context.applyConstraints(1e-8);
+    for (int block = 0; block < 20; ++block) {
+        integrator.step(10);
+        State state = context.getState(State::Positions | State::Velocities);
+        const vector<Vec3>& q = state.getPositions();
+        const vector<Vec3>& v = state.getVelocities();
+        Vec3 bond = q[3] - q[2];
+        EXPECT_NEAR(0.15, std::sqrt(bond.dot(bond)), 1e-7);
+        EXPECT_NEAR(0.0, bond.dot(v[3] - v[2]), 1e-6);
+        Vec3 site = (q[2] + q[3]) * 0.5 - q[4];
+        EXPECT_NEAR(0.0, std::sqrt(site.dot(site)), 1e-12);
+    }
 }

@@ -44,10 +44,11 @@ VectorL stateOf(const vector<Vec3>& q, const vector<Vec3>& v) {
 
 TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
     // Without soft forces and friction a step is the exact flow of the stiff potential, for any H and stiffness:
-    // a 2-particle spring with omega = 1e4, a 3-particle chain, a tethered particle (b != 0) and a particle pushed
-    // by a constant force.
+    // a 2-particle spring with omega = 1e4, a 3-particle chain, a tethered particle (b != 0), a particle pushed
+    // by a constant force, and an anisotropic pair (a tether with different x, y, z stiffness and x-y coupling, and
+    // a spring).
     System system;
-    const vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0};
+    const vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0, 2.5, 1.2};
     for (double m : masses)
         system.addParticle(m);
     HarmonicBondForce* bonds = new HarmonicBondForce();
@@ -60,16 +61,25 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
     tether->addParticle(5);
     CustomExternalForce* push = new CustomExternalForce("2.5*x - 1.5*z");
     push->addParticle(6);
-    for (Force* f : vector<Force*>{bonds, tether, push}) {
+    CustomExternalForce* anisotropic = new CustomExternalForce("0.5*(400*x^2+900*y^2+100*z^2)+30*x*y");
+    anisotropic->addParticle(7);
+    bonds->addBond(7, 8, 0.0, 3e3);
+    for (Force* f : vector<Force*>{bonds, tether, push, anisotropic}) {
         f->setForceGroup(StiffGroup);
         system.addForce(f);
     }
     LinearSde sde;
-    sde.K = MatrixL::Zero(21, 21);
-    sde.b = VectorL::Zero(21);
+    sde.K = MatrixL::Zero(27, 27);
+    sde.b = VectorL::Zero(27);
     addSpring(sde.K, 0, 1, k01);
     addSpring(sde.K, 2, 3, 2e4);
     addSpring(sde.K, 3, 4, 5e2);
+    addSpring(sde.K, 7, 8, 3e3);
+    sde.K(21, 21) += 400;
+    sde.K(22, 22) += 900;
+    sde.K(23, 23) += 100;
+    sde.K(21, 22) += 30;
+    sde.K(22, 21) += 30;
     for (int d = 0; d < 3; ++d)
         sde.K(15 + d, 15 + d) = 1e3;
     sde.b[15] = 0.3e3;
@@ -81,7 +91,7 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
             sde.mass.push_back(m);
 
     vector<Vec3> q0, v0;
-    for (int i = 0; i < 7; ++i) {
+    for (int i = 0; i < 9; ++i) {
         q0.push_back(Vec3(0.1 * i, 0.05 * (i % 3), -0.02 * i));
         v0.push_back(Vec3(0.3 - 0.1 * i, 0.2, 0.05 * i));
     }
@@ -96,7 +106,7 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
         integrator.step(3);
         VectorL expected = sde.mean(stateOf(q0, v0), 3 * H);
         VectorL actual = stateOf(positionsOf(context), velocitiesOf(context));
-        const int n = 21;
+        const int n = 27;
         long double positionError = (actual.head(n) - expected.head(n)).norm() / expected.head(n).norm();
         long double velocityError = (actual.tail(n) - expected.tail(n)).norm() / expected.tail(n).norm();
         EXPECT_LE((double)positionError, 1e-10) << "splitting " << splitting;

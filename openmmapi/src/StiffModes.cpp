@@ -41,24 +41,44 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
         if (masses[i] != 0.0)
             members[findRoot(parent, i)].push_back(i);
     vector<int> componentOf(numParticles, -1), indexInComponent(numParticles, -1);
-    size_t matrixSize = 0;
     int modes = 0;
     for (auto& entry : members) {
         Component c;
         c.firstParticle = (int)particleList.size();
         c.numParticles = (int)entry.second.size();
         c.firstMode = modes;
-        c.matrixOffset = matrixSize;
         c.stiff = stiffParticle[entry.second[0]];
+        c.isotropic = true;
         for (size_t k = 0; k < entry.second.size(); ++k) {
             componentOf[entry.second[k]] = (int)components.size();
             indexInComponent[entry.second[k]] = (int)k;
             particleList.push_back(entry.second[k]);
         }
-        const int dim = 3 * c.numParticles;
-        modes += dim;
-        matrixSize += (size_t)dim * dim;
+        modes += 3 * c.numParticles;
         components.push_back(c);
+    }
+    // A component whose blocks are all multiples of the identity (bonds of zero length, isotropic tethers) has the
+    // same n x n modes in x, y and z: decomposing those is 27x cheaper and applying them 3x cheaper.
+    double largestEntry = 0;
+    for (const StiffnessBlock& b : blocks)
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                largestEntry = std::max(largestEntry, std::abs(b.k[r][c]));
+    for (const StiffnessBlock& b : blocks) {
+        const double tolerance = 1e-12 * largestEntry;
+        bool isotropic = std::abs(b.k[0][0] - b.k[1][1]) <= tolerance && std::abs(b.k[0][0] - b.k[2][2]) <= tolerance;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                if (r != c && std::abs(b.k[r][c]) > tolerance)
+                    isotropic = false;
+        if (!isotropic && masses[b.i] != 0.0)
+            components[componentOf[b.i]].isotropic = false;
+    }
+    size_t matrixSize = 0;
+    for (Component& c : components) {
+        c.matrixOffset = matrixSize;
+        const size_t size = c.isotropic ? c.numParticles : 3 * c.numParticles;
+        matrixSize += size * size;
     }
     eigenvectors.assign(matrixSize, 0.0);
     omega.assign(modes, 0.0);
@@ -68,8 +88,8 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
     // Assemble each component's mass-weighted stiffness and diagonalize it.
     vector<Eigen::MatrixXd> omegaSquared(components.size());
     for (size_t c = 0; c < components.size(); ++c) {
-        const int dim = 3 * components[c].numParticles;
-        omegaSquared[c] = Eigen::MatrixXd::Zero(dim, dim);
+        const int size = (components[c].isotropic ? 1 : 3) * components[c].numParticles;
+        omegaSquared[c] = Eigen::MatrixXd::Zero(size, size);
     }
     for (const StiffnessBlock& b : blocks) {
         if (masses[b.i] == 0.0 || masses[b.j] == 0.0)
@@ -77,8 +97,13 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
                                   std::to_string(masses[b.i] == 0.0 ? b.i : b.j) +
                                   "); stiff particles must have mass > 0");
         Eigen::MatrixXd& m = omegaSquared[componentOf[b.i]];
-        const int ri = 3 * indexInComponent[b.i], rj = 3 * indexInComponent[b.j];
         const double scale = 1.0 / (sqrtMass[b.i] * sqrtMass[b.j]);
+        if (components[componentOf[b.i]].isotropic) {
+            m(indexInComponent[b.i], indexInComponent[b.j]) = b.k[0][0] * scale;
+            m(indexInComponent[b.j], indexInComponent[b.i]) = b.k[0][0] * scale;
+            continue;
+        }
+        const int ri = 3 * indexInComponent[b.i], rj = 3 * indexInComponent[b.j];
         for (int r = 0; r < 3; ++r)
             for (int s = 0; s < 3; ++s) {
                 m(ri + r, rj + s) = b.k[r][s] * scale;
@@ -87,15 +112,16 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
     }
     for (size_t c = 0; c < components.size(); ++c) {
         const Component& comp = components[c];
-        const int dim = 3 * comp.numParticles;
-        Eigen::Map<Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], dim, dim);
+        // Isotropic components: n modes, each in x, y and z (mode 3j+d is mode j in direction d).
+        const int size = (comp.isotropic ? 1 : 3) * comp.numParticles, copies = comp.isotropic ? 3 : 1;
+        Eigen::Map<Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], size, size);
         if (!comp.stiff) {
             u.setIdentity();
         } else {
             Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(omegaSquared[c]);
             const Eigen::VectorXd& values = solver.eigenvalues();
             const double largest = std::max(std::abs(values.minCoeff()), std::abs(values.maxCoeff()));
-            for (int k = 0; k < dim; ++k) {
+            for (int k = 0; k < size; ++k) {
                 // Zero modes (translations, rotations of a free molecule) come out as rounding noise.
                 if (values[k] < -1e-9 * largest)
                     throw OpenMMException(
@@ -104,18 +130,21 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
                         formatNumber(values[k]) + " ps^-2 in the component containing particle " +
                         std::to_string(particleList[comp.firstParticle]) +
                         "); the stiff force groups must form a convex quadratic potential");
-                omega[comp.firstMode + k] = values[k] > 1e-9 * largest ? std::sqrt(values[k]) : 0.0;
+                for (int d = 0; d < copies; ++d)
+                    omega[comp.firstMode + copies * k + d] = values[k] > 1e-9 * largest ? std::sqrt(values[k]) : 0.0;
             }
             u = solver.eigenvectors();
         }
         // The constant force in mode coordinates, U^T M^-1/2 b.
-        Eigen::VectorXd force(dim);
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> force(size, copies);
         for (int p = 0; p < comp.numParticles; ++p) {
             const int particle = particleList[comp.firstParticle + p];
             for (int d = 0; d < 3; ++d)
-                force[3 * p + d] = constantForce[particle][d] / sqrtMass[particle];
+                force(comp.isotropic ? p : 3 * p + d, comp.isotropic ? d : 0) =
+                    constantForce[particle][d] / sqrtMass[particle];
         }
-        Eigen::Map<Eigen::VectorXd>(&modeForce[comp.firstMode], dim) = u.transpose() * force;
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            &modeForce[comp.firstMode], size, copies) = u.transpose() * force;
     }
 }
 
@@ -147,6 +176,8 @@ void StiffModes::computeFlows(double h, double gamma, vector<ModeFlow>& flows) c
 void StiffModes::Flow::apply(int begin, int end) const {
     typedef Eigen::Map<Eigen::VectorXd> Vector;
     typedef Eigen::Map<const Eigen::MatrixXd> Matrix;
+    // n x 3 views of the coordinates of an isotropic component: row p is particle p's x, y, z.
+    typedef Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> Rows;
     for (int c = begin; c < end; ++c) {
         const Component& comp = modes.components[c];
         const int dim = 3 * comp.numParticles;
@@ -177,12 +208,22 @@ void StiffModes::Flow::apply(int begin, int end) const {
                 }
             }
         }
-        if (comp.stiff) {
+        const int n = comp.numParticles;
+        if (comp.stiff && comp.isotropic) {
+            Matrix u(&modes.eigenvectors[comp.matrixOffset], n, n);
+            Rows(a, n, 3).noalias() = u.transpose() * Rows(x, n, 3);
+            Rows(alpha, n, 3).noalias() = u.transpose() * Rows(w, n, 3);
+            if (noisy) {
+                // x and w are free until the modes are mapped back.
+                Rows(x, n, 3).noalias() = u.transpose() * Rows(noise1, n, 3);
+                Rows(w, n, 3).noalias() = u.transpose() * Rows(noise2, n, 3);
+                std::copy(x, x + 2 * dim, noise1);
+            }
+        } else if (comp.stiff) {
             Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
             Vector(a, dim).noalias() = u.transpose() * Vector(x, dim);
             Vector(alpha, dim).noalias() = u.transpose() * Vector(w, dim);
             if (noisy) {
-                // x and w are free until the modes are mapped back.
                 Vector(x, dim).noalias() = u.transpose() * Vector(noise1, dim);
                 Vector(w, dim).noalias() = u.transpose() * Vector(noise2, dim);
                 std::copy(x, x + 2 * dim, noise1);
@@ -201,7 +242,11 @@ void StiffModes::Flow::apply(int begin, int end) const {
             a[k] = na;
             alpha[k] = nalpha;
         }
-        if (comp.stiff) {
+        if (comp.stiff && comp.isotropic) {
+            Matrix u(&modes.eigenvectors[comp.matrixOffset], n, n);
+            Rows(x, n, 3).noalias() = u * Rows(a, n, 3);
+            Rows(w, n, 3).noalias() = u * Rows(alpha, n, 3);
+        } else if (comp.stiff) {
             Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
             Vector(x, dim).noalias() = u * Vector(a, dim);
             Vector(w, dim).noalias() = u * Vector(alpha, dim);

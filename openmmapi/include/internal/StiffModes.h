@@ -66,6 +66,7 @@ private:
         int firstMode;                   // its 3 * numParticles modes start here
         size_t matrixOffset;             // its column-major eigenvector matrix in eigenvectors
         bool stiff;
+        bool isotropic; // every block a multiple of the identity: n x n eigenvectors shared by x, y and z
     };
     std::vector<Component> components;
     std::vector<int> particleList;

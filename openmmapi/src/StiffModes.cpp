@@ -148,6 +148,40 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
     }
 }
 
+namespace {
+
+/**
+ * out = U^T in (transpose) or U in, for n x 3 row-major coordinate blocks and a column-major n x n U.  Plain loops
+ * for the small components that dominate in practice (Eigen's dynamic-size products cost more than the arithmetic
+ * there), Eigen for large ones.
+ */
+void rotateRows(const double* u, int n, const double* in, double* out, bool transpose) {
+    typedef Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> Rows;
+    typedef Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> const> ConstRows;
+    typedef Eigen::Map<const Eigen::MatrixXd> Matrix;
+    if (n > 8) {
+        if (transpose)
+            Rows(out, n, 3).noalias() = Matrix(u, n, n).transpose() * ConstRows(in, n, 3);
+        else
+            Rows(out, n, 3).noalias() = Matrix(u, n, n) * ConstRows(in, n, 3);
+        return;
+    }
+    for (int j = 0; j < n; ++j) {
+        double sum0 = 0, sum1 = 0, sum2 = 0;
+        for (int p = 0; p < n; ++p) {
+            const double coefficient = transpose ? u[j * n + p] : u[p * n + j]; // U(p, j) or U(j, p)
+            sum0 += coefficient * in[3 * p];
+            sum1 += coefficient * in[3 * p + 1];
+            sum2 += coefficient * in[3 * p + 2];
+        }
+        out[3 * j] = sum0;
+        out[3 * j + 1] = sum1;
+        out[3 * j + 2] = sum2;
+    }
+}
+
+} // namespace
+
 vector<double> StiffModes::getStiffFrequencies() const {
     vector<double> result;
     for (const Component& c : components)
@@ -176,8 +210,6 @@ void StiffModes::computeFlows(double h, double gamma, vector<ModeFlow>& flows) c
 void StiffModes::Flow::apply(int begin, int end) const {
     typedef Eigen::Map<Eigen::VectorXd> Vector;
     typedef Eigen::Map<const Eigen::MatrixXd> Matrix;
-    // n x 3 views of the coordinates of an isotropic component: row p is particle p's x, y, z.
-    typedef Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> Rows;
     for (int c = begin; c < end; ++c) {
         const Component& comp = modes.components[c];
         const int dim = 3 * comp.numParticles;
@@ -210,13 +242,13 @@ void StiffModes::Flow::apply(int begin, int end) const {
         }
         const int n = comp.numParticles;
         if (comp.stiff && comp.isotropic) {
-            Matrix u(&modes.eigenvectors[comp.matrixOffset], n, n);
-            Rows(a, n, 3).noalias() = u.transpose() * Rows(x, n, 3);
-            Rows(alpha, n, 3).noalias() = u.transpose() * Rows(w, n, 3);
+            const double* u = &modes.eigenvectors[comp.matrixOffset];
+            rotateRows(u, n, x, a, true);
+            rotateRows(u, n, w, alpha, true);
             if (noisy) {
                 // x and w are free until the modes are mapped back.
-                Rows(x, n, 3).noalias() = u.transpose() * Rows(noise1, n, 3);
-                Rows(w, n, 3).noalias() = u.transpose() * Rows(noise2, n, 3);
+                rotateRows(u, n, noise1, x, true);
+                rotateRows(u, n, noise2, w, true);
                 std::copy(x, x + 2 * dim, noise1);
             }
         } else if (comp.stiff) {
@@ -243,9 +275,9 @@ void StiffModes::Flow::apply(int begin, int end) const {
             alpha[k] = nalpha;
         }
         if (comp.stiff && comp.isotropic) {
-            Matrix u(&modes.eigenvectors[comp.matrixOffset], n, n);
-            Rows(x, n, 3).noalias() = u * Rows(a, n, 3);
-            Rows(w, n, 3).noalias() = u * Rows(alpha, n, 3);
+            const double* u = &modes.eigenvectors[comp.matrixOffset];
+            rotateRows(u, n, a, x, false);
+            rotateRows(u, n, alpha, w, false);
         } else if (comp.stiff) {
             Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
             Vector(x, dim).noalias() = u * Vector(a, dim);

@@ -1,18 +1,9 @@
 #include "internal/FlavorStepKernel.h"
 #include "openmm/internal/ContextImpl.h"
-#include "openmm/reference/ReferencePlatform.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
-#include <random>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
-
-std::uint64_t FlavorPlugin::effectiveRandomSeed(int seed) {
-    if (seed != 0)
-        return (std::uint64_t)(std::uint32_t)seed;
-    std::random_device device;
-    return ((std::uint64_t)device() << 32) | device();
-}
 
 FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
     : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0) {}
@@ -39,11 +30,7 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         configured = true;
     }
     runner->setFrictionParticles(integrator.getFrictionParticles());
-    runner->step(context, integrator.getConstraintTolerance(), forcesValid);
-    ReferencePlatform::PlatformData& data =
-        *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
-    data.time += integrator.getMesoStep();
-    data.stepCount++;
+    runner->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
 }
 
 double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const FlavorIntegrator& integrator) {

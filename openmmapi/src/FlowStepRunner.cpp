@@ -122,7 +122,7 @@ void FlowStepRunner::ensureForces(ContextImpl& context, int slotIndex) {
     slot.valid = true;
 }
 
-void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool& forcesValid) {
+void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ReferencePlatform::PlatformData& data = platformData(context);
     vector<Vec3>& positions = *data.positions;
     vector<Vec3>& velocities = *data.velocities;
@@ -178,6 +178,8 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, bool
     nextStream += thermostatsPerStep;
     if (hasVirtualSites)
         context.computeVirtualSites();
+    data.time += stepSize;
+    data.stepCount++;
     forcesValid = true;
 }
 

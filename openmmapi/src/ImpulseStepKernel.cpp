@@ -1,8 +1,6 @@
 #include "internal/ImpulseStepKernel.h"
-#include "internal/FlavorStepKernel.h"
 #include "internal/StiffProbe.h"
 #include "openmm/internal/ContextImpl.h"
-#include "openmm/reference/ReferencePlatform.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include <algorithm>
 #include <cmath>
@@ -90,11 +88,7 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
         measureStiffModes(context, parameters.stiffGroups);
         stiffModesValid = true;
     }
-    runner->step(context, integrator.getConstraintTolerance(), forcesValid);
-    ReferencePlatform::PlatformData& data =
-        *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
-    data.time += parameters.stepSize;
-    data.stepCount++;
+    runner->step(context, integrator.getConstraintTolerance(), parameters.stepSize, forcesValid);
 }
 
 std::vector<double> ImpulseStepKernel::getStiffModeFrequencies(ContextImpl& context,

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <random>
 
 namespace FlavorPlugin {
 
@@ -47,6 +48,14 @@ private:
 
     std::uint32_t key0, key1;
 };
+
+/** Turns a user's seed into the seed of the random streams, as OpenMM's integrators do: 0 picks a fresh one. */
+inline std::uint64_t effectiveRandomSeed(int seed) {
+    if (seed != 0)
+        return (std::uint64_t)(std::uint32_t)seed;
+    std::random_device device;
+    return ((std::uint64_t)device() << 32) | device();
+}
 
 } // namespace FlavorPlugin
 

@@ -29,9 +29,6 @@ private:
     double kT;
 };
 
-/** Turns a user's seed into the seed of the random streams; 0 picks a fresh one. */
-OPENMM_EXPORT_FLAVORS std::uint64_t effectiveRandomSeed(int seed);
-
 } // namespace FlavorPlugin
 
 #endif

@@ -44,10 +44,10 @@ public:
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
     /**
-     * Takes one step.  forcesValid says whether forces cached in an earlier step may be reused; it is true on
-     * return.
+     * Takes one step and advances the Context's time by stepSize and its step count by one.  forcesValid says
+     * whether forces cached in an earlier step may be reused; it is true on return.
      */
-    void step(OpenMM::ContextImpl& context, double constraintTolerance, bool& forcesValid);
+    void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
     /** The kinetic energy of the current velocities (synchronous with positions). */
     double kineticEnergy(OpenMM::ContextImpl& context) const;
     void createCheckpoint(std::ostream& stream) const;

@@ -40,6 +40,7 @@ bench: build
 	$(PYTHON_ENV) $(PYTHON) benchmarks/work_precision.py
 	$(PYTHON_ENV) $(PYTHON) benchmarks/stability.py
 	$(PYTHON_ENV) $(PYTHON) benchmarks/sim_work_precision.py
+	$(PYTHON_ENV) $(PYTHON) benchmarks/sim_step_cost.py
 
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)

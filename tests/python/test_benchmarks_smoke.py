@@ -1,4 +1,4 @@
-"""Smoke tests of benchmarks/work_precision.py and benchmarks/stability.py: each runs with --quick into a temporary
+"""Smoke tests of benchmarks/work_precision.py, stability.py and sim_step_cost.py: each runs with --quick into a temporary
 folder, exits 0 and writes its JSON, markdown and charts with the expected structure.  The numbers themselves are the
 benchmarks' business, not the tests'; only what must hold by construction is checked."""
 import json
@@ -62,3 +62,13 @@ def test_stability_quick(tmp_path):
         # The runs and the exact transfer matrix find the same boundary; Theorem 5.1's delta = 2 at small tau.
         assert abs(boundary[scheme]["runs"][0] - boundary[scheme]["matrix"][0]) < 0.02
         assert 1.9 < boundary[scheme]["runs"][0] <= 2.0
+
+
+def test_sim_step_cost_quick(tmp_path):
+    result = run_quick("sim_step_cost.py", tmp_path)
+    assert result.returncode == 0, result.stderr
+    with open(tmp_path / "sim_step_cost.json") as f:
+        data = json.load(f)
+    assert set(data["runs"]) == {"Strang_friction0", "LieTrotter_friction0", "Strang_friction1", "LieTrotter_friction1"}
+    assert all(run["step_us"] > 0 and run["mode_work_us"] > 0 for run in data["runs"].values())
+    assert (tmp_path / "sim_step_cost.png").exists()

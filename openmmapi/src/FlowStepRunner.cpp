@@ -130,6 +130,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         invalidateForces();
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const vector<PreparedFlow>& flows = preparedPasses[p];
+        if (flows[0].kind == SubFlow::StiffFlow) {
+            runStiffFlow(context, p, flows[0], constraintTolerance);
+            continue;
+        }
         ParticlePass pass;
         pass.flows = flows.data();
         pass.numFlows = (int)flows.size();
@@ -141,10 +145,6 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         pass.thermalSpeeds = thermalSpeeds.data();
         pass.random = &random;
         pass.firstStream = nextStream;
-        if (flows[0].kind == SubFlow::StiffFlow) {
-            runStiffFlow(context, p, flows[0], constraintTolerance);
-            continue;
-        }
         bool drifts = false;
         double driftTime = 0.0;
         for (const PreparedFlow& flow : flows) {

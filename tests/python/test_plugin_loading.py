@@ -25,12 +25,12 @@ print("ok")
 """
 
 
-@pytest.mark.parametrize("plugin_dir", [None, "/nonexistent", "/tmp"])
-def test_kernels_load_whatever_the_plugin_directory(plugin_dir):
+@pytest.mark.parametrize("plugin_dir", [None, "/nonexistent", "empty"])
+def test_kernels_load_whatever_the_plugin_directory(plugin_dir, tmp_path):
     env = dict(os.environ)
     env.pop("OPENMM_PLUGIN_DIR", None)
     if plugin_dir is not None:
-        env["OPENMM_PLUGIN_DIR"] = plugin_dir
+        env["OPENMM_PLUGIN_DIR"] = str(tmp_path) if plugin_dir == "empty" else plugin_dir
     result = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip().endswith("ok")

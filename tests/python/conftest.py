@@ -127,6 +127,29 @@ def fpu_system():
     return build_fpu_system()
 
 
+def assert_set_state_reproduces(context, before, after):
+    """Resetting positions and velocities by hand must reproduce the continuation: cached forces are invalidated."""
+    context.getIntegrator().step(before)
+    pos, vel = state_arrays(context)
+    positions, velocities = run_trajectory(context, after)
+    context.setPositions(pos * unit.nanometer)
+    context.setVelocities(vel * unit.nanometer / unit.picosecond)
+    positions_again, velocities_again = run_trajectory(context, after)
+    np.testing.assert_array_equal(positions_again, positions)
+    np.testing.assert_array_equal(velocities_again, velocities)
+
+
+def assert_continuation_depends_on_random_state(context, before, after):
+    """Restoring only positions and velocities must NOT reproduce a Langevin continuation; otherwise checkpoint
+    tests would not show that the random state is restored."""
+    context.getIntegrator().step(before)
+    state = context.getState(getPositions=True, getVelocities=True)
+    positions, _ = run_trajectory(context, after)
+    context.setState(state)
+    positions_again, _ = run_trajectory(context, after)
+    assert np.max(np.abs(positions_again[-1] - positions[-1])) > 1e-4
+
+
 def run_quick(script, out, timeout=120):
     """Run an example or benchmark script (full path) with --quick --out OUT in a child process."""
     env = dict(os.environ)

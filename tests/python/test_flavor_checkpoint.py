@@ -3,7 +3,8 @@ import numpy as np
 import openmm.unit as unit
 import pytest
 
-from conftest import build_fpu_system, make_context, make_integrator, run_trajectory, state_arrays
+from conftest import (assert_continuation_depends_on_random_state, assert_set_state_reproduces, build_fpu_system,
+                      make_context, make_integrator, run_trajectory, state_arrays)
 from openmmflavors import FlavorIntegrator
 
 N_BEFORE = 7
@@ -104,29 +105,15 @@ def test_checkpoint_restores_random_state_over_a_different_seed(platform_name, c
 
 
 def test_langevin_continuation_depends_on_the_random_state(platform_name):
-    # Restoring only positions and velocities must NOT reproduce the Langevin continuation; otherwise the
-    # checkpoint tests above would not show that the random state is restored.
     context = make_context(build_fpu_system(), case_integrator("langevin-verlet"), platform_name)
-    context.getIntegrator().step(N_BEFORE)
-    state = context.getState(getPositions=True, getVelocities=True)
-    positions, _ = run_trajectory(context, M_AFTER)
-    context.setState(state)
-    positions_again, _ = run_trajectory(context, M_AFTER)
-    assert np.max(np.abs(positions_again[-1] - positions[-1])) > 1e-4
+    assert_continuation_depends_on_random_state(context, N_BEFORE, M_AFTER)
 
 
 @pytest.mark.parametrize("case", ["hamiltonian-verlet", "hamiltonian-euler"])
 def test_set_positions_invalidates_cached_forces(platform_name, case):
     # The integrator caches forces between steps; resetting the state must not reuse forces of the old positions.
-    context = make_context(build_fpu_system(), case_integrator(case), platform_name)
-    context.getIntegrator().step(N_BEFORE)
-    pos, vel = state_arrays(context)
-    positions, velocities = run_trajectory(context, M_AFTER)
-    context.setPositions(pos * unit.nanometer)
-    context.setVelocities(vel * unit.nanometer / unit.picosecond)
-    positions_again, velocities_again = run_trajectory(context, M_AFTER)
-    np.testing.assert_array_equal(positions_again, positions)
-    np.testing.assert_array_equal(velocities_again, velocities)
+    assert_set_state_reproduces(make_context(build_fpu_system(), case_integrator(case), platform_name), N_BEFORE,
+                                M_AFTER)
 
 
 def test_parameter_change_after_checkpoint_is_used(platform_name):

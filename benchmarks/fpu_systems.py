@@ -30,6 +30,7 @@ import openmmflavors
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
 from fpu_chain import SOFT_GROUP, SQRT2, STIFF_GROUP, fpu_system, from_slow_fast, observables  # noqa: E402,F401
 from fpu_chain import leapfrog_start, masses_of, synchronized  # noqa: E402,F401
+from scene import jsonable  # noqa: E402,F401  (strict JSON: inf and nan become null)
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -391,15 +391,6 @@ def plot_resonance(b, path, dpi, small=False):
     plt.close(fig)
 
 
-def finite_json(x):
-    if isinstance(x, dict):
-        return {k: finite_json(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [finite_json(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    return x
-
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -444,7 +435,7 @@ def main():
     data["wall_s_total"] = time.perf_counter() - started
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "stability.json"), "w") as f:
-        json.dump(finite_json(data), f, indent=1)
+        json.dump(fs.jsonable(data), f, indent=1)
     plot_stability(a, os.path.join(args.out, "stability.png"), 100)
     plot_resonance(b, os.path.join(args.out, "resonance.png"), 100)
     if args.docs:

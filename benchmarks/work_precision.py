@@ -449,18 +449,6 @@ def plot(cases, rows, path, dpi, small=False):
     plt.close(fig)
 
 
-def finite_json(x):
-    """x with inf and nan replaced by None (strict JSON)."""
-    if isinstance(x, dict):
-        return {k: finite_json(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [finite_json(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
-
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -518,7 +506,7 @@ def main():
 
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "work_precision.json"), "w") as f:
-        json.dump(finite_json(data), f, indent=1)
+        json.dump(fs.jsonable(data), f, indent=1)
     table = markdown_table(rows)
     table2 = markdown_table(data["table_slow_and_stiff"], "and window-mean stiff-energy error (from the state)")
     with open(os.path.join(args.out, "work_precision.md"), "w") as f:

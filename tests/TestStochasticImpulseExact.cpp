@@ -40,15 +40,21 @@ VectorL stateOf(const vector<Vec3>& q, const vector<Vec3>& v) {
     return s;
 }
 
+constexpr int RingSize = 8;
+
 } // namespace
 
 TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
     // Without soft forces and friction a step is the exact flow of the stiff potential, for any H and stiffness:
     // a 2-particle spring with omega = 1e4, a 3-particle chain, a tethered particle (b != 0), a particle pushed
-    // by a constant force, and an anisotropic pair (a tether with different x, y, z stiffness and x-y coupling, and
-    // a spring).
+    // by a constant force, an anisotropic triple (a tether with different x, y, z stiffness and x-y coupling, and
+    // two springs) and a ring of 8 springs (the last two are components larger than the unrolled sizes).
     System system;
-    const vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0, 2.5, 1.2};
+    vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0, 2.5, 1.2};
+    for (int i = 0; i < RingSize; ++i)
+        masses.push_back(1.0 + 0.25 * i);
+    masses.push_back(0.9);
+    const int numParticles = (int)masses.size(), n = 3 * numParticles, lastParticle = numParticles - 1;
     for (double m : masses)
         system.addParticle(m);
     HarmonicBondForce* bonds = new HarmonicBondForce();
@@ -64,17 +70,23 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
     CustomExternalForce* anisotropic = new CustomExternalForce("0.5*(400*x^2+900*y^2+100*z^2)+30*x*y");
     anisotropic->addParticle(7);
     bonds->addBond(7, 8, 0.0, 3e3);
+    bonds->addBond(8, lastParticle, 0.0, 2e3);
+    for (int i = 0; i < RingSize; ++i)
+        bonds->addBond(9 + i, 9 + (i + 1) % RingSize, 0.0, 1e3 * (1 + i));
     for (Force* f : vector<Force*>{bonds, tether, push, anisotropic}) {
         f->setForceGroup(StiffGroup);
         system.addForce(f);
     }
     LinearSde sde;
-    sde.K = MatrixL::Zero(27, 27);
-    sde.b = VectorL::Zero(27);
+    sde.K = MatrixL::Zero(n, n);
+    sde.b = VectorL::Zero(n);
     addSpring(sde.K, 0, 1, k01);
     addSpring(sde.K, 2, 3, 2e4);
     addSpring(sde.K, 3, 4, 5e2);
     addSpring(sde.K, 7, 8, 3e3);
+    addSpring(sde.K, 8, lastParticle, 2e3);
+    for (int i = 0; i < RingSize; ++i)
+        addSpring(sde.K, 9 + i, 9 + (i + 1) % RingSize, 1e3 * (1 + i));
     sde.K(21, 21) += 400;
     sde.K(22, 22) += 900;
     sde.K(23, 23) += 100;
@@ -91,7 +103,7 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
             sde.mass.push_back(m);
 
     vector<Vec3> q0, v0;
-    for (int i = 0; i < 9; ++i) {
+    for (int i = 0; i < numParticles; ++i) {
         q0.push_back(Vec3(0.1 * i, 0.05 * (i % 3), -0.02 * i));
         v0.push_back(Vec3(0.3 - 0.1 * i, 0.2, 0.05 * i));
     }
@@ -106,7 +118,6 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
         integrator.step(3);
         VectorL expected = sde.mean(stateOf(q0, v0), 3 * H);
         VectorL actual = stateOf(positionsOf(context), velocitiesOf(context));
-        const int n = 27;
         long double positionError = (actual.head(n) - expected.head(n)).norm() / expected.head(n).norm();
         long double velocityError = (actual.tail(n) - expected.tail(n)).norm() / expected.tail(n).norm();
         EXPECT_LE((double)positionError, 1e-10) << "splitting " << splitting;

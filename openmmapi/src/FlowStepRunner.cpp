@@ -75,7 +75,7 @@ void FlowStepRunner::prepare() {
     for (int i = 0; i < numParticles; ++i)
         thermalSpeeds[i] = std::sqrt(kT * inverseMasses[i]);
     preparedPasses.clear();
-    stiffFlows.assign(plan.passes.size(), vector<ModeFlow>());
+    stiffFlows.assign(plan.passes.size(), StiffModes::Propagator());
     thermostatsPerStep = 0;
     for (size_t passIndex = 0; passIndex < plan.passes.size(); ++passIndex) {
         const FlowPass& pass = plan.passes[passIndex];
@@ -91,7 +91,7 @@ void FlowStepRunner::prepare() {
             if (flow.kind == SubFlow::StiffFlow) {
                 p.streamOffset = thermostatsPerStep++;
                 if (stiffModes)
-                    stiffModes->computeFlows(flow.h, friction, stiffFlows[passIndex]);
+                    stiffModes->computePropagator(flow.h, friction, kT, stiffFlows[passIndex]);
             }
             prepared.push_back(p);
         }
@@ -192,10 +192,9 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     if (hasConstraints)
         previousPositions = positions;
     StiffModes::Flow task(*stiffModes);
-    task.flows = stiffFlows[passIndex].data();
+    task.propagator = &stiffFlows[passIndex];
     task.positions = positions.data();
     task.velocities = data.velocities->data();
-    task.thermalScale = (friction > 0.0 ? std::sqrt(kT) : 0.0);
     task.random = &random;
     task.stream = nextStream + flow.streamOffset;
     loop->run(task, stiffModes->getNumComponents());

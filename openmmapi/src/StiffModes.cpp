@@ -1,4 +1,5 @@
 #include "internal/StiffModes.h"
+#include "internal/ExactModeFlow.h"
 #include "internal/ParameterChecks.h"
 #include "openmm/OpenMMException.h"
 #include <Eigen/Dense>
@@ -148,40 +149,6 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
     }
 }
 
-namespace {
-
-/**
- * out = U^T in (transpose) or U in, for n x 3 row-major coordinate blocks and a column-major n x n U.  Plain loops
- * for the small components that dominate in practice (Eigen's dynamic-size products cost more than the arithmetic
- * there), Eigen for large ones.
- */
-void rotateRows(const double* u, int n, const double* in, double* out, bool transpose) {
-    typedef Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>> Rows;
-    typedef Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> const> ConstRows;
-    typedef Eigen::Map<const Eigen::MatrixXd> Matrix;
-    if (n > 8) {
-        if (transpose)
-            Rows(out, n, 3).noalias() = Matrix(u, n, n).transpose() * ConstRows(in, n, 3);
-        else
-            Rows(out, n, 3).noalias() = Matrix(u, n, n) * ConstRows(in, n, 3);
-        return;
-    }
-    for (int j = 0; j < n; ++j) {
-        double sum0 = 0, sum1 = 0, sum2 = 0;
-        for (int p = 0; p < n; ++p) {
-            const double coefficient = transpose ? u[j * n + p] : u[p * n + j]; // U(p, j) or U(j, p)
-            sum0 += coefficient * in[3 * p];
-            sum1 += coefficient * in[3 * p + 1];
-            sum2 += coefficient * in[3 * p + 2];
-        }
-        out[3 * j] = sum0;
-        out[3 * j + 1] = sum1;
-        out[3 * j + 2] = sum2;
-    }
-}
-
-} // namespace
-
 vector<double> StiffModes::getStiffFrequencies() const {
     vector<double> result;
     for (const Component& c : components)
@@ -191,105 +158,178 @@ vector<double> StiffModes::getStiffFrequencies() const {
     return result;
 }
 
-void StiffModes::computeFlows(double h, double gamma, vector<ModeFlow>& flows) const {
-    flows.resize(omega.size());
-    for (size_t k = 0; k < omega.size(); ++k) {
-        if (h >= 0) {
-            flows[k] = computeModeFlow(omega[k], gamma, h);
-            continue;
+namespace {
+
+/** The flow of one mode over h; for h < 0 (friction 0 only) the inverse of the flow over -h. */
+ModeFlow modeFlow(double omega, double gamma, double h) {
+    if (h >= 0)
+        return computeModeFlow(omega, gamma, h);
+    // The deterministic flow has unit determinant, so its inverse is the adjugate.
+    ModeFlow f = computeModeFlow(omega, 0.0, -h);
+    ModeFlow inverse{f.vv, -f.xv, -f.vx, f.xx, 0, 0, 0, 0, 0};
+    inverse.gx = -(inverse.xx * f.gx + inverse.xv * f.gv);
+    inverse.gv = -(inverse.vx * f.gx + inverse.vv * f.gv);
+    return inverse;
+}
+
+// The D x D matrices of a propagator, in the order they are stored.
+enum Matrix { Axx, Axv, Avx, Avv, Nxx, Nvx, Nvv };
+constexpr int NoiseMatrices = 3;
+
+/** out (D x C) = offset + sum over the terms of A_t in_t, with D and C known at compile time. */
+template <int C, int D>
+void propagateSmall(const double* offset, int terms, const double* const* matrices, const double* const* in,
+                    double* out) {
+    double sum[D * C];
+    for (int k = 0; k < D * C; ++k)
+        sum[k] = offset[k];
+    for (int t = 0; t < terms; ++t) {
+        const double* a = matrices[t];
+        const double* x = in[t];
+        for (int i = 0; i < D; ++i)
+            for (int j = 0; j < D; ++j)
+                for (int c = 0; c < C; ++c)
+                    sum[i * C + c] += a[i * D + j] * x[j * C + c];
+    }
+    for (int k = 0; k < D * C; ++k)
+        out[k] = sum[k];
+}
+
+/**
+ * out (D x C) = offset + sum over the terms of A_t in_t: a component's whole update of its positions or of its
+ * velocities.  Unrolled loops for the small components that dominate in practice (Eigen's dynamic-size products
+ * cost more than the arithmetic there), Eigen for large ones.
+ */
+template <int C>
+void propagateRows(int D, const double* offset, int terms, const double* const* matrices, const double* const* in,
+                   double* out) {
+    switch (D) {
+    case 1:
+        return propagateSmall<C, 1>(offset, terms, matrices, in, out);
+    case 2:
+        return propagateSmall<C, 2>(offset, terms, matrices, in, out);
+    case 3:
+        return propagateSmall<C, 3>(offset, terms, matrices, in, out);
+    case 4:
+        return propagateSmall<C, 4>(offset, terms, matrices, in, out);
+    case 5:
+        return propagateSmall<C, 5>(offset, terms, matrices, in, out);
+    case 6:
+        return propagateSmall<C, 6>(offset, terms, matrices, in, out);
+    }
+    typedef Eigen::Matrix<double, Eigen::Dynamic, C, C == 1 ? Eigen::ColMajor : Eigen::RowMajor> Block;
+    typedef Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Square;
+    Eigen::Map<Block> result(out, D, C);
+    result = Eigen::Map<const Block>(offset, D, C);
+    for (int t = 0; t < terms; ++t)
+        result.noalias() += Square(matrices[t], D, D) * Eigen::Map<const Block>(in[t], D, C);
+}
+
+} // namespace
+
+void StiffModes::computePropagator(double h, double gamma, double kT, Propagator& propagator) const {
+    propagator.noisy = (gamma > 0.0 && kT > 0.0);
+    const int matrices = 4 + (propagator.noisy ? NoiseMatrices : 0);
+    propagator.offset.resize(components.size());
+    size_t size = 0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        propagator.offset[c] = size;
+        const size_t D = components[c].rows();
+        size += matrices * D * D + 2 * D * components[c].columns();
+    }
+    propagator.data.assign(size, 0.0);
+    const double thermalScale = propagator.noisy ? std::sqrt(kT) : 0.0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        const int D = comp.rows(), C = comp.columns();
+        // Row i of a component holds particle coordinates of particle particleList[firstParticle + i / (3 / C)].
+        auto sqrtMassOfRow = [&](int i) { return sqrtMass[particleList[comp.firstParticle + (C == 3 ? i : i / 3)]]; };
+        Eigen::Map<const Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], D, D);
+        vector<ModeFlow> flows(D);
+        for (int k = 0; k < D; ++k)
+            flows[k] = modeFlow(omega[comp.firstMode + C * k], gamma, h);
+        double* out = &propagator.data[propagator.offset[c]];
+        const double ModeFlow::*entries[] = {&ModeFlow::xx,  &ModeFlow::xv,  &ModeFlow::vx, &ModeFlow::vv,
+                                             &ModeFlow::lxx, &ModeFlow::lvx, &ModeFlow::lvv};
+        for (int m = 0; m < matrices; ++m) {
+            Eigen::VectorXd diagonal(D);
+            for (int k = 0; k < D; ++k)
+                diagonal[k] = flows[k].*entries[m];
+            // U f U^T acts on mass-weighted coordinates; in particle coordinates it is S^-1 U f U^T S (the noise, drawn
+            // per particle coordinate, is S^-1 U L U^T xi).
+            Eigen::MatrixXd product = u * diagonal.asDiagonal() * u.transpose();
+            // Layout: Axx, Axv, Avx, Avv, gx, gv, Nxx, Nvx, Nvv.
+            const bool noise = (m >= 4);
+            double* matrix = out + (noise ? 4 * D * D + 2 * D * C + (m - 4) * D * D : m * D * D);
+            for (int i = 0; i < D; ++i)
+                for (int j = 0; j < D; ++j)
+                    matrix[i * D + j] = product(i, j) / sqrtMassOfRow(i) * (noise ? thermalScale : sqrtMassOfRow(j));
         }
-        // Deterministic flow backwards in time: the inverse of the (unit-determinant) forward flow.
-        ModeFlow f = computeModeFlow(omega[k], 0.0, -h);
-        ModeFlow inverse{f.vv, -f.xv, -f.vx, f.xx, 0, 0, 0, 0, 0};
-        inverse.gx = -(inverse.xx * f.gx + inverse.xv * f.gv);
-        inverse.gv = -(inverse.vx * f.gx + inverse.vv * f.gv);
-        flows[k] = inverse;
+        // The response to the constant force, U (g_k F_k) in mass-weighted coordinates.
+        double* offsets = out + 4 * D * D;
+        for (int k = 0; k < D; ++k)
+            for (int col = 0; col < C; ++col) {
+                const double force = modeForce[comp.firstMode + C * k + col];
+                for (int i = 0; i < D; ++i) {
+                    offsets[i * C + col] += u(i, k) * flows[k].gx * force / sqrtMassOfRow(i);
+                    offsets[D * C + i * C + col] += u(i, k) * flows[k].gv * force / sqrtMassOfRow(i);
+                }
+            }
     }
 }
 
 void StiffModes::Flow::apply(int begin, int end) const {
-    typedef Eigen::Map<Eigen::VectorXd> Vector;
-    typedef Eigen::Map<const Eigen::MatrixXd> Matrix;
+    const bool noisy = propagator->noisy;
     for (int c = begin; c < end; ++c) {
         const Component& comp = modes.components[c];
-        const int dim = 3 * comp.numParticles;
-        // Mass-weighted coordinates x, w, mode coordinates a, alpha and the two noise vectors, in this component's
-        // slice of scratch.
-        double* x = &modes.scratch[6 * (size_t)comp.firstMode];
-        double* w = x + dim;
-        double* a = comp.stiff ? w + dim : x;
-        double* alpha = comp.stiff ? a + dim : w;
-        double* noise1 = x + 4 * dim;
-        double* noise2 = noise1 + dim;
-        const bool noisy = (thermalScale != 0.0);
+        const int D = comp.rows(), C = comp.columns(), size = D * C;
+        // This component's slice of scratch: incoming positions, velocities, the two noise vectors and the outgoing
+        // positions and velocities, 3 doubles per particle in the component's particle order (which is the D x C
+        // row-major layout for either C).
+        double* q = &modes.scratch[6 * (size_t)comp.firstMode];
+        double* v = q + size;
+        double* xi1 = v + size;
+        double* xi2 = xi1 + size;
         for (int p = 0; p < comp.numParticles; ++p) {
             const int particle = modes.particleList[comp.firstParticle + p];
-            const double s = modes.sqrtMass[particle];
             for (int d = 0; d < 3; ++d) {
-                x[3 * p + d] = s * positions[particle][d];
-                w[3 * p + d] = s * velocities[particle][d];
+                q[3 * p + d] = positions[particle][d];
+                v[3 * p + d] = velocities[particle][d];
             }
             if (noisy) {
-                // Drawn per particle and rotated into the modes, so the noise does not depend on which basis the
-                // eigensolver picked inside a degenerate subspace.
-                std::array<double, 3> xi1 = random->normals(stream, 2 * (std::uint32_t)particle);
-                std::array<double, 3> xi2 = random->normals(stream, 2 * (std::uint32_t)particle + 1);
+                const std::array<double, 3> a = random->normals(stream, 2 * (std::uint32_t)particle);
+                const std::array<double, 3> b = random->normals(stream, 2 * (std::uint32_t)particle + 1);
                 for (int d = 0; d < 3; ++d) {
-                    noise1[3 * p + d] = xi1[d];
-                    noise2[3 * p + d] = xi2[d];
+                    xi1[3 * p + d] = a[d];
+                    xi2[3 * p + d] = b[d];
                 }
             }
         }
-        const int n = comp.numParticles;
-        if (comp.stiff && comp.isotropic) {
-            const double* u = &modes.eigenvectors[comp.matrixOffset];
-            rotateRows(u, n, x, a, true);
-            rotateRows(u, n, w, alpha, true);
-            if (noisy) {
-                // x and w are free until the modes are mapped back.
-                rotateRows(u, n, noise1, x, true);
-                rotateRows(u, n, noise2, w, true);
-                std::copy(x, x + 2 * dim, noise1);
-            }
-        } else if (comp.stiff) {
-            Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
-            Vector(a, dim).noalias() = u.transpose() * Vector(x, dim);
-            Vector(alpha, dim).noalias() = u.transpose() * Vector(w, dim);
-            if (noisy) {
-                Vector(x, dim).noalias() = u.transpose() * Vector(noise1, dim);
-                Vector(w, dim).noalias() = u.transpose() * Vector(noise2, dim);
-                std::copy(x, x + 2 * dim, noise1);
-            }
-        }
-        for (int k = 0; k < dim; ++k) {
-            const int mode = comp.firstMode + k;
-            const ModeFlow& f = flows[mode];
-            const double force = modes.modeForce[mode];
-            double na = f.xx * a[k] + f.xv * alpha[k] + f.gx * force;
-            double nalpha = f.vx * a[k] + f.vv * alpha[k] + f.gv * force;
-            if (noisy) {
-                na += thermalScale * f.lxx * noise1[k];
-                nalpha += thermalScale * (f.lvx * noise1[k] + f.lvv * noise2[k]);
-            }
-            a[k] = na;
-            alpha[k] = nalpha;
-        }
-        if (comp.stiff && comp.isotropic) {
-            const double* u = &modes.eigenvectors[comp.matrixOffset];
-            rotateRows(u, n, a, x, false);
-            rotateRows(u, n, alpha, w, false);
-        } else if (comp.stiff) {
-            Matrix u(&modes.eigenvectors[comp.matrixOffset], dim, dim);
-            Vector(x, dim).noalias() = u * Vector(a, dim);
-            Vector(w, dim).noalias() = u * Vector(alpha, dim);
-        }
+        const double* m = &propagator->data[propagator->offset[c]];
+        const int square = D * D;
+        const double* gx = m + 4 * square;
+        const double* gv = gx + size;
+        const double* noise = gv + size;
+        const double* positionMatrices[] = {m + Axx * square, m + Axv * square, noise};
+        const double* velocityMatrices[] = {m + Avx * square, m + Avv * square, noise + square, noise + 2 * square};
+        const double* positionInputs[] = {q, v, xi1};
+        const double* velocityInputs[] = {q, v, xi1, xi2};
+        // Every output row reads every input row of the component, so outputs are stored after all are computed.
+        double* newQ = xi2 + size;
+        double* newV = newQ + size;
+        auto propagate = [&](const double* offset, int terms, const double* const* matrices, const double* const* in,
+                             double* out) {
+            if (C == 3)
+                propagateRows<3>(D, offset, terms, matrices, in, out);
+            else
+                propagateRows<1>(D, offset, terms, matrices, in, out);
+        };
+        propagate(gx, noisy ? 3 : 2, positionMatrices, positionInputs, newQ);
+        propagate(gv, noisy ? 4 : 2, velocityMatrices, velocityInputs, newV);
         for (int p = 0; p < comp.numParticles; ++p) {
             const int particle = modes.particleList[comp.firstParticle + p];
-            const double s = 1.0 / modes.sqrtMass[particle];
-            for (int d = 0; d < 3; ++d) {
-                positions[particle][d] = s * x[3 * p + d];
-                velocities[particle][d] = s * w[3 * p + d];
-            }
+            positions[particle] = OpenMM::Vec3(newQ[3 * p], newQ[3 * p + 1], newQ[3 * p + 2]);
+            velocities[particle] = OpenMM::Vec3(newV[3 * p], newV[3 * p + 1], newV[3 * p + 2]);
         }
     }
 }

@@ -77,8 +77,8 @@ private:
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     std::shared_ptr<const StiffModes> stiffModes;
-    // For each pass that is a StiffFlow, the per-mode flows over its step.
-    std::vector<std::vector<ModeFlow>> stiffFlows;
+    // For each pass that is a StiffFlow, the exact flow over its step.
+    std::vector<StiffModes::Propagator> stiffFlows;
     std::vector<ForceSlot> slots;
     std::vector<OpenMM::Vec3> previousPositions;
     int thermostatsPerStep;

@@ -2,7 +2,6 @@
 #define OPENMM_FLAVORS_STIFF_MODES_H_
 
 #include "CounterRandom.h"
-#include "ExactModeFlow.h"
 #include "ParticleFlows.h"
 #include "openmm/Vec3.h"
 #include "windowsExportFlavors.h"
@@ -38,21 +37,39 @@ public:
     std::vector<double> getStiffFrequencies() const;
     /** Whether particle i belongs to a component with nonzero stiffness. */
     bool isStiffParticle(int i) const { return stiffParticle[i]; }
-    /** The per-mode flows over a step h with friction gamma; h < 0 is allowed for gamma = 0 (the inverse flow). */
-    void computeFlows(double h, double gamma, std::vector<ModeFlow>& flows) const;
+    /**
+     * The exact flow of every component over one step, mapped back to particle coordinates.  A component has D rows
+     * (its particles when isotropic, else their 3n coordinates) and C = 3 or 1 columns, so its positions q and
+     * velocities v are D x C row-major blocks, and one step is
+     *
+     *     q' = Axx q + Axv v + gx + Nxx xi1,    v' = Avx q + Avv v + gv + Nvx xi1 + Nvv xi2
+     *
+     * with xi1, xi2 standard normal per particle coordinate.  Each D x D matrix is U f(Omega) U^T with the masses
+     * folded in, so applying it needs no change of basis, and the noise does not depend on which eigenvectors the
+     * solver picked in a degenerate subspace.
+     */
+    struct Propagator {
+        /** For each component, where its Axx, Axv, Avx, Avv, gx, gv (and Nxx, Nvx, Nvv when noisy) start in data. */
+        std::vector<size_t> offset;
+        std::vector<double> data;
+        bool noisy = false;
+    };
+    /**
+     * Computes the propagator over a step h with friction gamma and thermal energy kT; h < 0 is allowed for
+     * gamma = 0 (the inverse flow).
+     */
+    void computePropagator(double h, double gamma, double kT, Propagator& propagator) const;
 
     /**
-     * Applies the exact flow to positions and velocities, one component per index of the range.
+     * Applies a Propagator to positions and velocities, one component per index of the range.
      */
     class Flow : public RangeTask {
     public:
         Flow(const StiffModes& modes) : modes(modes) {}
         void apply(int begin, int end) const override;
-        const ModeFlow* flows = nullptr;
+        const Propagator* propagator = nullptr;
         OpenMM::Vec3* positions = nullptr;
         OpenMM::Vec3* velocities = nullptr;
-        /** sqrt(kT); zero means no noise. */
-        double thermalScale = 0.0;
         const CounterRandom* random = nullptr;
         std::uint64_t stream = 0;
 
@@ -67,12 +84,15 @@ private:
         size_t matrixOffset;             // its column-major eigenvector matrix in eigenvectors
         bool stiff;
         bool isotropic; // every block a multiple of the identity: n x n eigenvectors shared by x, y and z
+        int rows() const { return isotropic ? numParticles : 3 * numParticles; }
+        int columns() const { return isotropic ? 3 : 1; }
     };
     std::vector<Component> components;
     std::vector<int> particleList;
     std::vector<double> sqrtMass, eigenvectors, omega, modeForce;
     std::vector<bool> stiffParticle;
-    // Mode coordinates and velocities, one slice per component, so components can run in parallel.
+    // Each component's incoming and outgoing positions and velocities and its noise, one slice per component so that
+    // components can run in parallel.
     mutable std::vector<double> scratch;
 };
 

@@ -9,13 +9,15 @@
 // Usage: step_cost [--platform Reference|CPU] [--chains N] [--threads N] [--seconds S] [--repeats N]
 //                  [--steps N] [--plugins DIR] [measurement ...]
 // Measurements: force_soft force_stiff force_all flavor_verlet flavor_euler verlet verlet_soft verlet_stiff
-// (default: all).  Prints one JSON object: microseconds per step (minimum and median over the repeats).
+// sim_strang sim_lietrotter (default: all).  Prints one JSON object: microseconds per step (minimum and median over the
+// repeats).
 // --steps N times exactly one batch of N steps after a 10-step warm-up, for instruction counting under callgrind
 // (the difference of two runs with different N is the cost of those steps alone).
 
 #include "FlavorIntegrator.h"
 #include "FpuChain.h"
 #include "OpenMM.h"
+#include "StochasticImpulseIntegrator.h"
 #include "openmm/internal/ContextImpl.h"
 #include <algorithm>
 #include <chrono>
@@ -98,6 +100,12 @@ std::unique_ptr<Integrator> makeIntegrator(const std::string& name) {
             verlet->setIntegrationForceGroups(name == "verlet_soft" ? soft : stiff);
         return verlet;
     }
+    if (name == "sim_strang" || name == "sim_lietrotter") {
+        auto sim = std::make_unique<FlavorPlugin::StochasticImpulseIntegrator>(0.0, 0.0, 0.01, stiff);
+        sim->setSplitting(name == "sim_strang" ? FlavorPlugin::StochasticImpulseIntegrator::Strang
+                                               : FlavorPlugin::StochasticImpulseIntegrator::LieTrotter);
+        return sim;
+    }
     return nullptr;
 }
 
@@ -143,8 +151,8 @@ int main(int argc, char** argv) {
             names.push_back(arg);
     }
     if (names.empty())
-        names = {"force_soft",   "force_stiff", "force_all",   "flavor_verlet",
-                 "flavor_euler", "verlet",      "verlet_soft", "verlet_stiff"};
+        names = {"force_soft", "force_stiff", "force_all",    "flavor_verlet", "flavor_euler",
+                 "verlet",     "verlet_soft", "verlet_stiff", "sim_strang",    "sim_lietrotter"};
 
     Platform::loadPluginsFromDirectory(Platform::getDefaultPluginsDirectory());
     Platform::loadPluginsFromDirectory(plugins);

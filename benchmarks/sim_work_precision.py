@@ -48,6 +48,7 @@ import openmmflavors
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
 import fpu_chain  # noqa: E402
+from step_cost import count_instructions, find_helper  # noqa: E402  (benchmarks/step_cost.py)
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
@@ -256,15 +257,15 @@ def work_precision(omega, T, args, log):
                     "cheapest_x0_only": lambda r: r["rel_err_x0_1"] <= X0_TOL,
                     "cheapest_energy_scale": lambda r: (r["rel_err_x0_1"] <= X0_TOL and
                                                         r["energy_scale_err_I"] <= I_TOL)}
-        # The few cheapest candidates under each criterion are timed again (min over more repeats, at least two
-        # runs): the sweep's single timings of long runs carry the machine's background load.
+        # The few cheapest candidates under each criterion are timed again (min over up to --retime-repeats runs):
+        # the sweep's timings carry the machine's background load.
         candidates = set()
         for predicate in criteria.values():
             passing = sorted((r for r in rows if predicate(r)), key=lambda r: r["wall_s"])
             candidates.update(id(r) for r in passing[:3])
         for r in rows:
             if id(r) in candidates:
-                again = run_openmm(omega, T, factory(r["step"]), r["step"], leapfrog, max(args.repeats, 2),
+                again = run_openmm(omega, T, factory(r["step"]), r["step"], leapfrog, args.retime_repeats,
                                    enough=args.retime_seconds, sampled=False)[3]
                 r["wall_s_sweep"] = r["wall_s"]
                 r["wall_s"] = min(r["wall_s"], again)
@@ -277,6 +278,28 @@ def work_precision(omega, T, args, log):
         a, b = results["verlet"][criterion], results["sim_strang"][criterion]
         speedups[criterion] = (a["wall_s"] / b["wall_s"]) if a and b else None
     return {"reference": reference, "methods": results, "speedup_sim_strang_over_verlet": speedups}
+
+
+def instruction_speedups(part_a, log):
+    """Speedups that do not depend on the machine's load: steps times instructions per step (callgrind, one chain on
+    Reference, through the C++ helper).  The per-step count depends on neither omega nor the step size; SIM's
+    one-off stiffness measurement (about ten force evaluations) is left out."""
+    helper, valgrind = find_helper(None), shutil.which("valgrind")
+    if helper is None or valgrind is None:
+        log("    no C++ helper or valgrind: instruction counts skipped")
+        return
+    counts = {name: count_instructions(helper, valgrind, ["--platform", "Reference"], name, (2000, 4000))
+              for name in ("verlet", "sim_strang")}
+    log(f"    callgrind: VerletIntegrator {counts['verlet']:.0f}, Strang SIM {counts['sim_strang']:.0f} "
+        f"instructions per step")
+    for res in part_a.values():
+        res["instructions_per_step"] = counts
+        speedups = {}
+        for criterion in CRITERIA:
+            a, b = res["methods"]["verlet"][criterion], res["methods"]["sim_strang"][criterion]
+            speedups[criterion] = (a["steps"] * counts["verlet"]) / (b["steps"] * counts["sim_strang"]) \
+                if a and b else None
+        res["speedup_instructions_sim_strang_over_verlet"] = speedups
 
 
 def cheapest(rows, predicate):
@@ -386,13 +409,6 @@ def time_round_robin(integrators, target, repeats):
     return {key: (min(t), statistics.median(t)) for key, t in times.items()}
 
 
-def find_helper():
-    for c in (os.environ.get("FLAVORS_STEP_COST", ""), os.path.join(REPO_ROOT, "build", "benchmarks", "step_cost")):
-        if c and os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    return shutil.which("step_cost")
-
-
 def helper_force_cost(helper, platform, chains, threads, seconds, repeats):
     if helper is None:
         return None
@@ -409,7 +425,7 @@ def helper_force_cost(helper, platform, chains, threads, seconds, repeats):
 
 
 def step_cost(chain_counts, platforms, threads, target, repeats, log):
-    helper = find_helper()
+    helper = find_helper(None)
     rows = []
     omega = 200.0
     for platform in platforms:
@@ -483,7 +499,11 @@ def main():
     parser.add_argument("--repeats", type=int, default=5, help="max repeats of a short run (min kept)")
     parser.add_argument("--retime-seconds", type=float, default=None,
                         help="re-timing of the cheapest candidates stops after this much (default 2; 0.2 --quick)")
+    parser.add_argument("--retime-repeats", type=int, default=None,
+                        help="at most this many re-timing runs of a candidate (default 20; 2 with --quick)")
     parser.add_argument("--strang-only", action="store_true", help="skip the LieTrotter and Yoshida4 sweeps")
+    parser.add_argument("--no-instructions", action="store_true",
+                        help="skip the callgrind instruction counts (always skipped with --quick)")
     parser.add_argument("--springs", type=int, nargs="+", default=None,
                         help="set-up sizes (default 1000 3000 10000 30000 100000)")
     parser.add_argument("--chains", type=int, nargs="+", default=None, help="step-cost sizes (default 1 1667)")
@@ -503,6 +523,7 @@ def main():
     seconds = args.seconds if args.seconds is not None else (0.03 if args.quick else 0.1)
     repeats = 2 if args.quick else max(args.repeats, 7)
     args.retime_seconds = args.retime_seconds if args.retime_seconds is not None else (0.2 if args.quick else 2.0)
+    args.retime_repeats = args.retime_repeats if args.retime_repeats is not None else (2 if args.quick else 20)
 
     def log(message):
         print(message, file=sys.stderr, flush=True)
@@ -510,6 +531,8 @@ def main():
     started = time.perf_counter()
     load = os.getloadavg()
     part_a = {f"{omega:g}": work_precision(omega, T, args, log) for omega in omegas}
+    if not (args.quick or args.no_instructions):
+        instruction_speedups(part_a, log)
     log("[b] set-up cost of the stiff modes")
     part_b = setup_cost(springs, args.platforms, args.threads, log)
     log("[c] step cost")
@@ -577,7 +600,9 @@ def print_tables(part_a, part_b, part_c, T):
             print(f"\n  cheapest run passing {name}:")
             for key, m in res["methods"].items():
                 print(f"    {m['label']:16s} {describe(m[criterion])}")
-            print(f"  speedup of Strang SIM over Verlet at omega = {omega}: {fmt(s[criterion])}")
+            counted = res.get("speedup_instructions_sim_strang_over_verlet", {}).get(criterion)
+            print(f"  speedup of Strang SIM over Verlet at omega = {omega}: {fmt(s[criterion])} in wall time"
+                  + (f", {counted:.1f}x in instructions (steps x callgrind count per step)" if counted else ""))
 
     print("\n(b) Set-up cost of the stiff modes: independent springs (HarmonicBondForce length 0) + soft x^4")
     head = f"  {'platform':9s} {'springs':>8s} {'1st step s':>10s} {'later s':>9s} {'set-up s':>9s} " \
@@ -666,8 +691,14 @@ def plot(part_a, part_b, part_c, T, path):
     width = 0.8 / len(CRITERIA)
     for i, (criterion, name) in enumerate(CRITERIA.items()):
         values = [part_a[o]["speedup_sim_strang_over_verlet"][criterion] or 0.0 for o in omegas]
-        bars = ax.bar(np.arange(len(omegas)) + i * width, values, width, label=name)
+        bars = ax.bar(np.arange(len(omegas)) + i * width, values, width / 2, label=f"{name}: wall time")
         ax.bar_label(bars, fmt="%.0f", fontsize=7)
+        counted = [part_a[o].get("speedup_instructions_sim_strang_over_verlet", {}).get(criterion) or 0.0
+                   for o in omegas]
+        if any(counted):
+            bars = ax.bar(np.arange(len(omegas)) + i * width + width / 2, counted, width / 2, hatch="//",
+                          color=bars.patches[0].get_facecolor(), alpha=0.5, label=f"{name}: instructions")
+            ax.bar_label(bars, fmt="%.0f", fontsize=7)
     ax.set_xticks(np.arange(len(omegas)) + 0.4 - width / 2)
     ax.set_xticklabels([f"omega = {o}" for o in omegas])
     ax.set_yscale("log")

@@ -1,5 +1,5 @@
-"""Smoke tests of benchmarks/work_precision.py, stability.py and sim_step_cost.py: each runs with --quick into a temporary
-folder, exits 0 and writes its JSON, markdown and charts with the expected structure.  The numbers themselves are the
+"""Smoke tests of benchmarks/work_precision.py, stability.py, sim_step_cost.py and sim_work_precision.py: each runs
+with --quick into a temporary folder, exits 0 and writes its JSON, markdown and charts with the expected structure.  The numbers themselves are the
 benchmarks' business, not the tests'; only what must hold by construction is checked."""
 import json
 import os
@@ -72,3 +72,28 @@ def test_sim_step_cost_quick(tmp_path):
     assert set(data["runs"]) == {"Strang_friction0", "LieTrotter_friction0", "Strang_friction1", "LieTrotter_friction1"}
     assert all(run["step_us"] > 0 and run["mode_work_us"] > 0 for run in data["runs"].values())
     assert (tmp_path / "sim_step_cost.png").exists()
+
+
+def test_sim_work_precision_quick(tmp_path):
+    result = run_quick("sim_work_precision.py", tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    for name in ("sim_work_precision.json", "sim_work_precision.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    with open(tmp_path / "sim_work_precision.json") as f:
+        data = json.load(f)
+    criterion = data["criterion"]
+    for result in data["a_work_precision"].values():
+        assert {"sim_strang", "verlet"} <= set(result["methods"])
+        assert set(result["speedup_sim_strang_over_verlet"]) == {"cheapest", "cheapest_x0_only",
+                                                                 "cheapest_energy_scale"}
+        for method in result["methods"].values():
+            for run in method["runs"]:
+                strict = run["rel_err_x0_1"] <= criterion["x0_1_relative"] and \
+                    max(run["rel_err_I"]) <= criterion["every_I_j_relative"]
+                assert run["passes"] == strict
+                # Every I_j error relative to the total stiff energy at T is at most the maximum over the samples.
+                assert max(run["abs_err_I"]) / sum(result["reference"]["I_T"]) <= run["energy_scale_err_I"] * (1 + 1e-12)
+            best = method["cheapest_energy_scale"]
+            if best is not None:
+                assert best["energy_scale_err_I"] <= criterion["every_I_j_relative"]
+    assert data["b_setup"]["rows"] and data["c_step_cost"]["rows"]

@@ -9,8 +9,8 @@
 // Usage: step_cost [--platform Reference|CPU] [--chains N] [--threads N] [--seconds S] [--repeats N]
 //                  [--steps N] [--plugins DIR] [measurement ...]
 // Measurements: force_soft force_stiff force_all flavor_verlet flavor_euler verlet verlet_soft verlet_stiff
-// sim_strang sim_lietrotter (default: all).  Prints one JSON object: microseconds per step (minimum and median over the
-// repeats).
+// sim_strang sim_lietrotter sim_strang_langevin (default: all).  Prints one JSON object: microseconds per step (minimum
+// and median over the repeats).
 // --steps N times exactly one batch of N steps after a 10-step warm-up, for instruction counting under callgrind
 // (the difference of two runs with different N is the cost of those steps alone).
 
@@ -100,10 +100,12 @@ std::unique_ptr<Integrator> makeIntegrator(const std::string& name) {
             verlet->setIntegrationForceGroups(name == "verlet_soft" ? soft : stiff);
         return verlet;
     }
-    if (name == "sim_strang" || name == "sim_lietrotter") {
-        auto sim = std::make_unique<FlavorPlugin::StochasticImpulseIntegrator>(0.0, 0.0, 0.01, stiff);
-        sim->setSplitting(name == "sim_strang" ? FlavorPlugin::StochasticImpulseIntegrator::Strang
-                                               : FlavorPlugin::StochasticImpulseIntegrator::LieTrotter);
+    if (name == "sim_strang" || name == "sim_lietrotter" || name == "sim_strang_langevin") {
+        const bool langevin = (name == "sim_strang_langevin");
+        auto sim = std::make_unique<FlavorPlugin::StochasticImpulseIntegrator>(langevin ? 300.0 : 0.0,
+                                                                               langevin ? 1.0 : 0.0, 0.01, stiff);
+        sim->setSplitting(name == "sim_lietrotter" ? FlavorPlugin::StochasticImpulseIntegrator::LieTrotter
+                                                   : FlavorPlugin::StochasticImpulseIntegrator::Strang);
         return sim;
     }
     return nullptr;

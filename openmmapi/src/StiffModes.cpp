@@ -174,9 +174,17 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
     return inverse;
 }
 
-// The D x D matrices of a propagator, in the order they are stored.
+// The D x D matrices of a propagator.
 enum Matrix { Axx, Axv, Avx, Avv, Nxx, Nvx, Nvv };
-constexpr int NoiseMatrices = 3;
+
+/** Where the parts of one component's propagator lie: Axx, Axv, Avx, Avv, gx, gv, then Nxx, Nvx, Nvv if noisy. */
+struct PropagatorLayout {
+    size_t D, C;
+    size_t matrix(Matrix m) const { return m < Nxx ? m * D * D : 4 * D * D + 2 * D * C + (m - Nxx) * D * D; }
+    size_t gx() const { return 4 * D * D; }
+    size_t gv() const { return 4 * D * D + D * C; }
+    size_t size(bool noisy) const { return (noisy ? 7 : 4) * D * D + 2 * D * C; }
+};
 
 /** out (D x C) = offset + sum over the terms of A_t in_t, with D and C known at compile time. */
 template <int C, int D>
@@ -231,19 +239,19 @@ void propagateRows(int D, const double* offset, int terms, const double* const* 
 
 void StiffModes::computePropagator(double h, double gamma, double kT, Propagator& propagator) const {
     propagator.noisy = (gamma > 0.0 && kT > 0.0);
-    const int matrices = 4 + (propagator.noisy ? NoiseMatrices : 0);
+    const Matrix lastMatrix = propagator.noisy ? Nvv : Avv;
     propagator.offset.resize(components.size());
     size_t size = 0;
     for (size_t c = 0; c < components.size(); ++c) {
         propagator.offset[c] = size;
-        const size_t D = components[c].rows();
-        size += matrices * D * D + 2 * D * components[c].columns();
+        size += PropagatorLayout{(size_t)components[c].rows(), (size_t)components[c].columns()}.size(propagator.noisy);
     }
     propagator.data.assign(size, 0.0);
     const double thermalScale = propagator.noisy ? std::sqrt(kT) : 0.0;
     for (size_t c = 0; c < components.size(); ++c) {
         const Component& comp = components[c];
         const int D = comp.rows(), C = comp.columns();
+        const PropagatorLayout layout{(size_t)D, (size_t)C};
         // Row i of a component holds particle coordinates of particle particleList[firstParticle + i / (3 / C)].
         auto sqrtMassOfRow = [&](int i) { return sqrtMass[particleList[comp.firstParticle + (C == 3 ? i : i / 3)]]; };
         Eigen::Map<const Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], D, D);
@@ -253,28 +261,27 @@ void StiffModes::computePropagator(double h, double gamma, double kT, Propagator
         double* out = &propagator.data[propagator.offset[c]];
         const double ModeFlow::*entries[] = {&ModeFlow::xx,  &ModeFlow::xv,  &ModeFlow::vx, &ModeFlow::vv,
                                              &ModeFlow::lxx, &ModeFlow::lvx, &ModeFlow::lvv};
-        for (int m = 0; m < matrices; ++m) {
+        for (int m = Axx; m <= lastMatrix; ++m) {
             Eigen::VectorXd diagonal(D);
             for (int k = 0; k < D; ++k)
                 diagonal[k] = flows[k].*entries[m];
             // U f U^T acts on mass-weighted coordinates; in particle coordinates it is S^-1 U f U^T S (the noise, drawn
             // per particle coordinate, is S^-1 U L U^T xi).
             Eigen::MatrixXd product = u * diagonal.asDiagonal() * u.transpose();
-            // Layout: Axx, Axv, Avx, Avv, gx, gv, Nxx, Nvx, Nvv.
-            const bool noise = (m >= 4);
-            double* matrix = out + (noise ? 4 * D * D + 2 * D * C + (m - 4) * D * D : m * D * D);
+            const bool noise = (m >= Nxx);
+            double* matrix = out + layout.matrix((Matrix)m);
             for (int i = 0; i < D; ++i)
                 for (int j = 0; j < D; ++j)
                     matrix[i * D + j] = product(i, j) / sqrtMassOfRow(i) * (noise ? thermalScale : sqrtMassOfRow(j));
         }
         // The response to the constant force, U (g_k F_k) in mass-weighted coordinates.
-        double* offsets = out + 4 * D * D;
+        double *gx = out + layout.gx(), *gv = out + layout.gv();
         for (int k = 0; k < D; ++k)
             for (int col = 0; col < C; ++col) {
                 const double force = modeForce[comp.firstMode + C * k + col];
                 for (int i = 0; i < D; ++i) {
-                    offsets[i * C + col] += u(i, k) * flows[k].gx * force / sqrtMassOfRow(i);
-                    offsets[D * C + i * C + col] += u(i, k) * flows[k].gv * force / sqrtMassOfRow(i);
+                    gx[i * C + col] += u(i, k) * flows[k].gx * force / sqrtMassOfRow(i);
+                    gv[i * C + col] += u(i, k) * flows[k].gv * force / sqrtMassOfRow(i);
                 }
             }
     }
@@ -308,12 +315,10 @@ void StiffModes::Flow::apply(int begin, int end) const {
             }
         }
         const double* m = &propagator->data[propagator->offset[c]];
-        const int square = D * D;
-        const double* gx = m + 4 * square;
-        const double* gv = gx + size;
-        const double* noise = gv + size;
-        const double* positionMatrices[] = {m + Axx * square, m + Axv * square, noise};
-        const double* velocityMatrices[] = {m + Avx * square, m + Avv * square, noise + square, noise + 2 * square};
+        const PropagatorLayout layout{(size_t)D, (size_t)C};
+        const double* positionMatrices[] = {m + layout.matrix(Axx), m + layout.matrix(Axv), m + layout.matrix(Nxx)};
+        const double* velocityMatrices[] = {m + layout.matrix(Avx), m + layout.matrix(Avv), m + layout.matrix(Nvx),
+                                            m + layout.matrix(Nvv)};
         const double* positionInputs[] = {q, v, xi1};
         const double* velocityInputs[] = {q, v, xi1, xi2};
         // Every output row reads every input row of the component, so outputs are stored after all are computed.
@@ -326,8 +331,8 @@ void StiffModes::Flow::apply(int begin, int end) const {
             else
                 propagateRows<1>(D, offset, terms, matrices, in, out);
         };
-        propagate(gx, noisy ? 3 : 2, positionMatrices, positionInputs, newQ);
-        propagate(gv, noisy ? 4 : 2, velocityMatrices, velocityInputs, newV);
+        propagate(m + layout.gx(), noisy ? 3 : 2, positionMatrices, positionInputs, newQ);
+        propagate(m + layout.gv(), noisy ? 4 : 2, velocityMatrices, velocityInputs, newV);
         for (int p = 0; p < comp.numParticles; ++p) {
             const int particle = modes.particleList[comp.firstParticle + p];
             positions[particle] = OpenMM::Vec3(newQ[3 * p], newQ[3 * p + 1], newQ[3 * p + 2]);

@@ -3,17 +3,19 @@
 set-up cost of the stiff modes, and the cost of a SIM step relative to a soft-force evaluation.
 
 (a) FPU chain (FLAVORS paper eq. 6.7, m = 3, Fig. 6.5 start: x0 = (1,0,0), x1 = (1/omega,0,0), y = 0), T = 50,
-    Reference platform, omega = 200 and 1000.  Strang SIM (friction 0) over a sweep of H, VerletIntegrator over a
-    sweep of h (LieTrotter and Yoshida4 SIMs too, for information).  Errors at T against an independent reference:
-    SciPy's DOP853 (explicit Runge-Kutta 8(5,3), Fortran core, Python right-hand side), rtol 1e-12, atol 1e-15.  Its
-    own error is bounded by its difference from a run at rtol 1e-10 (that difference is mostly the looser run's
-    error).  Two readings of the accuracy target "relative error of x0,1 <= 1e-3 and of every stiff energy
-    I_j <= 1e-2", both with x0,1 at T:
+    Reference platform, omega = 200, 1000 and 5000.  Strang SIM (friction 0) over a sweep of H (steps with omega H
+    within 0.1 turn of a resonance 2 pi k made smaller, as getStiffModeFrequencies() lets a user do),
+    VerletIntegrator over a sweep of h (LieTrotter and Yoshida4 SIMs too, for information).  Errors at T against
+    an independent reference: SciPy's DOP853 (explicit Runge-Kutta 8(5,3), Fortran core, Python right-hand side),
+    rtol 1e-12, atol 1e-15.  Its own error is bounded by its difference from a run at rtol 1e-10 (that difference is
+    mostly the looser run's error).  Two readings of the accuracy target "relative error of x0,1 <= 1e-3 and of
+    every stiff energy I_j <= 1e-2", both with x0,1 at T:
       strict:       every I_j(T) relative to itself (I_3(T) is 3e-5 at omega = 200 and 5e-8 at omega = 1000);
       energy scale: every I_j relative to the total stiff energy sum_j I_j (the energy being exchanged), at
                     every one of SAMPLES equally spaced times in (0, T], so that a run cannot pass because the
                     phase of its error happens to be small at T.
-    For each method and reading the cheapest passing run (wall time of one integrator.step(steps) call, minimum
+    After the sweep, two more steps are run between each criterion's largest passing step and the failing grid step
+    above it.  For each method and reading the cheapest passing run (wall time of one integrator.step(steps) call, minimum
     over repeats for short runs, fresh Context each, SIM's first step with the stiffness measurement included; the
     errors come from a separate run with the same steps, stopped at the sample times) and the speedup of SIM over
     Verlet.
@@ -118,6 +120,16 @@ def reference_solution(omega, T, rtol):
     return x0, stiff, np.array(samples), time.perf_counter() - start, calls[0]
 
 
+def stiffest_mode(omega):
+    """The largest stiff-mode angular frequency of the chain, as StochasticImpulseIntegrator reports it."""
+    integrator = SIM(0.0, 0.0, 0.01, {STIFF})
+    context = mm.Context(fpu_system(omega), integrator, mm.Platform.getPlatformByName("Reference"))
+    q = np.zeros((2 * M, 3))
+    q[:, 0] = initial_q(omega)
+    context.setPositions(q)
+    return max(f.value_in_unit(unit.picosecond**-1) for f in integrator.getStiffModeFrequencies())
+
+
 def sample_times(T):
     return T * np.arange(1, SAMPLES + 1) / SAMPLES
 
@@ -176,8 +188,10 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3, samp
     return final[0], final[1], samples, min(walls), steps
 
 
-def sweep_grid(start, stop, per_octave, T):
-    """Step sizes start, start 2^(-1/per_octave), ... down to stop, each adjusted to divide T / SAMPLES."""
+def sweep_grid(start, stop, per_octave, T, avoid_omega=None, margin=0.0):
+    """Step sizes start, start 2^(-1/per_octave), ... down to stop, each adjusted to divide T / SAMPLES.  With
+    avoid_omega, a step whose omega H lies within margin * 2 pi of a multiple 2 pi k (k >= 1) is made smaller until
+    it does not: what a user of an impulse method does with getStiffModeFrequencies() (SIM paper section 3.3)."""
     out = []
     k = 0
     while True:
@@ -185,11 +199,18 @@ def sweep_grid(start, stop, per_octave, T):
         if h < stop * (1 - 1e-9):
             break
         n = SAMPLES * int(math.ceil(T / h / SAMPLES - 1e-9))
+        while avoid_omega and near_resonance(avoid_omega * T / n, margin):
+            n += SAMPLES
         h = T / n
         if not out or h < out[-1] * (1 - 1e-9):
             out.append(h)
         k += 1
     return out
+
+
+def near_resonance(omega_h, margin):
+    turns = omega_h / (2 * math.pi)
+    return turns > 0.5 and abs(turns - round(turns)) < margin
 
 
 def errors(x0, stiff, ref_x0, ref_I):
@@ -229,37 +250,61 @@ def work_precision(omega, T, args, log):
             return integrator
         return make
 
+    # SIM steps keep away from the resonances of the stiffest mode, as a user would.
+    sim_grid = sweep_grid(args.H_max, args.H_min, args.per_octave, T, stiffest_mode(omega), args.resonance_margin)
     methods = {
-        "sim_strang": ("SIM Strang", lambda H: sim(SIM.Strang, H), False,
-                       sweep_grid(args.H_max, args.H_min, args.per_octave, T), False),
+        "sim_strang": ("SIM Strang", lambda H: sim(SIM.Strang, H), False, sim_grid, False),
         "verlet": ("VerletIntegrator", lambda h: (lambda: mm.VerletIntegrator(h)), True,
                    sweep_grid(args.verlet_start / omega, args.verlet_min, args.per_octave, T), True),
     }
     if not args.strang_only:
-        methods["sim_yoshida4"] = ("SIM Yoshida4", lambda H: sim(SIM.Yoshida4, H), False,
-                                   sweep_grid(args.H_max, args.H_min, args.per_octave, T), False)
+        methods["sim_yoshida4"] = ("SIM Yoshida4", lambda H: sim(SIM.Yoshida4, H), False, sim_grid, False)
         methods["sim_lietrotter"] = ("SIM LieTrotter", lambda H: sim(SIM.LieTrotter, H), False,
-                                     sweep_grid(args.H_max, args.H_min / 2, args.per_octave, T), False)
+                                     sweep_grid(args.H_max, args.H_min / 2, args.per_octave, T, stiffest_mode(omega),
+                                                args.resonance_margin), False)
     results = {}
     for key, (label, factory, leapfrog, grid, stop_after_pass) in methods.items():
         rows = []
-        passed_at = None
-        for dt in grid:
+
+        def run(dt, refined=False):
             x0, stiff, samples, wall, steps = run_openmm(omega, T, factory(dt), dt, leapfrog, args.repeats)
             rel_x0, rel_I, abs_I = errors(x0, stiff, ref_x0, ref_I)
             scale_err = energy_scale_error(samples, ref_samples)
             ok = bool(rel_x0 <= X0_TOL and np.all(rel_I <= I_TOL))
             rows.append({"step": dt, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
                          "x0_1_T": x0, "I_T": stiff.tolist(), "rel_err_x0_1": rel_x0, "rel_err_I": rel_I.tolist(),
-                         "abs_err_I": abs_I.tolist(), "energy_scale_err_I": scale_err, "passes": ok})
-            log(f"    [{label} omega={omega:g}] step {dt:.4g}: {steps} steps {wall:.4f} s, rel err x0,1 "
-                f"{rel_x0:.1e}, I_j {', '.join(f'{e:.1e}' for e in rel_I)}, I_j/sum I over [0,T] {scale_err:.1e}"
-                f"{'  PASS' if ok else ''}")
-            if ok and passed_at is None:
+                         "abs_err_I": abs_I.tolist(), "energy_scale_err_I": scale_err, "passes": ok,
+                         "refined": refined})
+            log(f"    [{label} omega={omega:g}] step {dt:.4g}{' (refined)' if refined else ''}: {steps} steps "
+                f"{wall:.4f} s, rel err x0,1 {rel_x0:.1e}, I_j {', '.join(f'{e:.1e}' for e in rel_I)}, I_j/sum I "
+                f"over [0,T] {scale_err:.1e}{'  PASS' if ok else ''}")
+            return ok
+
+        passed_at = None
+        for dt in grid:
+            if run(dt) and passed_at is None:
                 passed_at = len(rows)
             # Verlet's strict error falls steadily with h: two more points past the first pass confirm it.
             if stop_after_pass and passed_at is not None and len(rows) >= passed_at + 2:
                 break
+        # Between each criterion's largest passing step and the failing grid step above it, two more steps (same rule
+        # for every method), so that no method's result hangs on where the coarse grid happened to fall.
+        avoid = stiffest_mode(omega) if key.startswith("sim") else None
+        for predicate in CRITERION_TESTS.values():
+            swept = sorted(r["step"] for r in rows)
+            passing = [r["step"] for r in rows if predicate(r)]
+            above = [h for h in swept if passing and h > max(passing) * (1 + 1e-9)]
+            if not passing or not above:
+                continue
+            low, high = max(passing), min(above)
+            for fraction in (2 / 3, 1 / 3):
+                n = SAMPLES * int(math.ceil(T / (low * (high / low) ** fraction) / SAMPLES - 1e-9))
+                while avoid and near_resonance(avoid * T / n, args.resonance_margin):
+                    n += SAMPLES
+                if all(abs(T / n - h) > 1e-9 * h for h in swept) and T / n < high:
+                    run(T / n, refined=True)
+                    swept.append(T / n)
+        rows.sort(key=lambda r: -r["step"])
         # The few cheapest candidates under each criterion are timed again (min over up to --retime-repeats runs):
         # the sweep's timings carry the machine's background load.
         candidates = set()
@@ -494,7 +539,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="smoke run (T = 5, omega = 200, small sizes)")
     parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "sim_bench"), help="output directory")
-    parser.add_argument("--omega", type=float, nargs="+", default=None, help="default 200 1000 (200 with --quick)")
+    parser.add_argument("--omega", type=float, nargs="+", default=None, help="default 200 1000 5000 (200 with --quick)")
     parser.add_argument("--T", type=float, default=None, help="default 50 (5 with --quick)")
     parser.add_argument("--rtol", type=float, default=None, help="reference DOP853 rtol (default 1e-12)")
     parser.add_argument("--rtol-check", type=float, default=None, help="check run rtol (default 1e-10)")
@@ -503,6 +548,8 @@ def main():
     parser.add_argument("--verlet-start", type=float, default=1.0, help="largest Verlet step times omega")
     parser.add_argument("--verlet-min", type=float, default=None, help="smallest Verlet step (default 2e-6)")
     parser.add_argument("--per-octave", type=int, default=2, help="sweep points per halving of the step")
+    parser.add_argument("--resonance-margin", type=float, default=0.1,
+                        help="SIM steps with omega H within this many turns of 2 pi k are made smaller (0: keep all)")
     parser.add_argument("--repeats", type=int, default=5, help="max repeats of a short run (min kept)")
     parser.add_argument("--retime-seconds", type=float, default=None,
                         help="re-timing of the cheapest candidates stops after this much (default 2; 0.2 --quick)")
@@ -519,7 +566,7 @@ def main():
     parser.add_argument("--seconds", type=float, default=None, help="step-cost batch duration (default 0.1)")
     args = parser.parse_args()
 
-    omegas = args.omega or ([200.0] if args.quick else [200.0, 1000.0])
+    omegas = args.omega or ([200.0] if args.quick else [200.0, 1000.0, 5000.0])
     T = args.T if args.T is not None else (5.0 if args.quick else 50.0)
     args.rtol = args.rtol if args.rtol is not None else (1e-10 if args.quick else 1e-12)
     args.rtol_check = args.rtol_check if args.rtol_check is not None else (1e-8 if args.quick else 1e-10)
@@ -639,7 +686,7 @@ def plot(part_a, part_b, part_c, T, path):
     fig.suptitle(f"StochasticImpulseIntegrator work-precision (FPU m = {M}, T = {T:g}, Reference), set-up and step "
                  f"cost")
     colors = {"sim_strang": "tab:blue", "verlet": "k", "sim_yoshida4": "tab:green", "sim_lietrotter": "tab:red"}
-    markers = {"200": "o", "1000": "s"}
+    markers = {"200": "o", "1000": "s", "5000": "D"}
     quantities = {"x0": lambda r: r["rel_err_x0_1"], "strict": lambda r: max(r["rel_err_I"]),
                   "scale": lambda r: r["energy_scale_err_I"]}
     for ax, quantity, tol, title, criterion in (

@@ -15,10 +15,10 @@ set-up cost of the stiff modes, and the cost of a SIM step relative to a soft-fo
                     every one of SAMPLES equally spaced times in (0, T], so that a run cannot pass because the
                     phase of its error happens to be small at T.
     After the sweep, two more steps are run between each criterion's largest passing step and the failing grid step
-    above it.  For each method and reading the cheapest passing run (wall time of one integrator.step(steps) call, minimum
-    over repeats for short runs, fresh Context each, SIM's first step with the stiffness measurement included; the
-    errors come from a separate run with the same steps, stopped at the sample times) and the speedup of SIM over
-    Verlet.
+    above it.  For each method and reading the cheapest passing run (wall time of one integrator.step(steps) call,
+    minimum over repeats for short runs, fresh Context each, SIM's first step with the stiffness measurement
+    included; the errors come from a separate run with the same steps, stopped at the sample times) and the speedup
+    of SIM over Verlet.
 (b) Set-up cost of the stiff modes against the number of stiff components: 10^3..10^5 independent springs
     (HarmonicBondForce length 0) plus a soft x^4 on every particle: first step minus a later step, and
     getStiffModeFrequencies() on a fresh Context; log-log slope.

@@ -37,7 +37,6 @@ import math
 import os
 import shutil
 import statistics
-import subprocess
 import sys
 import time
 
@@ -50,7 +49,7 @@ import openmmflavors
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
 import fpu_chain  # noqa: E402
-from step_cost import count_instructions, find_helper  # noqa: E402  (benchmarks/step_cost.py)
+from step_cost import count_instructions, find_helper, measure, run_helper  # noqa: E402  (benchmarks/step_cost.py)
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
@@ -435,47 +434,6 @@ def setup_cost(sizes, platforms, threads, log):
 # (c) step cost
 
 
-def batch_size(integrator, target):
-    """Steps per timed batch so that one batch takes about `target` seconds."""
-    integrator.step(3)
-    n = 1
-    while True:
-        start = time.perf_counter()
-        integrator.step(n)
-        elapsed = time.perf_counter() - start
-        if elapsed > 0.2 * target or n > 10**7:
-            break
-        n *= 4
-    return max(1, int(n * target / max(elapsed, 1e-9)))
-
-
-def time_round_robin(integrators, target, repeats):
-    """us/step of each integrator: batches taken in turn (background load then hits all alike), minimum kept."""
-    sizes = {key: batch_size(integrator, target) for key, integrator in integrators.items()}
-    times = {key: [] for key in integrators}
-    for _ in range(repeats):
-        for key, integrator in integrators.items():
-            start = time.perf_counter()
-            integrator.step(sizes[key])
-            times[key].append(1e6 * (time.perf_counter() - start) / sizes[key])
-    return {key: (min(t), statistics.median(t)) for key, t in times.items()}
-
-
-def helper_force_cost(helper, platform, chains, threads, seconds, repeats):
-    if helper is None:
-        return None
-    command = [helper, "--platform", platform, "--chains", str(chains), "--seconds", str(seconds), "--repeats",
-               str(repeats), "force_soft", "force_all"]
-    if platform == "CPU":
-        command[5:5] = ["--threads", str(threads)]
-    try:
-        out = subprocess.run(command, check=True, capture_output=True, text=True, timeout=300)
-        return json.loads(out.stdout)["results"]
-    except (subprocess.SubprocessError, OSError, ValueError, KeyError) as error:
-        print(f"    C++ helper failed: {error}", file=sys.stderr)
-        return None
-
-
 def step_cost(chain_counts, platforms, threads, target, repeats, log):
     helper = find_helper(None)
     rows = []
@@ -494,19 +452,21 @@ def step_cost(chain_counts, platforms, threads, target, repeats, log):
                 "verlet_soft_only": lambda: _with_groups(mm.VerletIntegrator(1e-4), {SOFT}),
             }
             row = {"platform": platform, "chains": chains, "particles": 6 * chains}
-            integrators, contexts = {}, []
+            contexts = {}
             for key, make in cases.items():
                 integrator = make()
                 context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
                 context.setPositions(positions)
                 context.setVelocities(np.zeros_like(positions))
-                integrators[key] = integrator
-                contexts.append(context)
-            timed = time_round_robin(integrators, target, repeats)
-            row["us_per_step"] = {key: value[0] for key, value in timed.items()}
-            row["us_per_step_median"] = {key: value[1] for key, value in timed.items()}
-            del contexts, integrators
-            exact = helper_force_cost(helper, platform, chains, threads, target, repeats)
+                contexts[key] = (context, integrator)
+            # Batches taken in turn, so that background load hits all alike; minimum and median kept.
+            timed = measure(contexts, target, repeats, f"step cost {platform}, {chains} chains")
+            row["us_per_step"] = {key: value["us_per_step"] for key, value in timed.items()}
+            row["us_per_step_median"] = {key: value["us_per_step_median"] for key, value in timed.items()}
+            del contexts
+            helper_args = ["--platform", platform, "--chains", str(chains), "--seconds", str(target), "--repeats",
+                           str(repeats)] + (["--threads", str(threads)] if platform == "CPU" else [])
+            exact = run_helper(helper, helper_args + ["force_soft", "force_all"], f"step cost {platform}")
             if exact:
                 row["force_soft_us_exact"] = exact["force_soft"]["us_per_step_min"]
                 row["force_all_us_exact"] = exact["force_all"]["us_per_step_min"]

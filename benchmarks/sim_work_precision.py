@@ -146,22 +146,11 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3, samp
 
     def start_context():
         integrator = make()
-        context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-        context.setPositions(q)
-        v0 = np.zeros((2 * M, 3))
-        if leapfrog:
-            # VerletIntegrator reads v(-dt/2): this makes it velocity Verlet from v(0) = 0 (see fpu_chain).
-            v0 = fpu_chain.leapfrog_start(context, v0, dt, masses)
-        context.setVelocities(v0)
-        return context, integrator
+        return fpu_chain.start_context(system, integrator, dt, leapfrog, q), integrator
 
     def observe(context):
-        state = context.getState(getPositions=True, getVelocities=True, getForces=leapfrog)
-        pos = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-        vel = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-        if leapfrog:
-            vel = fpu_chain.synchronized(state, np.asarray(vel), dt, masses)
-        return observables(np.asarray(pos), np.asarray(vel), omega)
+        pos, vel, _ = fpu_chain.read_x(context, dt, leapfrog, masses)
+        return observables(pos, vel, omega)
 
     samples = None
     if sampled:

@@ -114,19 +114,36 @@ def sample_steps(times, dt, hint):
     return steps
 
 
+def start_context(system, integrator, dt, leapfrog, positions):
+    """A Reference Context at `positions` with v = 0 (for a leapfrog run, v(-dt/2) such that it is velocity Verlet from
+    v = 0)."""
+    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
+    context.setPositions(positions)
+    v0 = np.zeros((system.getNumParticles(), 3))
+    if leapfrog:
+        v0 = leapfrog_start(context, v0, dt, masses_of(system))
+    context.setVelocities(v0)
+    return context
+
+
+def read_x(context, dt, leapfrog, masses, energy=False):
+    """The x coordinates of the positions and of the velocities (synchronized for a leapfrog run), and the State."""
+    state = context.getState(getPositions=True, getVelocities=True, getEnergy=energy, getForces=leapfrog)
+    q = np.asarray(state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0])
+    v = np.asarray(state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0])
+    if leapfrog:
+        v = synchronized(state, v, dt, masses)
+    return q, v, state
+
+
 def simulate(system, integrator, dt, leapfrog, positions, times, label, progress, hint):
     """Run on the Reference platform from (positions, v = 0) and sample the x coordinates at `times`.
 
     progress: a Progress for `label`; hint: the message (with {dt}) when dt does not divide the times.
     Returns q, v (samples x particles), potential energies, the step count and the wall time of the step() calls."""
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-    context.setPositions(positions)
+    context = start_context(system, integrator, dt, leapfrog, positions)
     n = system.getNumParticles()
     masses = masses_of(system)
-    v0 = np.zeros((n, 3))
-    if leapfrog:
-        v0 = leapfrog_start(context, v0, dt, masses)
-    context.setVelocities(v0)
     steps = sample_steps(times, dt, hint)
     qs = np.empty((len(times), n))
     vs = np.empty((len(times), n))
@@ -138,13 +155,17 @@ def simulate(system, integrator, dt, leapfrog, positions, times, label, progress
             integrator.step(int(target - done))
             wall += time.perf_counter() - start
             done = int(target)
-        state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, getForces=leapfrog)
-        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-        if leapfrog:
-            v = synchronized(state, np.asarray(v), dt, masses)
+        q, v, state = read_x(context, dt, leapfrog, masses, energy=True)
         qs[k], vs[k] = q, v
         pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
         progress.update(times[k], times[-1])
     progress.update(times[-1], times[-1], force=True)
     return {"q": qs, "v": vs, "pe": pe, "masses": masses, "steps": int(steps[-1]), "wall_s": wall}
+
+
+def simulate_observed(system, integrator, dt, leapfrog, positions, times, omega, label, progress, hint):
+    """simulate(), returned as the chain's observables (x0, x1, y1, I, Ix) and total energy E at `times`."""
+    run = simulate(system, integrator, dt, leapfrog, positions, times, label, progress, hint)
+    o = observables(run["q"], run["v"], omega)
+    energy = 0.5 * np.sum(run["masses"] * run["v"] * run["v"], axis=1) + run["pe"]
+    return {"steps": run["steps"], "wall_s": run["wall_s"], "E": energy, **o}

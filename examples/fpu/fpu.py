@@ -30,14 +30,9 @@ from fpu_chain import STIFF_GROUP, fpu_positions, fpu_system  # noqa: E402
 
 def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
     """Run on the Reference platform and sample at `times` (Verlet runs leapfrog-corrected: see fpu_chain)."""
-    run = fpu_chain.simulate(system, integrator, dt, leapfrog, positions, times, label,
-                             scene.Progress(label, fmt="8.2f"),
-                             "step size {dt} does not divide the sampling times; choose --sample/--fine accordingly")
-    o = fpu_chain.observables(run["q"], run["v"], omega)
-    vs = run["v"]
-    energy = 0.5 * np.sum(run["masses"] * vs * vs, axis=1) + run["pe"]
-    return {"steps": run["steps"], "wall_s": run["wall_s"], "x0": o["x0"], "x1": o["x1"], "y1": o["y1"], "I": o["I"],
-            "E": energy, "Ix": (omega * o["x1"]) ** 2}
+    return fpu_chain.simulate_observed(
+        system, integrator, dt, leapfrog, positions, times, omega, label, scene.Progress(label, fmt="8.2f"),
+        "step size {dt} does not divide the sampling times; choose --sample/--fine accordingly")
 
 
 def main():

@@ -35,31 +35,22 @@ from fpu_chain import STIFF_GROUP, fpu_positions, fpu_system  # noqa: E402
 
 def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
     """Run on the Reference platform, sampling at `times` (Verlet runs leapfrog-corrected: see fpu_chain)."""
-    run = fpu_chain.simulate(system, integrator, dt, leapfrog, positions, times, label,
-                             scene.Progress(label, fmt="9.2f"),
-                             "step {dt} does not divide the sampling times; choose --sample accordingly")
-    o = fpu_chain.observables(run["q"], run["v"], omega)
-    vs = run["v"]
-    energy = 0.5 * np.sum(vs * vs, axis=1) + run["pe"]
-    return {"steps": run["steps"], "wall_s": run["wall_s"], "x0": o["x0"], "x1": o["x1"], "I": o["I"], "E": energy}
+    return fpu_chain.simulate_observed(
+        system, integrator, dt, leapfrog, positions, times, omega, label, scene.Progress(label, fmt="9.2f"),
+        "step {dt} does not divide the sampling times; choose --sample accordingly")
 
 
 def retime(system, make, dt, leapfrog, positions, steps, repeats):
     """Minimum wall time of integrator.step(steps) over fresh unsampled runs (the machine may be shared: the minimum
     is the least disturbed)."""
     best = float("inf")
-    masses = fpu_chain.masses_of(system)
     for _ in range(repeats):
         integrator = make()
-        context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-        context.setPositions(positions)
-        v0 = np.zeros((system.getNumParticles(), 3))
-        if leapfrog:
-            v0 = fpu_chain.leapfrog_start(context, v0, dt, masses)
-        context.setVelocities(v0)
+        context = fpu_chain.start_context(system, integrator, dt, leapfrog, positions)
         start = time.perf_counter()
         integrator.step(steps)
         best = min(best, time.perf_counter() - start)
+        del context  # the integrator is bound to it until here
     return best
 
 

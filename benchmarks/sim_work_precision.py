@@ -149,7 +149,7 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3, samp
         return fpu_chain.start_context(system, integrator, dt, leapfrog, q), integrator
 
     def observe(context):
-        pos, vel, _ = fpu_chain.read_x(context, dt, leapfrog, masses)
+        pos, vel = fpu_chain.read_x(context, dt, leapfrog, masses)
         return observables(pos, vel, omega)
 
     samples = None

@@ -10,15 +10,15 @@ x0,i = (q_2i + q_2i-1)/sqrt2, x1,i = (q_2i - q_2i-1)/sqrt2; y0, y1 the same for 
 Named fpu_chain, not fpu: examples/fpu/fpu.py would otherwise import itself.
 """
 import math
-import time
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
+
+import scene
+from scene import leapfrog_start, masses_of, synchronized  # noqa: F401  (re-exported for the benchmarks)
 
 SQRT2 = math.sqrt(2.0)
 SOFT_GROUP, STIFF_GROUP = 0, 1
-FORCE_UNIT = unit.kilojoule_per_mole / unit.nanometer
 
 
 def fpu_system(m, omega, chains=1):
@@ -84,56 +84,15 @@ def observables(q, v, omega):
             "Ix": omega * omega * x1 * x1}
 
 
-# ---------------------------------------------------------------------------------------------------------------------
-# OpenMM's VerletIntegrator is a leapfrog: the velocities it stores lag the positions by dt/2 and the initial
-# velocities are read as v(-dt/2).  Starting from v0 - dt/2 F(q0)/m and reading v + dt/2 F(q)/m makes a run exactly
-# velocity Verlet from (q0, v0).  FlavorIntegrator's and StochasticImpulseIntegrator's velocities are synchronous.
-
-def masses_of(system):
-    return np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
-
-
-def leapfrog_start(context, v0, dt, masses):
-    """v0 - dt/2 F(q)/m at the context's positions (arrays (particles, 3))."""
-    f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(FORCE_UNIT)
-    return v0 - 0.5 * dt * np.asarray(f0) / masses[:, None]
-
-
-def synchronized(state, v, dt, masses):
-    """v + dt/2 F/m from a state read with getForces=True (v: (particles, 3) or its x column)."""
-    f = np.asarray(state.getForces(asNumpy=True).value_in_unit(FORCE_UNIT))
-    if v.ndim == 1:
-        return v + 0.5 * dt * f[:, 0] / masses
-    return v + 0.5 * dt * f / masses[:, None]
-
-
-def sample_steps(times, dt, hint):
-    steps = np.rint(times / dt).astype(np.int64)
-    if np.max(np.abs(steps * dt - times)) > 1e-9 * max(1.0, times[-1]):
-        raise SystemExit(hint.format(dt=dt))
-    return steps
-
-
 def start_context(system, integrator, dt, leapfrog, positions):
-    """A Reference Context at `positions` with v = 0 (for a leapfrog run, v(-dt/2) such that it is velocity Verlet from
-    v = 0)."""
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-    context.setPositions(positions)
-    v0 = np.zeros((system.getNumParticles(), 3))
-    if leapfrog:
-        v0 = leapfrog_start(context, v0, dt, masses_of(system))
-    context.setVelocities(v0)
-    return context
+    """A Reference Context at `positions` with v = 0 (for a leapfrog run, v(-dt/2): see scene.leapfrog_start)."""
+    return scene.start_context(system, integrator, dt, positions, np.zeros((system.getNumParticles(), 3)), leapfrog)
 
 
-def read_x(context, dt, leapfrog, masses, energy=False):
-    """The x coordinates of the positions and of the velocities (synchronized for a leapfrog run), and the State."""
-    state = context.getState(getPositions=True, getVelocities=True, getEnergy=energy, getForces=leapfrog)
-    q = np.asarray(state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0])
-    v = np.asarray(state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0])
-    if leapfrog:
-        v = synchronized(state, v, dt, masses)
-    return q, v, state
+def read_x(context, dt, leapfrog, masses):
+    """The x coordinates of the positions and of the velocities (synchronized for a leapfrog run)."""
+    q, v, _ = scene.read_state(context, dt, leapfrog, masses)
+    return q[:, 0], v[:, 0]
 
 
 def simulate(system, integrator, dt, leapfrog, positions, times, label, progress, hint):
@@ -141,26 +100,10 @@ def simulate(system, integrator, dt, leapfrog, positions, times, label, progress
 
     progress: a Progress for `label`; hint: the message (with {dt}) when dt does not divide the times.
     Returns q, v (samples x particles), potential energies, the step count and the wall time of the step() calls."""
-    context = start_context(system, integrator, dt, leapfrog, positions)
-    n = system.getNumParticles()
-    masses = masses_of(system)
-    steps = sample_steps(times, dt, hint)
-    qs = np.empty((len(times), n))
-    vs = np.empty((len(times), n))
-    pe = np.empty(len(times))
-    wall, done = 0.0, 0
-    for k, target in enumerate(steps):
-        if target > done:
-            start = time.perf_counter()
-            integrator.step(int(target - done))
-            wall += time.perf_counter() - start
-            done = int(target)
-        q, v, state = read_x(context, dt, leapfrog, masses, energy=True)
-        qs[k], vs[k] = q, v
-        pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-        progress.update(times[k], times[-1])
-    progress.update(times[-1], times[-1], force=True)
-    return {"q": qs, "v": vs, "pe": pe, "masses": masses, "steps": int(steps[-1]), "wall_s": wall}
+    run = scene.simulate(system, integrator, dt, positions, np.zeros((system.getNumParticles(), 3)), times, label,
+                         leapfrog=leapfrog, energy=True, progress=progress, hint=hint)
+    return {"q": run["q"][:, :, 0], "v": run["v"][:, :, 0], "pe": run["pe"], "masses": run["masses"],
+            "steps": run["steps"], "wall_s": run["wall_s"]}
 
 
 def simulate_observed(system, integrator, dt, leapfrog, positions, times, omega, label, progress, hint):

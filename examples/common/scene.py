@@ -59,50 +59,88 @@ def masses_of(system):
     return np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
 
 
-def simulate(system, integrator, dt, positions, velocities, times, label, leapfrog=False, platform="Reference"):
-    """Run `integrator` (step size dt) from (positions, velocities) and sample q, v at `times`.
+# OpenMM's VerletIntegrator is a leapfrog: the velocities it stores lag the positions by dt/2 and the initial
+# velocities are read as v(-dt/2).  Starting from v0 - dt/2 F(q0)/m and reading v + dt/2 F(q)/m makes a run exactly
+# velocity Verlet from (q0, v0).  FlavorIntegrator's and StochasticImpulseIntegrator's velocities are synchronous.
+FORCE_UNIT = unit.kilojoule_per_mole / unit.nanometer
 
-    leapfrog=True is for OpenMM's VerletIntegrator, whose stored velocities lag the positions by dt/2: the initial
-    velocities are set to v0 - dt/2 F(q0)/m and each sample is synchronized with v + dt/2 F(q)/m, so the run is
-    exactly velocity Verlet from (q0, v0).  FlavorIntegrator's velocities are synchronous already.
-    Wall time counts integrator.step() only.
-    """
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform))
+
+def leapfrog_start(context, v0, dt, masses):
+    """v0 - dt/2 F(q)/m at the context's positions (arrays (particles, 3))."""
+    f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(FORCE_UNIT)
+    return v0 - 0.5 * dt * np.asarray(f0) / masses[:, None]
+
+
+def synchronized(state, v, dt, masses):
+    """v + dt/2 F/m from a state read with getForces=True (v: (particles, 3) or its x column)."""
+    f = np.asarray(state.getForces(asNumpy=True).value_in_unit(FORCE_UNIT))
+    if v.ndim == 1:
+        return v + 0.5 * dt * f[:, 0] / masses
+    return v + 0.5 * dt * f / masses[:, None]
+
+
+def start_context(system, integrator, dt, positions, velocities, leapfrog=False, platform="Reference", properties=None):
+    """A Context at (positions, velocities); for a leapfrog run the velocities are set to v(-dt/2)."""
+    context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties or {})
     context.setPositions(positions)
-    masses = masses_of(system)
     v0 = np.array(velocities, dtype=float)
     if leapfrog:
-        f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(
-            unit.kilojoule_per_mole / unit.nanometer)
-        v0 = v0 - 0.5 * dt * np.asarray(f0) / masses[:, None]
-    context.setVelocities([mm.Vec3(*v) for v in v0])
+        v0 = leapfrog_start(context, v0, dt, masses_of(system))
+    context.setVelocities(v0)
+    return context
 
+
+def read_state(context, dt, leapfrog, masses, energy=False):
+    """Positions and velocities (synchronized for a leapfrog run) as arrays (particles, 3), and the State."""
+    state = context.getState(getPositions=True, getVelocities=True, getEnergy=energy, getForces=leapfrog)
+    q = np.asarray(state.getPositions(asNumpy=True).value_in_unit(unit.nanometer))
+    v = np.asarray(state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond))
+    if leapfrog:
+        v = synchronized(state, v, dt, masses)
+    return q, v, state
+
+
+def sample_steps(times, dt, hint):
+    """The step counts at `times`; hint (with {dt}) is the message when dt does not divide them."""
     steps = np.rint(times / dt).astype(np.int64)
     if np.max(np.abs(steps * dt - times)) > 1e-9 * max(1.0, times[-1]):
-        raise SystemExit(f"{label}: step {dt:g} does not divide the sampling times")
+        raise SystemExit(hint.format(dt=dt))
+    return steps
+
+
+def simulate(system, integrator, dt, positions, velocities, times, label, leapfrog=False, platform="Reference",
+             energy=False, progress=None, hint=None):
+    """Run `integrator` (step size dt) from (positions, velocities) and sample q, v at `times`.
+
+    leapfrog=True is for OpenMM's VerletIntegrator (see leapfrog_start): the run is exactly velocity Verlet from
+    (q0, v0).  energy=True samples the potential energy too ("pe").  Wall time counts integrator.step() only.
+    """
+    context = start_context(system, integrator, dt, positions, velocities, leapfrog, platform)
+    masses = masses_of(system)
+    steps = sample_steps(times, dt, hint or (label + ": step {dt:g} does not divide the sampling times"))
     n = system.getNumParticles()
     qs = np.empty((len(times), n, 3))
     vs = np.empty((len(times), n, 3))
+    pe = np.empty(len(times))
     wall, done = 0.0, 0
-    progress = Progress(label, times[-1])
+    progress = progress or Progress(label, times[-1])
     for k, target in enumerate(steps):
         if target > done:
             start = time.perf_counter()
             integrator.step(int(target - done))
             wall += time.perf_counter() - start
             done = int(target)
-        state = context.getState(getPositions=True, getVelocities=True, getForces=leapfrog)
-        q = np.asarray(state.getPositions(asNumpy=True).value_in_unit(unit.nanometer))
-        v = np.asarray(state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond))
-        if leapfrog:
-            f = np.asarray(state.getForces(asNumpy=True).value_in_unit(unit.kilojoule_per_mole / unit.nanometer))
-            v = v + 0.5 * dt * f / masses[:, None]
-        qs[k], vs[k] = q, v
-        progress.update(times[k])
-    progress.update(times[-1], force=True)
+        qs[k], vs[k], state = read_state(context, dt, leapfrog, masses, energy)
+        if energy:
+            pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
+        progress.update(times[k], times[-1])
+    progress.update(times[-1], times[-1], force=True)
     del context
-    return {"t": np.asarray(times), "q": qs, "v": vs, "wall_s": wall, "steps": int(steps[-1]), "dt": dt,
-            "us_per_step": 1e6 * wall / max(1, int(steps[-1]))}
+    run = {"t": np.asarray(times), "q": qs, "v": vs, "masses": masses, "wall_s": wall, "steps": int(steps[-1]),
+           "dt": dt, "us_per_step": 1e6 * wall / max(1, int(steps[-1]))}
+    if energy:
+        run["pe"] = pe
+    return run
 
 
 def on_grid(run_times, coarse):

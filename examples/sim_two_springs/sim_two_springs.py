@@ -73,14 +73,18 @@ def moments(q, v):
     return np.stack([x, y, x * x, y * y, px * px, py * py])
 
 
-def simulate(system, integrator, platform, properties, x0, y0, samples, steps_per_sample, dt, label):
-    """Run all realizations from the paper's initial data; sample at every steps_per_sample steps."""
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
+def start_context(system, integrator, platform, properties, x0, y0):
+    """Every realization at the paper's initial data (x0, y0) at rest."""
     n = system.getNumParticles()
     q = np.zeros((n, 3))
     q[:, 0], q[:, 1] = x0, y0
-    context.setPositions(q)
-    context.setVelocities(np.zeros((n, 3)))
+    return scene.start_context(system, integrator, 0.0, q, np.zeros((n, 3)), platform=platform, properties=properties)
+
+
+def simulate(system, integrator, platform, properties, x0, y0, samples, steps_per_sample, dt, label):
+    """Run all realizations from the paper's initial data; sample at every steps_per_sample steps."""
+    context = start_context(system, integrator, platform, properties, x0, y0)
+    n = system.getNumParticles()
     mean = np.empty((samples + 1, len(MOMENTS)))
     se = np.empty_like(mean)
     wall = 0.0
@@ -113,15 +117,12 @@ def simulate(system, integrator, platform, properties, x0, y0, samples, steps_pe
 
 
 def time_unsampled(system, integrator, platform, properties, x0, y0, steps):
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
-    n = system.getNumParticles()
-    q = np.zeros((n, 3))
-    q[:, 0], q[:, 1] = x0, y0
-    context.setPositions(q)
-    context.setVelocities(np.zeros((n, 3)))
+    context = start_context(system, integrator, platform, properties, x0, y0)
     start = time.perf_counter()
     integrator.step(steps)
-    return time.perf_counter() - start
+    elapsed = time.perf_counter() - start
+    del context  # the integrator is bound to it until here
+    return elapsed
 
 
 def compare(a, b, skip_first=True):

@@ -19,6 +19,8 @@ import openmm.unit as unit
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SOFT_GROUP, STIFF_GROUP = 0, 1
+# Boltzmann constant in kJ/mol/K: temperature = kT / KB.
+KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
 
 
 def parser(doc, scene, quick_help="smoke run of a few seconds (short T, coarser reference)",

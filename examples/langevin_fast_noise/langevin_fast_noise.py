@@ -35,7 +35,6 @@ import scene  # noqa: E402
 from ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, window_means  # noqa: E402
 
 SOFT_GROUP, STIFF_GROUP = 0, 1
-KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
 BLOWUP_Y = 0.5
 
 QUANTITIES = {
@@ -188,7 +187,7 @@ def main():
     x0 = y0 + 1.8
     kT = args.sigma ** 2 / (2 * args.c)
     beta = 1.0 / kT
-    temperature = kT / KB
+    temperature = kT / scene.KB
     gamma = omega ** 2 * args.c
     h = args.h
     flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]

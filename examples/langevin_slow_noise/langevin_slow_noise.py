@@ -33,7 +33,6 @@ import scene  # noqa: E402
 from ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, window_means  # noqa: E402
 
 SOFT_GROUP, STIFF_GROUP = 0, 1
-KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
 # A copy is declared blown up once |y| exceeds this (V_stiff would be 1/(4 eps) ~ 1e7 kT) or a coordinate is not finite.
 BLOWUP_Y = 0.5
 
@@ -152,7 +151,7 @@ def main():
     x0 = y0 + 1.8
     kT = args.sigma ** 2 / (2 * args.c)
     beta = 1.0 / kT
-    temperature = kT / KB
+    temperature = kT / scene.KB
     flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]
     width = max(1, int(round(args.window / args.sample)))
     late_from = 2.0 * T / 3.0

@@ -239,7 +239,8 @@ def work_precision(omega, T, args, log):
         return make
 
     # SIM steps keep away from the resonances of the stiffest mode, as a user would.
-    sim_grid = sweep_grid(args.H_max, args.H_min, args.per_octave, T, stiffest_mode(omega), args.resonance_margin)
+    stiffest = stiffest_mode(omega)
+    sim_grid = sweep_grid(args.H_max, args.H_min, args.per_octave, T, stiffest, args.resonance_margin)
     methods = {
         "sim_strang": ("SIM Strang", lambda H: sim(SIM.Strang, H), False, sim_grid, False),
         "verlet": ("VerletIntegrator", lambda h: (lambda: mm.VerletIntegrator(h)), True,
@@ -248,7 +249,7 @@ def work_precision(omega, T, args, log):
     if not args.strang_only:
         methods["sim_yoshida4"] = ("SIM Yoshida4", lambda H: sim(SIM.Yoshida4, H), False, sim_grid, False)
         methods["sim_lietrotter"] = ("SIM LieTrotter", lambda H: sim(SIM.LieTrotter, H), False,
-                                     sweep_grid(args.H_max, args.H_min / 2, args.per_octave, T, stiffest_mode(omega),
+                                     sweep_grid(args.H_max, args.H_min / 2, args.per_octave, T, stiffest,
                                                 args.resonance_margin), False)
     results = {}
     for key, (label, factory, leapfrog, grid, stop_after_pass) in methods.items():
@@ -277,7 +278,7 @@ def work_precision(omega, T, args, log):
                 break
         # Between each criterion's largest passing step and the failing grid step above it, two more steps (same rule
         # for every method), so that no method's result hangs on where the coarse grid happened to fall.
-        avoid = stiffest_mode(omega) if key.startswith("sim") else None
+        avoid = stiffest if key.startswith("sim") else None
         for predicate in CRITERION_TESTS.values():
             swept = sorted(r["step"] for r in rows)
             passing = [r["step"] for r in rows if predicate(r)]

@@ -27,11 +27,15 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
     masses.resize(numParticles);
     inverseMasses.resize(numParticles);
     thermalSpeeds.resize(numParticles);
-    movable.resize(numParticles);
+    coordinateInverseMasses.resize(3 * (size_t)numParticles);
+    coordinateMovable.resize(3 * (size_t)numParticles);
     for (int i = 0; i < numParticles; ++i) {
         masses[i] = system.getParticleMass(i);
         inverseMasses[i] = (masses[i] == 0.0 ? 0.0 : 1.0 / masses[i]);
-        movable[i] = (masses[i] == 0.0 ? 0.0 : 1.0);
+        for (int d = 0; d < 3; ++d) {
+            coordinateInverseMasses[3 * i + d] = inverseMasses[i];
+            coordinateMovable[3 * i + d] = (masses[i] == 0.0 ? 0.0 : 1.0);
+        }
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     }
     if (hasConstraints)
@@ -97,6 +101,12 @@ void FlowStepRunner::prepare() {
         }
         preparedPasses.push_back(prepared);
     }
+    // With constraints a kick is followed by a velocity constraint, so it stays a pass of its own.
+    kickFusedIntoNext.assign(plan.passes.size(), false);
+    for (size_t p = 0; p + 1 < plan.passes.size(); ++p)
+        kickFusedIntoNext[p] = !hasConstraints && plan.passes[p].flows.size() == 1 &&
+                               plan.passes[p].flows[0].kind == SubFlow::Kick &&
+                               plan.passes[p + 1].flows[0].kind == SubFlow::StiffFlow;
 }
 
 void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
@@ -128,10 +138,19 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     vector<Vec3>& velocities = *data.velocities;
     if (!forcesValid)
         invalidateForces();
+    const Vec3* kickForces = nullptr;
+    double kickStep = 0.0;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const vector<PreparedFlow>& flows = preparedPasses[p];
+        if (kickFusedIntoNext[p]) {
+            ensureForces(context, flows[0].slot);
+            kickForces = slots[flows[0].slot].forces.data();
+            kickStep = flows[0].h;
+            continue;
+        }
         if (flows[0].kind == SubFlow::StiffFlow) {
-            runStiffFlow(context, p, flows[0], constraintTolerance);
+            runStiffFlow(context, p, flows[0], constraintTolerance, kickForces, kickStep);
+            kickForces = nullptr;
             continue;
         }
         ParticlePass pass;
@@ -139,8 +158,8 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         pass.numFlows = (int)flows.size();
         pass.positions = positions.data();
         pass.velocities = velocities.data();
-        pass.inverseMasses = inverseMasses.data();
-        pass.movable = movable.data();
+        pass.coordinateInverseMasses = coordinateInverseMasses.data();
+        pass.coordinateMovable = coordinateMovable.data();
         pass.thermostated = thermostated.data();
         pass.thermalSpeeds = thermalSpeeds.data();
         pass.random = &random;
@@ -184,7 +203,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
 }
 
 void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
-                                  double constraintTolerance) {
+                                  double constraintTolerance, const Vec3* kickForces, double kickStep) {
     if (!stiffModes)
         throw OpenMMException("FlowStepRunner: a StiffFlow needs setStiffModes()");
     ReferencePlatform::PlatformData& data = platformData(context);
@@ -197,6 +216,9 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     task.velocities = data.velocities->data();
     task.random = &random;
     task.stream = nextStream + flow.streamOffset;
+    task.kickForces = kickForces;
+    task.inverseMasses = inverseMasses.data();
+    task.kickStep = kickStep;
     loop->run(task, stiffModes->getNumComponents());
     invalidateForces();
     if (hasConstraints) {

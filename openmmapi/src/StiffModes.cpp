@@ -20,6 +20,149 @@ int findRoot(vector<int>& parent, int i) {
     return i;
 }
 
+/** The flow of one mode over h; for h < 0 (friction 0 only) the inverse of the flow over -h. */
+ModeFlow modeFlow(double omega, double gamma, double h) {
+    if (h >= 0)
+        return computeModeFlow(omega, gamma, h);
+    // The deterministic flow has unit determinant, so its inverse is the adjugate.
+    ModeFlow f = computeModeFlow(omega, 0.0, -h);
+    ModeFlow inverse{f.vv, -f.xv, -f.vx, f.xx, 0, 0, 0, 0, 0};
+    inverse.gx = -(inverse.xx * f.gx + inverse.xv * f.gv);
+    inverse.gv = -(inverse.vx * f.gx + inverse.vv * f.gv);
+    return inverse;
+}
+
+// The D x D matrices of a propagator.
+enum Matrix { Axx, Axv, Avx, Avv, Nxx, Nvx, Nvv };
+
+/** Where the parts of one component's propagator lie: Axx, Axv, Avx, Avv, gx, gv, then Nxx, Nvx, Nvv if noisy. */
+struct PropagatorLayout {
+    size_t D, C;
+    constexpr size_t matrix(Matrix m) const { return m < Nxx ? m * D * D : 4 * D * D + 2 * D * C + (m - Nxx) * D * D; }
+    constexpr size_t gx() const { return 4 * D * D; }
+    constexpr size_t gv() const { return 4 * D * D + D * C; }
+    size_t size(bool noisy) const { return (noisy ? 7 : 4) * D * D + 2 * D * C; }
+};
+
+/** out (D x C) = offset + sum over the terms of A_t in_t, with D, C and the number of terms known at compile time. */
+template <int D, int C, int Terms>
+void propagateSmall(const double* offset, const double* const (&matrices)[Terms], const double* const (&in)[Terms],
+                    double* out) {
+    double sum[D * C];
+    for (int k = 0; k < D * C; ++k)
+        sum[k] = offset[k];
+    for (int t = 0; t < Terms; ++t) {
+        const double* a = matrices[t];
+        const double* x = in[t];
+        for (int i = 0; i < D; ++i)
+            for (int j = 0; j < D; ++j)
+                for (int c = 0; c < C; ++c)
+                    sum[i * C + c] += a[i * D + j] * x[j * C + c];
+    }
+    for (int k = 0; k < D * C; ++k)
+        out[k] = sum[k];
+}
+
+/**
+ * Reads one particle's position, velocity (after the fused kick, if any) and, when noisy, its two noise vectors
+ * into 3-element slices.
+ */
+inline void readParticle(const StiffModes::Flow& flow, int particle, bool noisy, double* q, double* v, double* xi1,
+                         double* xi2) {
+    for (int d = 0; d < 3; ++d) {
+        q[d] = flow.positions[particle][d];
+        v[d] = flow.velocities[particle][d];
+    }
+    if (flow.kickForces != nullptr) {
+        const double scale = flow.kickStep * flow.inverseMasses[particle];
+        for (int d = 0; d < 3; ++d)
+            v[d] += scale * flow.kickForces[particle][d];
+    }
+    if (noisy) {
+        const std::array<double, 3> a = flow.random->normals(flow.stream, 2 * (std::uint32_t)particle);
+        const std::array<double, 3> b = flow.random->normals(flow.stream, 2 * (std::uint32_t)particle + 1);
+        for (int d = 0; d < 3; ++d) {
+            xi1[d] = a[d];
+            xi2[d] = b[d];
+        }
+    }
+}
+
+/**
+ * The flow of one small component (D rows, C columns), its state held in local arrays: most components are a bond
+ * or a single particle, where gathering into shared buffers and loops of run-time length would cost more than the
+ * arithmetic.  Positions and velocities are 3 doubles per particle in the component's particle order, which is the
+ * D x C row-major layout for either C.
+ */
+template <int D, int C, bool Noisy>
+void applySmall(const int* particles, const double* m, const StiffModes::Flow& flow) {
+    constexpr int Size = D * C, NumParticles = Size / 3;
+    constexpr PropagatorLayout layout{D, C};
+    double q[Size], v[Size], xi1[Size], xi2[Size];
+    for (int p = 0; p < NumParticles; ++p)
+        readParticle(flow, particles[p], Noisy, q + 3 * p, v + 3 * p, xi1 + 3 * p, xi2 + 3 * p);
+    double newQ[Size], newV[Size];
+    if (Noisy) {
+        propagateSmall<D, C, 3>(m + layout.gx(),
+                                {m + layout.matrix(Axx), m + layout.matrix(Axv), m + layout.matrix(Nxx)}, {q, v, xi1},
+                                newQ);
+        propagateSmall<D, C, 4>(
+            m + layout.gv(),
+            {m + layout.matrix(Avx), m + layout.matrix(Avv), m + layout.matrix(Nvx), m + layout.matrix(Nvv)},
+            {q, v, xi1, xi2}, newV);
+    } else {
+        propagateSmall<D, C, 2>(m + layout.gx(), {m + layout.matrix(Axx), m + layout.matrix(Axv)}, {q, v}, newQ);
+        propagateSmall<D, C, 2>(m + layout.gv(), {m + layout.matrix(Avx), m + layout.matrix(Avv)}, {q, v}, newV);
+    }
+    for (int p = 0; p < NumParticles; ++p) {
+        const int particle = particles[p];
+        flow.positions[particle] = Vec3(newQ[3 * p], newQ[3 * p + 1], newQ[3 * p + 2]);
+        flow.velocities[particle] = Vec3(newV[3 * p], newV[3 * p + 1], newV[3 * p + 2]);
+    }
+}
+
+typedef void (*SmallFlow)(const int* particles, const double* propagator, const StiffModes::Flow& flow);
+
+/** The compiled flow for a component of D rows and C columns, or nullptr when it is too large for one. */
+template <bool Noisy> SmallFlow smallFlow(int D, int C) {
+    if (C == 3) {
+        switch (D) {
+        case 1:
+            return &applySmall<1, 3, Noisy>;
+        case 2:
+            return &applySmall<2, 3, Noisy>;
+        case 3:
+            return &applySmall<3, 3, Noisy>;
+        case 4:
+            return &applySmall<4, 3, Noisy>;
+        case 5:
+            return &applySmall<5, 3, Noisy>;
+        case 6:
+            return &applySmall<6, 3, Noisy>;
+        }
+    } else {
+        switch (D) {
+        case 3:
+            return &applySmall<3, 1, Noisy>;
+        case 6:
+            return &applySmall<6, 1, Noisy>;
+        }
+    }
+    return nullptr;
+}
+
+/** out (D x C) = offset + sum over the terms of A_t in_t for a large component. */
+template <int C>
+void propagateLarge(int D, const double* offset, int terms, const double* const* matrices, const double* const* in,
+                    double* out) {
+    typedef Eigen::Matrix<double, Eigen::Dynamic, C, C == 1 ? Eigen::ColMajor : Eigen::RowMajor> Block;
+    typedef Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Square;
+    Eigen::Map<Block> result(out, D, C);
+    result = Eigen::Map<const Block>(offset, D, C);
+    for (int t = 0; t < terms; ++t)
+        result.noalias() += Square(matrices[t], D, D) * Eigen::Map<const Block>(in[t], D, C);
+}
+
 } // namespace
 
 StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock>& blocks,
@@ -79,6 +222,8 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
     }
     size_t matrixSize = 0;
     for (Component& c : components) {
+        c.flow = smallFlow<false>(c.rows(), c.columns());
+        c.noisyFlow = smallFlow<true>(c.rows(), c.columns());
         c.matrixOffset = matrixSize;
         const size_t size = c.isotropic ? c.numParticles : 3 * c.numParticles;
         matrixSize += size * size;
@@ -160,83 +305,6 @@ vector<double> StiffModes::getStiffFrequencies() const {
     return result;
 }
 
-namespace {
-
-/** The flow of one mode over h; for h < 0 (friction 0 only) the inverse of the flow over -h. */
-ModeFlow modeFlow(double omega, double gamma, double h) {
-    if (h >= 0)
-        return computeModeFlow(omega, gamma, h);
-    // The deterministic flow has unit determinant, so its inverse is the adjugate.
-    ModeFlow f = computeModeFlow(omega, 0.0, -h);
-    ModeFlow inverse{f.vv, -f.xv, -f.vx, f.xx, 0, 0, 0, 0, 0};
-    inverse.gx = -(inverse.xx * f.gx + inverse.xv * f.gv);
-    inverse.gv = -(inverse.vx * f.gx + inverse.vv * f.gv);
-    return inverse;
-}
-
-// The D x D matrices of a propagator.
-enum Matrix { Axx, Axv, Avx, Avv, Nxx, Nvx, Nvv };
-
-/** Where the parts of one component's propagator lie: Axx, Axv, Avx, Avv, gx, gv, then Nxx, Nvx, Nvv if noisy. */
-struct PropagatorLayout {
-    size_t D, C;
-    size_t matrix(Matrix m) const { return m < Nxx ? m * D * D : 4 * D * D + 2 * D * C + (m - Nxx) * D * D; }
-    size_t gx() const { return 4 * D * D; }
-    size_t gv() const { return 4 * D * D + D * C; }
-    size_t size(bool noisy) const { return (noisy ? 7 : 4) * D * D + 2 * D * C; }
-};
-
-/** out (D x C) = offset + sum over the terms of A_t in_t, with D and C known at compile time. */
-template <int C, int D>
-void propagateSmall(const double* offset, int terms, const double* const* matrices, const double* const* in,
-                    double* out) {
-    double sum[D * C];
-    for (int k = 0; k < D * C; ++k)
-        sum[k] = offset[k];
-    for (int t = 0; t < terms; ++t) {
-        const double* a = matrices[t];
-        const double* x = in[t];
-        for (int i = 0; i < D; ++i)
-            for (int j = 0; j < D; ++j)
-                for (int c = 0; c < C; ++c)
-                    sum[i * C + c] += a[i * D + j] * x[j * C + c];
-    }
-    for (int k = 0; k < D * C; ++k)
-        out[k] = sum[k];
-}
-
-/**
- * out (D x C) = offset + sum over the terms of A_t in_t: a component's whole update of its positions or of its
- * velocities.  Unrolled loops for the small components that dominate in practice (Eigen's dynamic-size products
- * cost more than the arithmetic there), Eigen for large ones.
- */
-template <int C>
-void propagateRows(int D, const double* offset, int terms, const double* const* matrices, const double* const* in,
-                   double* out) {
-    switch (D) {
-    case 1:
-        return propagateSmall<C, 1>(offset, terms, matrices, in, out);
-    case 2:
-        return propagateSmall<C, 2>(offset, terms, matrices, in, out);
-    case 3:
-        return propagateSmall<C, 3>(offset, terms, matrices, in, out);
-    case 4:
-        return propagateSmall<C, 4>(offset, terms, matrices, in, out);
-    case 5:
-        return propagateSmall<C, 5>(offset, terms, matrices, in, out);
-    case 6:
-        return propagateSmall<C, 6>(offset, terms, matrices, in, out);
-    }
-    typedef Eigen::Matrix<double, Eigen::Dynamic, C, C == 1 ? Eigen::ColMajor : Eigen::RowMajor> Block;
-    typedef Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Square;
-    Eigen::Map<Block> result(out, D, C);
-    result = Eigen::Map<const Block>(offset, D, C);
-    for (int t = 0; t < terms; ++t)
-        result.noalias() += Square(matrices[t], D, D) * Eigen::Map<const Block>(in[t], D, C);
-}
-
-} // namespace
-
 void StiffModes::computePropagator(double h, double gamma, double kT, Propagator& propagator) const {
     propagator.noisy = (gamma > 0.0 && kT > 0.0);
     const Matrix lastMatrix = propagator.noisy ? Nvv : Avv;
@@ -291,52 +359,51 @@ void StiffModes::Flow::apply(int begin, int end) const {
     const bool noisy = propagator->noisy;
     for (int c = begin; c < end; ++c) {
         const Component& comp = modes.components[c];
-        const int D = comp.rows(), C = comp.columns(), size = D * C;
-        // This component's slice of scratch: incoming positions, velocities, the two noise vectors and the outgoing
-        // positions and velocities, 3 doubles per particle in the component's particle order (which is the D x C
-        // row-major layout for either C).
-        double* q = &modes.scratch[6 * (size_t)comp.firstMode];
-        double* v = q + size;
-        double* xi1 = v + size;
-        double* xi2 = xi1 + size;
-        for (int p = 0; p < comp.numParticles; ++p) {
-            const int particle = modes.particleList[comp.firstParticle + p];
-            for (int d = 0; d < 3; ++d) {
-                q[3 * p + d] = positions[particle][d];
-                v[3 * p + d] = velocities[particle][d];
-            }
-            if (noisy) {
-                const std::array<double, 3> a = random->normals(stream, 2 * (std::uint32_t)particle);
-                const std::array<double, 3> b = random->normals(stream, 2 * (std::uint32_t)particle + 1);
-                for (int d = 0; d < 3; ++d) {
-                    xi1[3 * p + d] = a[d];
-                    xi2[3 * p + d] = b[d];
-                }
-            }
-        }
         const double* m = &propagator->data[propagator->offset[c]];
-        const PropagatorLayout layout{(size_t)D, (size_t)C};
-        const double* positionMatrices[] = {m + layout.matrix(Axx), m + layout.matrix(Axv), m + layout.matrix(Nxx)};
-        const double* velocityMatrices[] = {m + layout.matrix(Avx), m + layout.matrix(Avv), m + layout.matrix(Nvx),
-                                            m + layout.matrix(Nvv)};
-        const double* positionInputs[] = {q, v, xi1};
-        const double* velocityInputs[] = {q, v, xi1, xi2};
-        // Every output row reads every input row of the component, so outputs are stored after all are computed.
-        double* newQ = xi2 + size;
-        double* newV = newQ + size;
-        auto propagate = [&](const double* offset, int terms, const double* const* matrices, const double* const* in,
-                             double* out) {
-            if (C == 3)
-                propagateRows<3>(D, offset, terms, matrices, in, out);
-            else
-                propagateRows<1>(D, offset, terms, matrices, in, out);
-        };
-        propagate(m + layout.gx(), noisy ? 3 : 2, positionMatrices, positionInputs, newQ);
-        propagate(m + layout.gv(), noisy ? 4 : 2, velocityMatrices, velocityInputs, newV);
-        for (int p = 0; p < comp.numParticles; ++p) {
-            const int particle = modes.particleList[comp.firstParticle + p];
-            positions[particle] = OpenMM::Vec3(newQ[3 * p], newQ[3 * p + 1], newQ[3 * p + 2]);
-            velocities[particle] = OpenMM::Vec3(newV[3 * p], newV[3 * p + 1], newV[3 * p + 2]);
-        }
+        const int* particles = &modes.particleList[comp.firstParticle];
+        const SmallFlow small = (noisy ? comp.noisyFlow : comp.flow);
+        if (small != nullptr)
+            small(particles, m, *this);
+        else
+            applyLarge(c, m);
+    }
+}
+
+void StiffModes::Flow::applyLarge(int component, const double* m) const {
+    const Component& comp = modes.components[component];
+    const bool noisy = propagator->noisy;
+    const int D = comp.rows(), C = comp.columns(), size = D * C;
+    // This component's slice of scratch: incoming positions, velocities, the two noise vectors and the outgoing
+    // positions and velocities, 3 doubles per particle in the component's particle order (which is the D x C
+    // row-major layout for either C).
+    double* q = &modes.scratch[6 * (size_t)comp.firstMode];
+    double* v = q + size;
+    double* xi1 = v + size;
+    double* xi2 = xi1 + size;
+    for (int p = 0; p < comp.numParticles; ++p)
+        readParticle(*this, modes.particleList[comp.firstParticle + p], noisy, q + 3 * p, v + 3 * p, xi1 + 3 * p,
+                     xi2 + 3 * p);
+    const PropagatorLayout layout{(size_t)D, (size_t)C};
+    const double* positionMatrices[] = {m + layout.matrix(Axx), m + layout.matrix(Axv), m + layout.matrix(Nxx)};
+    const double* velocityMatrices[] = {m + layout.matrix(Avx), m + layout.matrix(Avv), m + layout.matrix(Nvx),
+                                        m + layout.matrix(Nvv)};
+    const double* positionInputs[] = {q, v, xi1};
+    const double* velocityInputs[] = {q, v, xi1, xi2};
+    // Every output row reads every input row of the component, so outputs are stored after all are computed.
+    double* newQ = xi2 + size;
+    double* newV = newQ + size;
+    auto propagate = [&](const double* offset, int terms, const double* const* matrices, const double* const* in,
+                         double* out) {
+        if (C == 3)
+            propagateLarge<3>(D, offset, terms, matrices, in, out);
+        else
+            propagateLarge<1>(D, offset, terms, matrices, in, out);
+    };
+    propagate(m + layout.gx(), noisy ? 3 : 2, positionMatrices, positionInputs, newQ);
+    propagate(m + layout.gv(), noisy ? 4 : 2, velocityMatrices, velocityInputs, newV);
+    for (int p = 0; p < comp.numParticles; ++p) {
+        const int particle = modes.particleList[comp.firstParticle + p];
+        positions[particle] = OpenMM::Vec3(newQ[3 * p], newQ[3 * p + 1], newQ[3 * p + 2]);
+        velocities[particle] = OpenMM::Vec3(newV[3 * p], newV[3 * p + 1], newV[3 * p + 2]);
     }
 }

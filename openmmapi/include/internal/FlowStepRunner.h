@@ -62,13 +62,16 @@ private:
     void prepare();
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
+    /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
-                      double constraintTolerance);
+                      double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
     bool hasConstraints, hasVirtualSites;
-    std::vector<double> masses, inverseMasses, thermalSpeeds, movable;
+    std::vector<double> masses, inverseMasses, thermalSpeeds;
+    // Per coordinate (three per particle), for the particle passes.
+    std::vector<double> coordinateInverseMasses, coordinateMovable;
     // 1 for particles the thermostats act on, 0 for the others.
     std::vector<double> thermostated;
     std::vector<int> frictionParticles;
@@ -76,6 +79,8 @@ private:
     double kT, friction;
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
+    // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.
+    std::vector<bool> kickFusedIntoNext;
     std::shared_ptr<const StiffModes> stiffModes;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;

@@ -53,14 +53,18 @@ struct ParticlePass : public RangeTask {
     const OpenMM::Vec3* slotForces[MaxForceSlots] = {};
     OpenMM::Vec3* positions = nullptr;
     OpenMM::Vec3* velocities = nullptr;
-    const double* inverseMasses = nullptr;
+    /** 1/m for each coordinate (three per particle), 0 for massless particles. */
+    const double* coordinateInverseMasses = nullptr;
     /** sqrt(kT/m) for each particle. */
     const double* thermalSpeeds = nullptr;
     const CounterRandom* random = nullptr;
     std::uint64_t firstStream = 0;
 
-    /** 1 for particles that move, 0 for massless ones (which OpenMM's integrators never move). */
-    const double* movable = nullptr;
+    /**
+     * 1 for each coordinate (three per particle) of particles that move, 0 for massless ones (which OpenMM's
+     * integrators never move).
+     */
+    const double* coordinateMovable = nullptr;
     /** 1 for particles the thermostats act on, 0 for the others. */
     const double* thermostated = nullptr;
 
@@ -89,33 +93,27 @@ struct ParticlePass : public RangeTask {
     }
 
 private:
-    // Vec3 stores three contiguous doubles; plain arrays let the compiler keep these loops tight.
+    // Vec3 stores three contiguous doubles: flat loops over coordinates of distinct arrays vectorize.
     void kick(const PreparedFlow& flow, int first, int last) const {
-        const double* f = reinterpret_cast<const double*>(slotForces[flow.slot]);
-        double* v = reinterpret_cast<double*>(velocities);
+        const double* __restrict f = reinterpret_cast<const double*>(slotForces[flow.slot]);
+        double* __restrict v = reinterpret_cast<double*>(velocities);
+        const double* __restrict inverseMass = coordinateInverseMasses;
         const double h = flow.h;
-        for (int i = first; i < last; ++i) {
-            const double scale = h * inverseMasses[i];
-            v[3 * i] += scale * f[3 * i];
-            v[3 * i + 1] += scale * f[3 * i + 1];
-            v[3 * i + 2] += scale * f[3 * i + 2];
-        }
+        for (int k = 3 * first; k < 3 * last; ++k)
+            v[k] += (h * inverseMass[k]) * f[k];
     }
     void drift(const PreparedFlow& flow, int first, int last) const {
-        double* x = reinterpret_cast<double*>(positions);
-        const double* v = reinterpret_cast<const double*>(velocities);
+        double* __restrict x = reinterpret_cast<double*>(positions);
+        const double* __restrict v = reinterpret_cast<const double*>(velocities);
+        const double* __restrict moves = coordinateMovable;
         const double h = flow.h;
-        for (int i = first; i < last; ++i) {
-            const double scale = h * movable[i];
-            x[3 * i] += scale * v[3 * i];
-            x[3 * i + 1] += scale * v[3 * i + 1];
-            x[3 * i + 2] += scale * v[3 * i + 2];
-        }
+        for (int k = 3 * first; k < 3 * last; ++k)
+            x[k] += (h * moves[k]) * v[k];
     }
     void thermostat(const PreparedFlow& flow, int first, int last) const {
         const std::uint64_t stream = firstStream + flow.streamOffset;
         for (int i = first; i < last; ++i) {
-            if (movable[i] == 0.0 || thermostated[i] == 0.0)
+            if (coordinateMovable[3 * i] == 0.0 || thermostated[i] == 0.0)
                 continue;
             std::array<double, 3> xi = random->normals(stream, (std::uint32_t)i);
             velocities[i] =

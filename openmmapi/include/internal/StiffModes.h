@@ -72,18 +72,30 @@ public:
         OpenMM::Vec3* velocities = nullptr;
         const CounterRandom* random = nullptr;
         std::uint64_t stream = 0;
+        /**
+         * When not null, the kick v += kickStep F / m that precedes the flow is applied as velocities are read
+         * (inverseMasses per particle), saving a pass over the particles.
+         */
+        const OpenMM::Vec3* kickForces = nullptr;
+        const double* inverseMasses = nullptr;
+        double kickStep = 0.0;
 
     private:
+        /** The general flow of a component too large for a compiled one. */
+        void applyLarge(int component, const double* propagator) const;
         const StiffModes& modes;
     };
 
 private:
+    /** The flow of one small component, compiled for its size. */
+    typedef void (*ComponentFlow)(const int* particles, const double* propagator, const Flow& flow);
     struct Component {
         int firstParticle, numParticles; // into particleList
         int firstMode;                   // its 3 * numParticles modes start here
         size_t matrixOffset;             // its column-major eigenvector matrix in eigenvectors
         bool stiff;
         bool isotropic; // every block a multiple of the identity: n x n eigenvectors shared by x, y and z
+        ComponentFlow flow, noisyFlow; // nullptr when the component is too large for a compiled flow
         int rows() const { return isotropic ? numParticles : 3 * numParticles; }
         int columns() const { return isotropic ? 3 : 1; }
     };

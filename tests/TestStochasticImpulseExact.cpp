@@ -8,6 +8,7 @@
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include <cmath>
 #include <memory>
+#include <utility>
 
 using namespace FlavorPlugin;
 using namespace FlavorTests;
@@ -42,86 +43,157 @@ VectorL stateOf(const vector<Vec3>& q, const vector<Vec3>& v) {
 
 constexpr int RingSize = 8;
 
+/**
+ * Components of every kind, each with its exact linear SDE: a 2-particle spring with omega = 1e4, a 3-particle
+ * chain, a tethered particle (b != 0), a particle pushed by a constant force (a free component), an anisotropic
+ * triple (a tether with different x, y, z stiffness and x-y coupling, and two springs) and a ring of 8 springs (the
+ * last two are components larger than the compiled sizes).
+ */
+struct MixedComponents {
+    System system;
+    LinearSde sde;
+    vector<Vec3> q0, v0;
+    int numParticles;
+
+    MixedComponents() {
+        vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0, 2.5, 1.2};
+        for (int i = 0; i < RingSize; ++i)
+            masses.push_back(1.0 + 0.25 * i);
+        masses.push_back(0.9);
+        numParticles = (int)masses.size();
+        const int n = 3 * numParticles, lastParticle = numParticles - 1;
+        for (double m : masses)
+            system.addParticle(m);
+        HarmonicBondForce* bonds = new HarmonicBondForce();
+        const double k01 = 1e8 * (1.0 * 3.0 / 4.0); // omega = 1e4 for the reduced mass 3/4
+        bonds->addBond(0, 1, 0.0, k01);
+        bonds->addBond(2, 3, 0.0, 2e4);
+        bonds->addBond(3, 4, 0.0, 5e2);
+        CustomExternalForce* tether = new CustomExternalForce("0.5*kt*((x-0.3)^2+(y+0.1)^2+z^2)");
+        tether->addGlobalParameter("kt", 1e3);
+        tether->addParticle(5);
+        CustomExternalForce* push = new CustomExternalForce("2.5*x - 1.5*z");
+        push->addParticle(6);
+        CustomExternalForce* anisotropic = new CustomExternalForce("0.5*(400*x^2+900*y^2+100*z^2)+30*x*y");
+        anisotropic->addParticle(7);
+        bonds->addBond(7, 8, 0.0, 3e3);
+        bonds->addBond(8, lastParticle, 0.0, 2e3);
+        for (int i = 0; i < RingSize; ++i)
+            bonds->addBond(9 + i, 9 + (i + 1) % RingSize, 0.0, 1e3 * (1 + i));
+        for (Force* f : vector<Force*>{bonds, tether, push, anisotropic}) {
+            f->setForceGroup(StiffGroup);
+            system.addForce(f);
+        }
+        sde.K = MatrixL::Zero(n, n);
+        sde.b = VectorL::Zero(n);
+        addSpring(sde.K, 0, 1, k01);
+        addSpring(sde.K, 2, 3, 2e4);
+        addSpring(sde.K, 3, 4, 5e2);
+        addSpring(sde.K, 7, 8, 3e3);
+        addSpring(sde.K, 8, lastParticle, 2e3);
+        for (int i = 0; i < RingSize; ++i)
+            addSpring(sde.K, 9 + i, 9 + (i + 1) % RingSize, 1e3 * (1 + i));
+        sde.K(21, 21) += 400;
+        sde.K(22, 22) += 900;
+        sde.K(23, 23) += 100;
+        sde.K(21, 22) += 30;
+        sde.K(22, 21) += 30;
+        for (int d = 0; d < 3; ++d)
+            sde.K(15 + d, 15 + d) = 1e3;
+        sde.b[15] = 0.3e3;
+        sde.b[16] = -0.1e3;
+        sde.b[18] = -2.5;
+        sde.b[20] = 1.5;
+        for (double m : masses)
+            for (int d = 0; d < 3; ++d)
+                sde.mass.push_back(m);
+        for (int i = 0; i < numParticles; ++i) {
+            q0.push_back(Vec3(0.1 * i, 0.05 * (i % 3), -0.02 * i));
+            v0.push_back(Vec3(0.3 - 0.1 * i, 0.2, 0.05 * i));
+        }
+    }
+
+    /** Relative errors of positions and velocities of the context against the state expected. */
+    std::pair<double, double> errors(Context& context, const VectorL& expected) const {
+        const int n = 3 * numParticles;
+        VectorL actual = stateOf(positionsOf(context), velocitiesOf(context));
+        return {(double)((actual.head(n) - expected.head(n)).norm() / expected.head(n).norm()),
+                (double)((actual.tail(n) - expected.tail(n)).norm() / expected.tail(n).norm())};
+    }
+};
+
 } // namespace
 
 TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
-    // Without soft forces and friction a step is the exact flow of the stiff potential, for any H and stiffness:
-    // a 2-particle spring with omega = 1e4, a 3-particle chain, a tethered particle (b != 0), a particle pushed
-    // by a constant force, an anisotropic triple (a tether with different x, y, z stiffness and x-y coupling, and
-    // two springs) and a ring of 8 springs (the last two are components larger than the unrolled sizes).
-    System system;
-    vector<double> masses = {1.0, 3.0, 2.0, 1.5, 0.7, 4.0, 1.0, 2.5, 1.2};
-    for (int i = 0; i < RingSize; ++i)
-        masses.push_back(1.0 + 0.25 * i);
-    masses.push_back(0.9);
-    const int numParticles = (int)masses.size(), n = 3 * numParticles, lastParticle = numParticles - 1;
-    for (double m : masses)
-        system.addParticle(m);
-    HarmonicBondForce* bonds = new HarmonicBondForce();
-    const double k01 = 1e8 * (1.0 * 3.0 / 4.0); // omega = 1e4 for the reduced mass 3/4
-    bonds->addBond(0, 1, 0.0, k01);
-    bonds->addBond(2, 3, 0.0, 2e4);
-    bonds->addBond(3, 4, 0.0, 5e2);
-    CustomExternalForce* tether = new CustomExternalForce("0.5*kt*((x-0.3)^2+(y+0.1)^2+z^2)");
-    tether->addGlobalParameter("kt", 1e3);
-    tether->addParticle(5);
-    CustomExternalForce* push = new CustomExternalForce("2.5*x - 1.5*z");
-    push->addParticle(6);
-    CustomExternalForce* anisotropic = new CustomExternalForce("0.5*(400*x^2+900*y^2+100*z^2)+30*x*y");
-    anisotropic->addParticle(7);
-    bonds->addBond(7, 8, 0.0, 3e3);
-    bonds->addBond(8, lastParticle, 0.0, 2e3);
-    for (int i = 0; i < RingSize; ++i)
-        bonds->addBond(9 + i, 9 + (i + 1) % RingSize, 0.0, 1e3 * (1 + i));
-    for (Force* f : vector<Force*>{bonds, tether, push, anisotropic}) {
-        f->setForceGroup(StiffGroup);
-        system.addForce(f);
-    }
-    LinearSde sde;
-    sde.K = MatrixL::Zero(n, n);
-    sde.b = VectorL::Zero(n);
-    addSpring(sde.K, 0, 1, k01);
-    addSpring(sde.K, 2, 3, 2e4);
-    addSpring(sde.K, 3, 4, 5e2);
-    addSpring(sde.K, 7, 8, 3e3);
-    addSpring(sde.K, 8, lastParticle, 2e3);
-    for (int i = 0; i < RingSize; ++i)
-        addSpring(sde.K, 9 + i, 9 + (i + 1) % RingSize, 1e3 * (1 + i));
-    sde.K(21, 21) += 400;
-    sde.K(22, 22) += 900;
-    sde.K(23, 23) += 100;
-    sde.K(21, 22) += 30;
-    sde.K(22, 21) += 30;
-    for (int d = 0; d < 3; ++d)
-        sde.K(15 + d, 15 + d) = 1e3;
-    sde.b[15] = 0.3e3;
-    sde.b[16] = -0.1e3;
-    sde.b[18] = -2.5;
-    sde.b[20] = 1.5;
-    for (double m : masses)
-        for (int d = 0; d < 3; ++d)
-            sde.mass.push_back(m);
-
-    vector<Vec3> q0, v0;
-    for (int i = 0; i < numParticles; ++i) {
-        q0.push_back(Vec3(0.1 * i, 0.05 * (i % 3), -0.02 * i));
-        v0.push_back(Vec3(0.3 - 0.1 * i, 0.2, 0.05 * i));
-    }
+    // Without soft forces and friction a step is the exact flow of the stiff potential, for any H and stiffness.
+    MixedComponents test;
     const double H = 0.37;
     for (auto splitting : {StochasticImpulseIntegrator::LieTrotter, StochasticImpulseIntegrator::Strang,
                            StochasticImpulseIntegrator::Yoshida4}) {
         StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
         integrator.setSplitting(splitting);
-        Context context(system, integrator, platform(), properties());
-        context.setPositions(q0);
-        context.setVelocities(v0);
+        Context context(test.system, integrator, platform(), properties());
+        context.setPositions(test.q0);
+        context.setVelocities(test.v0);
         integrator.step(3);
-        VectorL expected = sde.mean(stateOf(q0, v0), 3 * H);
-        VectorL actual = stateOf(positionsOf(context), velocitiesOf(context));
-        long double positionError = (actual.head(n) - expected.head(n)).norm() / expected.head(n).norm();
-        long double velocityError = (actual.tail(n) - expected.tail(n)).norm() / expected.tail(n).norm();
-        EXPECT_LE((double)positionError, 1e-10) << "splitting " << splitting;
-        EXPECT_LE((double)velocityError, 1e-10) << "splitting " << splitting;
+        const auto errors = test.errors(context, test.sde.mean(stateOf(test.q0, test.v0), 3 * H));
+        EXPECT_LE(errors.first, 1e-10) << "splitting " << splitting;
+        EXPECT_LE(errors.second, 1e-10) << "splitting " << splitting;
+    }
+}
+
+TEST_P(ImpulseExact, SoftKicksComposeWithTheExactFlow) {
+    // A constant soft force on every particle makes each kick exact, so a step must be the composition of kicks
+    // and exact stiff flows its splitting prescribes (Integrator 1, Integrator 3, Remark 2.4), on every kind of
+    // component, however the implementation merges them.
+    MixedComponents test;
+    CustomExternalForce* soft = new CustomExternalForce("-(fx*x + fy*y + fz*z)");
+    soft->addPerParticleParameter("fx");
+    soft->addPerParticleParameter("fy");
+    soft->addPerParticleParameter("fz");
+    const int n = 3 * test.numParticles;
+    VectorL acceleration(n);
+    for (int i = 0; i < test.numParticles; ++i) {
+        const vector<double> force = {3.0 - 0.5 * i, 1.0 + 0.25 * (i % 4), -2.0 + 0.1 * i};
+        soft->addParticle(i, force);
+        for (int d = 0; d < 3; ++d)
+            acceleration[3 * i + d] = force[d] / test.sde.mass[3 * i + d];
+    }
+    soft->setForceGroup(StiffGroup + 1);
+    test.system.addForce(soft);
+
+    auto kick = [&](VectorL& state, long double h) { state.tail(n) += h * acceleration; };
+    auto flow = [&](VectorL& state, double h) { state = test.sde.mean(state, h); };
+    auto strang = [&](VectorL& state, double h) {
+        kick(state, h / 2);
+        flow(state, h);
+        kick(state, h / 2);
+    };
+    const double H = 0.37, c = 1.0 / (2.0 - std::cbrt(2.0));
+    for (auto splitting : {StochasticImpulseIntegrator::LieTrotter, StochasticImpulseIntegrator::Strang,
+                           StochasticImpulseIntegrator::Yoshida4}) {
+        VectorL expected = stateOf(test.q0, test.v0);
+        for (int step = 0; step < 3; ++step) {
+            if (splitting == StochasticImpulseIntegrator::LieTrotter) {
+                flow(expected, H);
+                kick(expected, H);
+            } else if (splitting == StochasticImpulseIntegrator::Strang) {
+                strang(expected, H);
+            } else {
+                strang(expected, c * H);
+                strang(expected, (1 - 2 * c) * H);
+                strang(expected, c * H);
+            }
+        }
+        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
+        integrator.setSplitting(splitting);
+        Context context(test.system, integrator, platform(), properties());
+        context.setPositions(test.q0);
+        context.setVelocities(test.v0);
+        integrator.step(3);
+        const auto errors = test.errors(context, expected);
+        EXPECT_LE(errors.first, 1e-10) << "splitting " << splitting;
+        EXPECT_LE(errors.second, 1e-10) << "splitting " << splitting;
     }
 }
 

@@ -46,8 +46,8 @@ struct PropagatorLayout {
 
 /** out (D x C) = offset + sum over the terms of A_t in_t, with D, C and the number of terms known at compile time. */
 template <int D, int C, int Terms>
-void propagateSmall(const double* offset, const double* const (&matrices)[Terms], const double* const (&in)[Terms],
-                    double* out) {
+[[gnu::always_inline]] inline void propagateSmall(const double* offset, const double* const (&matrices)[Terms],
+                                                  const double* const (&in)[Terms], double* out) {
     double sum[D * C];
     for (int k = 0; k < D * C; ++k)
         sum[k] = offset[k];

@@ -69,6 +69,11 @@ struct ParticlePass : public RangeTask {
     const double* thermostated = nullptr;
 
     void apply(int begin, int end) const override {
+        if (numFlows == 1 && flows[0].kind == SubFlow::Kick) {
+            // The common single kick needs no blocks.
+            kick(flows[0], begin, end);
+            return;
+        }
         // Flow by flow over cache-sized blocks: tight loops per flow, and the block stays in cache between flows.
         constexpr int BlockSize = 256;
         for (int first = begin; first < end; first += BlockSize) {

@@ -7,7 +7,9 @@
 #include "openmm/Context.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include <cmath>
+#include <map>
 #include <memory>
+#include <string>
 #include <utility>
 
 using namespace FlavorPlugin;
@@ -113,8 +115,20 @@ struct MixedComponents {
         }
     }
 
-    /** Relative errors of positions and velocities of the context against the state expected. */
-    std::pair<double, double> errors(Context& context, const VectorL& expected) const {
+    /**
+     * Takes three steps of the splitting from (q0, v0) without friction and returns the relative errors of positions
+     * and velocities against the state expected.
+     */
+    std::pair<double, double> errorsOfThreeSteps(StochasticImpulseIntegrator::Splitting splitting, double H,
+                                                 Platform& platform,
+                                                 const std::map<std::string, std::string>& properties,
+                                                 const VectorL& expected) {
+        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
+        integrator.setSplitting(splitting);
+        Context context(system, integrator, platform, properties);
+        context.setPositions(q0);
+        context.setVelocities(v0);
+        integrator.step(3);
         const int n = 3 * numParticles;
         VectorL actual = stateOf(positionsOf(context), velocitiesOf(context));
         return {(double)((actual.head(n) - expected.head(n)).norm() / expected.head(n).norm()),
@@ -130,13 +144,8 @@ TEST_P(ImpulseExact, StiffFlowIsTheMatrixExponential) {
     const double H = 0.37;
     for (auto splitting : {StochasticImpulseIntegrator::LieTrotter, StochasticImpulseIntegrator::Strang,
                            StochasticImpulseIntegrator::Yoshida4}) {
-        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
-        integrator.setSplitting(splitting);
-        Context context(test.system, integrator, platform(), properties());
-        context.setPositions(test.q0);
-        context.setVelocities(test.v0);
-        integrator.step(3);
-        const auto errors = test.errors(context, test.sde.mean(stateOf(test.q0, test.v0), 3 * H));
+        const auto errors = test.errorsOfThreeSteps(splitting, H, platform(), properties(),
+                                                    test.sde.mean(stateOf(test.q0, test.v0), 3 * H));
         EXPECT_LE(errors.first, 1e-10) << "splitting " << splitting;
         EXPECT_LE(errors.second, 1e-10) << "splitting " << splitting;
     }
@@ -185,13 +194,7 @@ TEST_P(ImpulseExact, SoftKicksComposeWithTheExactFlow) {
                 strang(expected, c * H);
             }
         }
-        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
-        integrator.setSplitting(splitting);
-        Context context(test.system, integrator, platform(), properties());
-        context.setPositions(test.q0);
-        context.setVelocities(test.v0);
-        integrator.step(3);
-        const auto errors = test.errors(context, expected);
+        const auto errors = test.errorsOfThreeSteps(splitting, H, platform(), properties(), expected);
         EXPECT_LE(errors.first, 1e-10) << "splitting " << splitting;
         EXPECT_LE(errors.second, 1e-10) << "splitting " << splitting;
     }

@@ -12,17 +12,19 @@ BENCHMARKS = os.path.join(REPO_ROOT, "benchmarks")
 METHODS = {"verlet", "rrespa", "flavor_verlet", "flavor_euler", "sim_lietrotter", "sim_strang", "sim_yoshida4"}
 
 
-def run_quick(script, out):
-    return conftest.run_quick(os.path.join(BENCHMARKS, script), out)
+def run_quick(script, out, outputs):
+    """Runs a benchmark's --quick mode; checks that it succeeded and wrote the outputs; returns it and its JSON."""
+    result = conftest.run_quick(os.path.join(BENCHMARKS, script), out)
+    assert result.returncode == 0, result.stderr[-3000:]
+    for name in outputs:
+        assert (out / name).stat().st_size > 0, name
+    with open(out / next(name for name in outputs if name.endswith(".json"))) as f:
+        return result, json.load(f)
 
 
 def test_work_precision_quick(tmp_path):
-    result = run_quick("work_precision.py", tmp_path)
-    assert result.returncode == 0, result.stderr[-3000:]
-    for name in ("work_precision.json", "work_precision.md", "work_precision.png"):
-        assert (tmp_path / name).stat().st_size > 0, name
-    with open(tmp_path / "work_precision.json") as f:
-        data = json.load(f)
+    result, data = run_quick("work_precision.py", tmp_path,
+                             ("work_precision.json", "work_precision.md", "work_precision.png"))
     case = data["cases"][0]
     assert {r["method"] for r in case["runs"]} == METHODS
     reference = case["reference"]["checkpoints"]
@@ -39,12 +41,7 @@ def test_work_precision_quick(tmp_path):
 
 
 def test_stability_quick(tmp_path):
-    result = run_quick("stability.py", tmp_path)
-    assert result.returncode == 0, result.stderr[-3000:]
-    for name in ("stability.json", "stability.png", "resonance.png"):
-        assert (tmp_path / name).stat().st_size > 0, name
-    with open(tmp_path / "stability.json") as f:
-        data = json.load(f)
+    _, data = run_quick("stability.py", tmp_path, ("stability.json", "stability.png", "resonance.png"))
     domain = data["flavor_domain"]
     assert set(domain["schemes"]) == {"SymplecticEuler", "Verlet"}
     for scheme in domain["schemes"].values():
@@ -66,22 +63,13 @@ def test_stability_quick(tmp_path):
 
 
 def test_sim_step_cost_quick(tmp_path):
-    result = run_quick("sim_step_cost.py", tmp_path)
-    assert result.returncode == 0, result.stderr
-    with open(tmp_path / "sim_step_cost.json") as f:
-        data = json.load(f)
+    _, data = run_quick("sim_step_cost.py", tmp_path, ("sim_step_cost.json", "sim_step_cost.png"))
     assert set(data["runs"]) == {"Strang_friction0", "LieTrotter_friction0", "Strang_friction1", "LieTrotter_friction1"}
     assert all(run["step_us"] > 0 and run["mode_work_us"] > 0 for run in data["runs"].values())
-    assert (tmp_path / "sim_step_cost.png").exists()
 
 
 def test_sim_work_precision_quick(tmp_path):
-    result = run_quick("sim_work_precision.py", tmp_path)
-    assert result.returncode == 0, result.stderr[-3000:]
-    for name in ("sim_work_precision.json", "sim_work_precision.png"):
-        assert (tmp_path / name).stat().st_size > 0, name
-    with open(tmp_path / "sim_work_precision.json") as f:
-        data = json.load(f)
+    _, data = run_quick("sim_work_precision.py", tmp_path, ("sim_work_precision.json", "sim_work_precision.png"))
     criterion = data["criterion"]
     for result in data["a_work_precision"].values():
         assert {"sim_strang", "verlet"} <= set(result["methods"])

@@ -220,18 +220,22 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
         if (!isotropic && masses[b.i] != 0.0)
             components[componentOf[b.i]].isotropic = false;
     }
-    size_t matrixSize = 0;
+    size_t matrixSize = 0, scratchSize = 0;
     for (Component& c : components) {
         c.flow = smallFlow<false>(c.rows(), c.columns());
         c.noisyFlow = smallFlow<true>(c.rows(), c.columns());
         c.matrixOffset = matrixSize;
         const size_t size = c.isotropic ? c.numParticles : 3 * c.numParticles;
         matrixSize += size * size;
+        // Only components without a compiled flow stage their state in scratch: 6 slices of 3 doubles per particle.
+        c.scratchOffset = scratchSize;
+        if (c.flow == nullptr)
+            scratchSize += 18 * (size_t)c.numParticles;
     }
     eigenvectors.assign(matrixSize, 0.0);
     omega.assign(modes, 0.0);
     modeForce.assign(modes, 0.0);
-    scratch.assign(6 * (size_t)modes, 0.0);
+    scratch.assign(scratchSize, 0.0);
 
     // Assemble each component's mass-weighted stiffness and diagonalize it.
     vector<Eigen::MatrixXd> omegaSquared(components.size());
@@ -376,7 +380,7 @@ void StiffModes::Flow::applyLarge(int component, const double* m) const {
     // This component's slice of scratch: incoming positions, velocities, the two noise vectors and the outgoing
     // positions and velocities, 3 doubles per particle in the component's particle order (which is the D x C
     // row-major layout for either C).
-    double* q = &modes.scratch[6 * (size_t)comp.firstMode];
+    double* q = &modes.scratch[comp.scratchOffset];
     double* v = q + size;
     double* xi1 = v + size;
     double* xi2 = xi1 + size;

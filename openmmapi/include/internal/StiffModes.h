@@ -93,6 +93,7 @@ private:
         int firstParticle, numParticles; // into particleList
         int firstMode;                   // its 3 * numParticles modes start here
         size_t matrixOffset;             // its column-major eigenvector matrix in eigenvectors
+        size_t scratchOffset;            // its slice of scratch (components without a compiled flow only)
         bool stiff;
         bool isotropic; // every block a multiple of the identity: n x n eigenvectors shared by x, y and z
         ComponentFlow flow, noisyFlow; // nullptr when the component is too large for a compiled flow

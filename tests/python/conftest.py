@@ -64,6 +64,32 @@ def fpu_velocities():
     return [openmm.Vec3(v, 0.0, 0.0) for v in INITIAL_VX] * (unit.nanometer / unit.picosecond)
 
 
+def numpy_forces(x, which):
+    """Forces along x of the FPU chain for 'stiff', 'soft' or 'all' (unit masses, so also accelerations)."""
+    f = np.zeros_like(x)
+    if which in ("stiff", "all"):
+        k = OMEGA**2 / 2
+        for i, j in STIFF_PAIRS:
+            d = x[j] - x[i]
+            f[i] += k * d
+            f[j] -= k * d
+    if which in ("soft", "all"):
+        for i, j in SOFT_PAIRS:
+            d = x[j] - x[i]
+            f[i] += 4 * d**3
+            f[j] -= 4 * d**3
+        for i in WALL_PARTICLES:
+            f[i] -= 4 * x[i]**3
+    return f
+
+
+def assert_close_relative(actual, expected, rtol=1e-10):
+    scale = np.max(np.abs(expected))
+    assert scale > 0
+    error = np.max(np.abs(actual - expected))
+    assert error <= rtol * scale, f"max deviation {error:.3e} exceeds {rtol:.0e} x {scale:.3e}"
+
+
 def platform_properties(platform_name):
     # A fixed thread count keeps CPU results independent of the machine.
     return {"Threads": "2"} if platform_name == "CPU" else {}

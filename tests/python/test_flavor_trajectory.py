@@ -5,18 +5,9 @@ import openmm
 import openmm.unit as unit
 import pytest
 
-from conftest import (INITIAL_VX, INITIAL_X, OMEGA, SOFT_PAIRS, STIFF_PAIRS, WALL_PARTICLES, build_fpu_system,
-                      make_context, make_integrator, state_arrays)
+from conftest import (INITIAL_VX, INITIAL_X, assert_close_relative, build_fpu_system, make_context, make_integrator,
+                      numpy_forces, state_arrays)
 from openmmflavors import FlavorIntegrator
-
-RTOL = 1e-10
-
-
-def assert_close_relative(actual, expected, rtol=RTOL):
-    scale = np.max(np.abs(expected))
-    assert scale > 0
-    error = np.max(np.abs(actual - expected))
-    assert error <= rtol * scale, f"max deviation {error:.3e} exceeds {rtol:.0e} x {scale:.3e}"
 
 
 def verlet_reference(h, steps, start_velocity_shift):
@@ -84,25 +75,6 @@ def test_verlet_reduction_is_not_symplectic_euler():
 
 # ---------------------------------------------------------------------------------------------------------------
 # FLAVOR with microStep < mesoStep, against the compositions written out in NumPy on the 1D chain.
-
-
-def numpy_forces(x, which):
-    """Forces along x of the FPU chain for 'stiff', 'soft' or 'all' (unit masses, so also accelerations)."""
-    f = np.zeros_like(x)
-    if which in ("stiff", "all"):
-        k = OMEGA**2 / 2
-        for i, j in STIFF_PAIRS:
-            d = x[j] - x[i]
-            f[i] += k * d
-            f[j] -= k * d
-    if which in ("soft", "all"):
-        for i, j in SOFT_PAIRS:
-            d = x[j] - x[i]
-            f[i] += 4 * d**3
-            f[j] -= 4 * d**3
-        for i in WALL_PARTICLES:
-            f[i] -= 4 * x[i]**3
-    return f
 
 
 def numpy_flavor_step(x, v, meso, micro, scheme):

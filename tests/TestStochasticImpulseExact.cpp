@@ -200,57 +200,97 @@ TEST_P(ImpulseExact, SoftKicksComposeWithTheExactFlow) {
     }
 }
 
-TEST_P(ImpulseExact, OneNoisyStepHasTheExactMeanAndCovariance) {
-    // 4000 independent copies of a spring (masses 1 and 2, omega = 50) with friction 5/ps at 300 K take one step of
-    // H = 0.1 from the same state.  The sample mean and covariance of the 12 coordinates of a copy must match the
-    // linear SDE's exact mean and covariance within 5 standard errors (mean: sqrt(S_ii/N); covariance entry:
-    // sqrt((S_ii S_jj + S_ij^2)/N)).
-    const int copies = 4000;
-    const double mu = 2.0 / 3.0, omega = 50, k = omega * omega * mu, gamma = 5, temperature = 300, H = 0.1;
+namespace {
+
+/** A small molecule of isotropic springs and at most one anisotropic tether, with its linear SDE. */
+struct Molecule {
+    vector<double> masses;
+    struct Spring {
+        int i, j;
+        double k;
+    };
+    vector<Spring> springs;
+    int tethered = -1; // the particle held by AnisotropicTether, if any
+    static constexpr const char* AnisotropicTether = "0.5*(400*x^2+900*y^2+100*z^2)+30*x*y";
+
+    int size() const { return (int)masses.size(); }
+    LinearSde sde(double gamma, double kT) const {
+        const int n = 3 * size();
+        LinearSde result;
+        result.K = MatrixL::Zero(n, n);
+        result.b = VectorL::Zero(n);
+        for (const Spring& s : springs)
+            addSpring(result.K, s.i, s.j, s.k);
+        if (tethered >= 0) {
+            const int r = 3 * tethered;
+            result.K(r, r) += 400;
+            result.K(r + 1, r + 1) += 900;
+            result.K(r + 2, r + 2) += 100;
+            result.K(r, r + 1) += 30;
+            result.K(r + 1, r) += 30;
+        }
+        for (double m : masses)
+            for (int d = 0; d < 3; ++d)
+                result.mass.push_back(m);
+        result.gamma = gamma;
+        result.kT = kT;
+        return result;
+    }
+};
+
+/**
+ * Many independent copies of the molecule take one step of H = 0.1 with friction 5/ps at 300 K from the same state.
+ * The sample mean and covariance of a copy's coordinates must match the linear SDE's exact mean and covariance within
+ * 5 standard errors (mean: sqrt(S_ii/N); covariance entry: sqrt((S_ii S_jj + S_ij^2)/N)).
+ */
+void checkOneNoisyStep(const Molecule& molecule, int copies, Platform& platform,
+                       const std::map<std::string, std::string>& properties) {
+    const double gamma = 5, temperature = 300, H = 0.1;
+    const int n = molecule.size(), dims = 6 * n;
     System system;
     HarmonicBondForce* bonds = new HarmonicBondForce();
-    bonds->setForceGroup(StiffGroup);
-    for (int c = 0; c < copies; ++c) {
-        system.addParticle(1.0);
-        system.addParticle(2.0);
-        bonds->addBond(2 * c, 2 * c + 1, 0.0, k);
+    CustomExternalForce* tether = new CustomExternalForce(Molecule::AnisotropicTether);
+    for (Force* f : vector<Force*>{bonds, tether}) {
+        f->setForceGroup(StiffGroup);
+        system.addForce(f);
     }
-    system.addForce(bonds);
-    const vector<Vec3> q0 = {Vec3(0.1, 0.0, -0.05), Vec3(0.12, 0.01, -0.05)};
-    const vector<Vec3> v0 = {Vec3(1.0, -0.5, 0.2), Vec3(-0.3, 0.4, 0.0)};
-    vector<Vec3> q, v;
+    vector<Vec3> q0, v0, q, v;
+    for (int i = 0; i < n; ++i) {
+        q0.push_back(Vec3(0.1 + 0.02 * i, 0.01 * (i % 3), -0.05 + 0.01 * i));
+        v0.push_back(Vec3(1.0 - 0.3 * i, -0.5 + 0.2 * (i % 4), 0.2));
+    }
     for (int c = 0; c < copies; ++c) {
+        for (double m : molecule.masses)
+            system.addParticle(m);
+        for (const Molecule::Spring& s : molecule.springs)
+            bonds->addBond(n * c + s.i, n * c + s.j, 0.0, s.k);
+        if (molecule.tethered >= 0)
+            tether->addParticle(n * c + molecule.tethered);
         q.insert(q.end(), q0.begin(), q0.end());
         v.insert(v.end(), v0.begin(), v0.end());
     }
     StochasticImpulseIntegrator integrator(temperature, gamma, H, StiffMask);
     integrator.setRandomNumberSeed(7);
-    Context context(system, integrator, platform(), properties());
+    Context context(system, integrator, platform, properties);
     context.setPositions(q);
     context.setVelocities(v);
     integrator.step(1);
-    vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
+    const vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
 
-    LinearSde sde;
-    sde.K = MatrixL::Zero(6, 6);
-    sde.b = VectorL::Zero(6);
-    addSpring(sde.K, 0, 1, k);
-    sde.mass = {1, 1, 1, 2, 2, 2};
-    sde.gamma = gamma;
-    sde.kT = BOLTZ * temperature;
-    VectorL mean = sde.mean(stateOf(q0, v0), H);
-    MatrixL covariance = sde.covariance(H);
-
+    const LinearSde sde = molecule.sde(gamma, BOLTZ * temperature);
+    const VectorL mean = sde.mean(stateOf(q0, v0), H);
+    const MatrixL covariance = sde.covariance(H);
     vector<VectorL> samples;
     for (int c = 0; c < copies; ++c)
-        samples.push_back(stateOf({q1[2 * c], q1[2 * c + 1]}, {v1[2 * c], v1[2 * c + 1]}));
-    VectorL sampleMean = VectorL::Zero(12);
+        samples.push_back(stateOf(vector<Vec3>(q1.begin() + n * c, q1.begin() + n * (c + 1)),
+                                  vector<Vec3>(v1.begin() + n * c, v1.begin() + n * (c + 1))));
+    VectorL sampleMean = VectorL::Zero(dims);
     for (const VectorL& s : samples)
         sampleMean += s / copies;
-    MatrixL sampleCovariance = MatrixL::Zero(12, 12);
+    MatrixL sampleCovariance = MatrixL::Zero(dims, dims);
     for (const VectorL& s : samples)
         sampleCovariance += (s - sampleMean) * (s - sampleMean).transpose() / (copies - 1);
-    for (int i = 0; i < 12; ++i) {
+    for (int i = 0; i < dims; ++i) {
         EXPECT_NEAR((double)mean[i], (double)sampleMean[i], 5 * std::sqrt((double)covariance(i, i) / copies))
             << "mean of coordinate " << i;
         for (int j = 0; j <= i; ++j) {
@@ -260,6 +300,29 @@ TEST_P(ImpulseExact, OneNoisyStepHasTheExactMeanAndCovariance) {
                 << "covariance " << i << "," << j;
         }
     }
+}
+
+} // namespace
+
+TEST_P(ImpulseExact, OneNoisyStepHasTheExactMeanAndCovariance) {
+    // A spring between masses 1 and 2 with omega = 50 (a compiled flow), 4000 copies.
+    const double mu = 2.0 / 3.0, omega = 50;
+    checkOneNoisyStep(Molecule{{1.0, 2.0}, {{0, 1, omega * omega * mu}}}, 4000, platform(), properties());
+}
+
+TEST_P(ImpulseExact, OneNoisyStepOfLargeComponentsHasTheExactMeanAndCovariance) {
+    // A ring of 8 springs (isotropic, 8 rows) and an anisotropic triple (9 rows): both take the general path through
+    // mode space.  2000 copies.
+    Molecule molecule;
+    for (int i = 0; i < RingSize; ++i) {
+        molecule.masses.push_back(1.0 + 0.25 * i);
+        molecule.springs.push_back({i, (i + 1) % RingSize, 1e3 * (1 + i)});
+    }
+    molecule.masses.insert(molecule.masses.end(), {2.5, 1.2, 0.9});
+    molecule.springs.push_back({RingSize, RingSize + 1, 3e3});
+    molecule.springs.push_back({RingSize + 1, RingSize + 2, 2e3});
+    molecule.tethered = RingSize;
+    checkOneNoisyStep(molecule, 2000, platform(), properties());
 }
 
 TEST_P(ImpulseExact, EquipartitionWithSoftForces) {

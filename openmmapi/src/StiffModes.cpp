@@ -35,13 +35,31 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
 // The D x D matrices of a propagator.
 enum Matrix { Axx, Axv, Avx, Avv, Nxx, Nvx, Nvv };
 
-/** Where the parts of one component's propagator lie: Axx, Axv, Avx, Avv, gx, gv, then Nxx, Nvx, Nvv if noisy. */
+/**
+ * Where the parts of a small component's propagator lie: the D x D particle-space matrices Axx, Axv, Avx, Avv, the
+ * D x C offsets gx, gv, then Nxx, Nvx, Nvv if noisy.
+ */
 struct PropagatorLayout {
     size_t D, C;
     constexpr size_t matrix(Matrix m) const { return m < Nxx ? m * D * D : 4 * D * D + 2 * D * C + (m - Nxx) * D * D; }
     constexpr size_t gx() const { return 4 * D * D; }
     constexpr size_t gv() const { return 4 * D * D + D * C; }
     size_t size(bool noisy) const { return (noisy ? 7 : 4) * D * D + 2 * D * C; }
+};
+
+/**
+ * A large component's propagator stays in mode space, where it is diagonal: per mode k the 2 x 2 transition
+ * (xx, xv, vx, vv) and, when noisy, the noise factor sqrt(kT) (lxx, lvx, lvv); then the D x C mode offsets gx, gv.
+ * Applying it costs two products with the eigenvectors, instead of four to seven with D x D particle-space matrices
+ * that would not fit in cache.
+ */
+struct ModeLayout {
+    size_t D, C;
+    static constexpr size_t Transition = 4, Noise = 3;
+    constexpr size_t perMode(bool noisy) const { return noisy ? Transition + Noise : Transition; }
+    constexpr size_t gx(bool noisy) const { return perMode(noisy) * D; }
+    constexpr size_t gv(bool noisy) const { return perMode(noisy) * D + D * C; }
+    size_t size(bool noisy) const { return perMode(noisy) * D + 2 * D * C; }
 };
 
 /** out (D x C) = offset + sum over the terms of A_t in_t, with D, C and the number of terms known at compile time. */
@@ -151,18 +169,6 @@ template <bool Noisy> SmallFlow smallFlow(int D, int C) {
     return nullptr;
 }
 
-/** out (D x C) = offset + sum over the terms of A_t in_t for a large component. */
-template <int C>
-void propagateLarge(int D, const double* offset, int terms, const double* const* matrices, const double* const* in,
-                    double* out) {
-    typedef Eigen::Matrix<double, Eigen::Dynamic, C, C == 1 ? Eigen::ColMajor : Eigen::RowMajor> Block;
-    typedef Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Square;
-    Eigen::Map<Block> result(out, D, C);
-    result = Eigen::Map<const Block>(offset, D, C);
-    for (int t = 0; t < terms; ++t)
-        result.noalias() += Square(matrices[t], D, D) * Eigen::Map<const Block>(in[t], D, C);
-}
-
 } // namespace
 
 StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock>& blocks,
@@ -227,10 +233,11 @@ StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock
         c.matrixOffset = matrixSize;
         const size_t size = c.isotropic ? c.numParticles : 3 * c.numParticles;
         matrixSize += size * size;
-        // Only components without a compiled flow stage their state in scratch: 6 slices of 3 doubles per particle.
+        // Only components without a compiled flow stage their state in scratch: two D x 4C blocks (positions,
+        // velocities and two noise vectors, in particle and then in mode coordinates), 24 doubles per particle.
         c.scratchOffset = scratchSize;
         if (c.flow == nullptr)
-            scratchSize += 18 * (size_t)c.numParticles;
+            scratchSize += 24 * (size_t)c.numParticles;
     }
     eigenvectors.assign(matrixSize, 0.0);
     omega.assign(modes, 0.0);
@@ -311,29 +318,47 @@ vector<double> StiffModes::getStiffFrequencies() const {
 
 void StiffModes::computePropagator(double h, double gamma, double kT, Propagator& propagator) const {
     propagator.noisy = (gamma > 0.0 && kT > 0.0);
-    const Matrix lastMatrix = propagator.noisy ? Nvv : Avv;
+    const bool noisy = propagator.noisy;
     propagator.offset.resize(components.size());
     size_t size = 0;
     for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
         propagator.offset[c] = size;
-        size += PropagatorLayout{(size_t)components[c].rows(), (size_t)components[c].columns()}.size(propagator.noisy);
+        const size_t D = comp.rows(), C = comp.columns();
+        size += comp.flow != nullptr ? PropagatorLayout{D, C}.size(noisy) : ModeLayout{D, C}.size(noisy);
     }
     propagator.data.assign(size, 0.0);
-    const double thermalScale = propagator.noisy ? std::sqrt(kT) : 0.0;
+    const double thermalScale = noisy ? std::sqrt(kT) : 0.0;
     for (size_t c = 0; c < components.size(); ++c) {
         const Component& comp = components[c];
         const int D = comp.rows(), C = comp.columns();
-        const PropagatorLayout layout{(size_t)D, (size_t)C};
-        // Row i of a component holds particle coordinates of particle particleList[firstParticle + i / (3 / C)].
-        auto sqrtMassOfRow = [&](int i) { return sqrtMass[particleList[comp.firstParticle + (C == 3 ? i : i / 3)]]; };
-        Eigen::Map<const Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], D, D);
         vector<ModeFlow> flows(D);
         for (int k = 0; k < D; ++k)
             flows[k] = modeFlow(omega[comp.firstMode + C * k], gamma, h);
         double* out = &propagator.data[propagator.offset[c]];
+        auto modeForceOf = [&](int k, int col) { return modeForce[comp.firstMode + C * k + col]; };
+        if (comp.flow == nullptr) {
+            const ModeLayout layout{(size_t)D, (size_t)C};
+            for (int k = 0; k < D; ++k) {
+                const ModeFlow& f = flows[k];
+                double* entries = out + layout.perMode(noisy) * k;
+                const double values[] = {
+                    f.xx, f.xv, f.vx, f.vv, thermalScale * f.lxx, thermalScale * f.lvx, thermalScale * f.lvv};
+                std::copy(values, values + layout.perMode(noisy), entries);
+                for (int col = 0; col < C; ++col) {
+                    out[layout.gx(noisy) + k * C + col] = f.gx * modeForceOf(k, col);
+                    out[layout.gv(noisy) + k * C + col] = f.gv * modeForceOf(k, col);
+                }
+            }
+            continue;
+        }
+        const PropagatorLayout layout{(size_t)D, (size_t)C};
+        // Row i of a component holds particle coordinates of particle particleList[firstParticle + i / (3 / C)].
+        auto sqrtMassOfRow = [&](int i) { return sqrtMass[particleList[comp.firstParticle + (C == 3 ? i : i / 3)]]; };
+        Eigen::Map<const Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], D, D);
         const double ModeFlow::*entries[] = {&ModeFlow::xx,  &ModeFlow::xv,  &ModeFlow::vx, &ModeFlow::vv,
                                              &ModeFlow::lxx, &ModeFlow::lvx, &ModeFlow::lvv};
-        for (int m = Axx; m <= lastMatrix; ++m) {
+        for (int m = Axx; m <= (noisy ? Nvv : Avv); ++m) {
             Eigen::VectorXd diagonal(D);
             for (int k = 0; k < D; ++k)
                 diagonal[k] = flows[k].*entries[m];
@@ -349,13 +374,11 @@ void StiffModes::computePropagator(double h, double gamma, double kT, Propagator
         // The response to the constant force, U (g_k F_k) in mass-weighted coordinates.
         double *gx = out + layout.gx(), *gv = out + layout.gv();
         for (int k = 0; k < D; ++k)
-            for (int col = 0; col < C; ++col) {
-                const double force = modeForce[comp.firstMode + C * k + col];
+            for (int col = 0; col < C; ++col)
                 for (int i = 0; i < D; ++i) {
-                    gx[i * C + col] += u(i, k) * flows[k].gx * force / sqrtMassOfRow(i);
-                    gv[i * C + col] += u(i, k) * flows[k].gv * force / sqrtMassOfRow(i);
+                    gx[i * C + col] += u(i, k) * flows[k].gx * modeForceOf(k, col) / sqrtMassOfRow(i);
+                    gv[i * C + col] += u(i, k) * flows[k].gv * modeForceOf(k, col) / sqrtMassOfRow(i);
                 }
-            }
     }
 }
 
@@ -374,40 +397,62 @@ void StiffModes::Flow::apply(int begin, int end) const {
 }
 
 void StiffModes::Flow::applyLarge(int component, const double* m) const {
+    typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> Block;
     const Component& comp = modes.components[component];
     const bool noisy = propagator->noisy;
-    const int D = comp.rows(), C = comp.columns(), size = D * C;
-    // This component's slice of scratch: incoming positions, velocities, the two noise vectors and the outgoing
-    // positions and velocities, 3 doubles per particle in the component's particle order (which is the D x C
-    // row-major layout for either C).
-    double* q = &modes.scratch[comp.scratchOffset];
-    double* v = q + size;
-    double* xi1 = v + size;
-    double* xi2 = xi1 + size;
-    for (int p = 0; p < comp.numParticles; ++p)
-        readParticle(*this, modes.particleList[comp.firstParticle + p], noisy, q + 3 * p, v + 3 * p, xi1 + 3 * p,
-                     xi2 + 3 * p);
-    const PropagatorLayout layout{(size_t)D, (size_t)C};
-    const double* positionMatrices[] = {m + layout.matrix(Axx), m + layout.matrix(Axv), m + layout.matrix(Nxx)};
-    const double* velocityMatrices[] = {m + layout.matrix(Avx), m + layout.matrix(Avv), m + layout.matrix(Nvx),
-                                        m + layout.matrix(Nvv)};
-    const double* positionInputs[] = {q, v, xi1};
-    const double* velocityInputs[] = {q, v, xi1, xi2};
-    // Every output row reads every input row of the component, so outputs are stored after all are computed.
-    double* newQ = xi2 + size;
-    double* newV = newQ + size;
-    auto propagate = [&](const double* offset, int terms, const double* const* matrices, const double* const* in,
-                         double* out) {
-        if (C == 3)
-            propagateLarge<3>(D, offset, terms, matrices, in, out);
-        else
-            propagateLarge<1>(D, offset, terms, matrices, in, out);
-    };
-    propagate(m + layout.gx(), noisy ? 3 : 2, positionMatrices, positionInputs, newQ);
-    propagate(m + layout.gv(), noisy ? 4 : 2, velocityMatrices, velocityInputs, newV);
+    const int D = comp.rows(), C = comp.columns(), width = (noisy ? 4 : 2) * C;
+    // Two D x width blocks in this component's slice of scratch.  Row r of the first holds, for the particle
+    // coordinates of row r, S q, S v (S: square roots of the masses) and the two noise vectors, C columns each; a
+    // particle's 3 coordinates are the 3 columns of one row (isotropic) or one column of 3 rows.
+    double* particleSpace = &modes.scratch[comp.scratchOffset];
+    double* modeSpace = particleSpace + (size_t)D * width;
     for (int p = 0; p < comp.numParticles; ++p) {
         const int particle = modes.particleList[comp.firstParticle + p];
-        positions[particle] = OpenMM::Vec3(newQ[3 * p], newQ[3 * p + 1], newQ[3 * p + 2]);
-        velocities[particle] = OpenMM::Vec3(newV[3 * p], newV[3 * p + 1], newV[3 * p + 2]);
+        double q[3], v[3], xi1[3], xi2[3];
+        readParticle(*this, particle, noisy, q, v, xi1, xi2);
+        const double s = modes.sqrtMass[particle];
+        for (int d = 0; d < 3; ++d) {
+            double* row = particleSpace + (C == 3 ? p * width + d : (3 * p + d) * width);
+            row[0] = s * q[d];
+            row[C] = s * v[d];
+            if (noisy) {
+                row[2 * C] = xi1[d];
+                row[3 * C] = xi2[d];
+            }
+        }
+    }
+    Eigen::Map<const Eigen::MatrixXd> u(&modes.eigenvectors[comp.matrixOffset], D, D);
+    Eigen::Map<Block> inModes(modeSpace, D, width);
+    inModes.noalias() = u.transpose() * Eigen::Map<const Block>(particleSpace, D, width);
+    // Each mode's exact 2 x 2 flow and noise; the result (q then v, C columns each) goes to the first block.
+    const ModeLayout layout{(size_t)D, (size_t)C};
+    const double *gx = m + layout.gx(noisy), *gv = m + layout.gv(noisy);
+    Eigen::Map<Block> outModes(particleSpace, D, 2 * C);
+    for (int k = 0; k < D; ++k) {
+        const double* f = m + layout.perMode(noisy) * k;
+        const double* in = modeSpace + (size_t)k * width;
+        double* out = particleSpace + (size_t)k * 2 * C;
+        for (int col = 0; col < C; ++col) {
+            const double x = in[col], v = in[C + col];
+            double newX = f[0] * x + f[1] * v + gx[k * C + col];
+            double newV = f[2] * x + f[3] * v + gv[k * C + col];
+            if (noisy) {
+                newX += f[4] * in[2 * C + col];
+                newV += f[5] * in[2 * C + col] + f[6] * in[3 * C + col];
+            }
+            out[col] = newX;
+            out[C + col] = newV;
+        }
+    }
+    Eigen::Map<Block> inParticles(modeSpace, D, 2 * C);
+    inParticles.noalias() = u * outModes;
+    for (int p = 0; p < comp.numParticles; ++p) {
+        const int particle = modes.particleList[comp.firstParticle + p];
+        const double inverse = 1.0 / modes.sqrtMass[particle];
+        for (int d = 0; d < 3; ++d) {
+            const double* row = modeSpace + (C == 3 ? p * 2 * C + d : (3 * p + d) * 2 * C);
+            positions[particle][d] = inverse * row[0];
+            velocities[particle][d] = inverse * row[C];
+        }
     }
 }

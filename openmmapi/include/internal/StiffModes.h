@@ -45,8 +45,9 @@ public:
      *     q' = Axx q + Axv v + gx + Nxx xi1,    v' = Avx q + Avv v + gv + Nvx xi1 + Nvv xi2
      *
      * with xi1, xi2 standard normal per particle coordinate.  Each D x D matrix is U f(Omega) U^T with the masses
-     * folded in, so applying it needs no change of basis, and the noise does not depend on which eigenvectors the
-     * solver picked in a degenerate subspace.
+     * folded in, so the noise does not depend on which eigenvectors the solver picked in a degenerate subspace.  Small
+     * components (those with a compiled flow) store these matrices, so applying them needs no change of basis; large
+     * ones store only the diagonal f(Omega) and apply U^T and U around it.
      */
     struct Propagator {
         /** For each component, where its Axx, Axv, Avx, Avv, gx, gv (and Nxx, Nvx, Nvv when noisy) start in data. */

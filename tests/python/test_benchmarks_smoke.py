@@ -66,6 +66,9 @@ def test_sim_step_cost_quick(tmp_path):
     _, data = run_quick("sim_step_cost.py", tmp_path, ("sim_step_cost.json", "sim_step_cost.png"))
     assert set(data["runs"]) == {"Strang_friction0", "LieTrotter_friction0", "Strang_friction1", "LieTrotter_friction1"}
     assert all(run["step_us"] > 0 and run["mode_work_us"] > 0 for run in data["runs"].values())
+    scaling = data["component_scaling"]
+    assert [r["sum_nc2"] for r in scaling["rows"]] == [scaling["particles"] * r["n_c"] for r in scaling["rows"]]
+    assert all(r["step_us_friction0"] > 0 and r["step_us_friction1"] > 0 for r in scaling["rows"])
 
 
 def test_sim_work_precision_quick(tmp_path):

@@ -139,6 +139,45 @@ void applySmall(const int* particles, const double* m, const StiffModes::Flow& f
     }
 }
 
+/**
+ * out (D x W, row-major) = U^T in (in: D x W, row-major) for the column-major D x D eigenvectors U: each column of U
+ * is read once, in order.  Plain loops rather than a general matrix product, which would allocate its packing buffers
+ * on the heap for large components.
+ */
+template <int W> void toModes(int D, const double* u, const double* in, double* out) {
+    for (int k = 0; k < D; ++k) {
+        const double* column = u + (size_t)k * D;
+        double sum[W] = {};
+        for (int i = 0; i < D; ++i)
+            for (int w = 0; w < W; ++w)
+                sum[w] += column[i] * in[(size_t)i * W + w];
+        for (int w = 0; w < W; ++w)
+            out[(size_t)k * W + w] = sum[w];
+    }
+}
+
+/** out (D x W, row-major) = U in, reading the columns of U in order, four at a time so that each pass over out adds
+ * four modes. */
+template <int W> void fromModes(int D, const double* u, const double* in, double* out) {
+    std::fill(out, out + (size_t)D * W, 0.0);
+    int k = 0;
+    for (; k + 4 <= D; k += 4) {
+        const double *c0 = u + (size_t)k * D, *c1 = c0 + D, *c2 = c1 + D, *c3 = c2 + D;
+        const double* mode = in + (size_t)k * W;
+        for (int i = 0; i < D; ++i)
+            for (int w = 0; w < W; ++w)
+                out[(size_t)i * W + w] +=
+                    c0[i] * mode[w] + c1[i] * mode[W + w] + c2[i] * mode[2 * W + w] + c3[i] * mode[3 * W + w];
+    }
+    for (; k < D; ++k) {
+        const double* column = u + (size_t)k * D;
+        const double* mode = in + (size_t)k * W;
+        for (int i = 0; i < D; ++i)
+            for (int w = 0; w < W; ++w)
+                out[(size_t)i * W + w] += column[i] * mode[w];
+    }
+}
+
 typedef void (*SmallFlow)(const int* particles, const double* propagator, const StiffModes::Flow& flow);
 
 /** The compiled flow for a component of D rows and C columns, or nullptr when it is too large for one. */
@@ -397,7 +436,6 @@ void StiffModes::Flow::apply(int begin, int end) const {
 }
 
 void StiffModes::Flow::applyLarge(int component, const double* m) const {
-    typedef Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> Block;
     const Component& comp = modes.components[component];
     const bool noisy = propagator->noisy;
     const int D = comp.rows(), C = comp.columns(), width = (noisy ? 4 : 2) * C;
@@ -421,13 +459,23 @@ void StiffModes::Flow::applyLarge(int component, const double* m) const {
             }
         }
     }
-    Eigen::Map<const Eigen::MatrixXd> u(&modes.eigenvectors[comp.matrixOffset], D, D);
-    Eigen::Map<Block> inModes(modeSpace, D, width);
-    inModes.noalias() = u.transpose() * Eigen::Map<const Block>(particleSpace, D, width);
+    const double* u = &modes.eigenvectors[comp.matrixOffset];
+    switch (width) {
+    case 2:
+        toModes<2>(D, u, particleSpace, modeSpace);
+        break;
+    case 4:
+        toModes<4>(D, u, particleSpace, modeSpace);
+        break;
+    case 6:
+        toModes<6>(D, u, particleSpace, modeSpace);
+        break;
+    default:
+        toModes<12>(D, u, particleSpace, modeSpace);
+    }
     // Each mode's exact 2 x 2 flow and noise; the result (q then v, C columns each) goes to the first block.
     const ModeLayout layout{(size_t)D, (size_t)C};
     const double *gx = m + layout.gx(noisy), *gv = m + layout.gv(noisy);
-    Eigen::Map<Block> outModes(particleSpace, D, 2 * C);
     for (int k = 0; k < D; ++k) {
         const double* f = m + layout.perMode(noisy) * k;
         const double* in = modeSpace + (size_t)k * width;
@@ -444,8 +492,10 @@ void StiffModes::Flow::applyLarge(int component, const double* m) const {
             out[C + col] = newV;
         }
     }
-    Eigen::Map<Block> inParticles(modeSpace, D, 2 * C);
-    inParticles.noalias() = u * outModes;
+    if (C == 3)
+        fromModes<6>(D, u, particleSpace, modeSpace);
+    else
+        fromModes<2>(D, u, particleSpace, modeSpace);
     for (int p = 0; p < comp.numParticles; ++p) {
         const int particle = modes.particleList[comp.firstParticle + p];
         const double inverse = 1.0 / modes.sqrtMass[particle];

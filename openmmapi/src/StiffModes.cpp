@@ -156,8 +156,10 @@ template <int W> void toModes(int D, const double* u, const double* in, double* 
     }
 }
 
-/** out (D x W, row-major) = U in, reading the columns of U in order, four at a time so that each pass over out adds
- * four modes. */
+/**
+ * out (D x W, row-major) = U in, reading the columns of U in order, four at a time so that each pass over out adds
+ * four modes.
+ */
 template <int W> void fromModes(int D, const double* u, const double* in, double* out) {
     std::fill(out, out + (size_t)D * W, 0.0);
     int k = 0;
@@ -470,8 +472,9 @@ void StiffModes::Flow::applyLarge(int component, const double* m) const {
     case 6:
         toModes<6>(D, u, particleSpace, modeSpace);
         break;
-    default:
+    case 12:
         toModes<12>(D, u, particleSpace, modeSpace);
+        break;
     }
     // Each mode's exact 2 x 2 flow and noise; the result (q then v, C columns each) goes to the first block.
     const ModeLayout layout{(size_t)D, (size_t)C};

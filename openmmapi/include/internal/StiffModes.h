@@ -50,7 +50,10 @@ public:
      * ones store only the diagonal f(Omega) and apply U^T and U around it.
      */
     struct Propagator {
-        /** For each component, where its Axx, Axv, Avx, Avv, gx, gv (and Nxx, Nvx, Nvv when noisy) start in data. */
+        /**
+         * For each component, where its part of data starts: Axx, Axv, Avx, Avv, gx, gv (and Nxx, Nvx, Nvv when noisy)
+         * for a small component, the per-mode flow and the mode offsets for a large one.
+         */
         std::vector<size_t> offset;
         std::vector<double> data;
         bool noisy = false;

@@ -4,9 +4,11 @@
 #include "openmm/OpenMMException.h"
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <utility>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -182,31 +184,22 @@ template <int W> void fromModes(int D, const double* u, const double* in, double
 
 typedef void (*SmallFlow)(const int* particles, const double* propagator, const StiffModes::Flow& flow);
 
+/** The compiled flows of isotropic components (C = 3) of 1, 2, ... rows. */
+template <bool Noisy, int... Index>
+constexpr std::array<SmallFlow, sizeof...(Index)> isotropicFlows(std::integer_sequence<int, Index...>) {
+    return {&applySmall<Index + 1, 3, Noisy>...};
+}
+
 /** The compiled flow for a component of D rows and C columns, or nullptr when it is too large for one. */
 template <bool Noisy> SmallFlow smallFlow(int D, int C) {
-    if (C == 3) {
-        switch (D) {
-        case 1:
-            return &applySmall<1, 3, Noisy>;
-        case 2:
-            return &applySmall<2, 3, Noisy>;
-        case 3:
-            return &applySmall<3, 3, Noisy>;
-        case 4:
-            return &applySmall<4, 3, Noisy>;
-        case 5:
-            return &applySmall<5, 3, Noisy>;
-        case 6:
-            return &applySmall<6, 3, Noisy>;
-        }
-    } else {
-        switch (D) {
-        case 3:
-            return &applySmall<3, 1, Noisy>;
-        case 6:
-            return &applySmall<6, 1, Noisy>;
-        }
-    }
+    // Isotropic components of up to 6 particles; anisotropic ones (C = 1, 3 rows per particle) of 1 or 2.
+    constexpr int MaxIsotropicRows = 6;
+    if (C == 3 && D >= 1 && D <= MaxIsotropicRows)
+        return isotropicFlows<Noisy>(std::make_integer_sequence<int, MaxIsotropicRows>())[D - 1];
+    if (C == 1 && D == 3)
+        return &applySmall<3, 1, Noisy>;
+    if (C == 1 && D == 6)
+        return &applySmall<6, 1, Noisy>;
     return nullptr;
 }
 

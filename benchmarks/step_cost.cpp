@@ -4,13 +4,15 @@
 // evaluation (OpenMM's VerletIntegrator with restricted force groups adds its own update loop on top).
 //
 // The system is `chains` independent Fermi-Pasta-Ulam chains (FLAVORS paper eq. 6.7: stiff HarmonicBondForce in group
-// 1, soft CustomBondForce "r^4" and walls CustomExternalForce "x^4" in group 0), spread along y.
+// 1, soft CustomBondForce "r^4" and walls CustomExternalForce "x^4" in group 0), spread along y; with --springs N it is
+// N independent stiff springs (HarmonicBondForce of length 0, group 1) with a soft x^4 on every particle (group 0),
+// the system whose stiff-mode set-up benchmarks/sim_work_precision.py times.
 //
-// Usage: step_cost [--platform Reference|CPU] [--chains N] [--threads N] [--seconds S] [--repeats N]
+// Usage: step_cost [--platform Reference|CPU] [--chains N | --springs N] [--threads N] [--seconds S] [--repeats N]
 //                  [--steps N] [--plugins DIR] [measurement ...]
 // Measurements: force_soft force_stiff force_all flavor_verlet flavor_euler verlet verlet_soft verlet_stiff
-// sim_strang sim_lietrotter sim_strang_langevin (default: all).  Prints one JSON object: microseconds per step (minimum
-// and median over the repeats).
+// sim_strang sim_lietrotter sim_yoshida4 sim_strang_langevin (default: all but the last two).  Prints one JSON object:
+// microseconds per step (minimum and median over the repeats).
 // --steps N times exactly one batch of N steps after a 10-step warm-up, for instruction counting under callgrind
 // (the difference of two runs with different N is the cost of those steps alone).
 
@@ -62,6 +64,37 @@ System* fpuChains(int chains) {
     return FlavorExamples::fpuSystem(M, Omega, chains);
 }
 
+System* independentSprings(int springs) {
+    System* system = new System();
+    HarmonicBondForce* stiff = new HarmonicBondForce();
+    CustomExternalForce* soft = new CustomExternalForce("x^4");
+    stiff->setForceGroup(StiffGroup);
+    soft->setForceGroup(SoftGroup);
+    for (int i = 0; i < springs; ++i) {
+        system->addParticle(1.0);
+        system->addParticle(1.0);
+        stiff->addBond(2 * i, 2 * i + 1, 0.0, Omega * Omega / 2);
+        soft->addParticle(2 * i);
+        soft->addParticle(2 * i + 1);
+    }
+    system->addForce(stiff);
+    system->addForce(soft);
+    return system;
+}
+
+// Spring i at a random point of the cube [-1, 1]^3, stretched by up to 0.01 nm per coordinate.
+std::vector<Vec3> springPositions(int springs) {
+    std::mt19937 random(springs);
+    std::uniform_real_distribution<double> box(-1.0, 1.0), stretch(-0.01, 0.01);
+    std::vector<Vec3> positions;
+    for (int i = 0; i < springs; ++i) {
+        Vec3 first(box(random), box(random), box(random));
+        positions.push_back(first);
+        positions.push_back(first + Vec3(stretch(random), stretch(random), stretch(random)));
+    }
+    return positions;
+}
+
 // Chain 0 starts as in Fig. 6.5; the others at random slow and fast coordinates of the same size, so no two chains
 // move in lockstep.  Chain c lies at y = c.
 std::vector<Vec3> fpuPositions(int chains) {
@@ -100,12 +133,14 @@ std::unique_ptr<Integrator> makeIntegrator(const std::string& name) {
             verlet->setIntegrationForceGroups(name == "verlet_soft" ? soft : stiff);
         return verlet;
     }
-    if (name == "sim_strang" || name == "sim_lietrotter" || name == "sim_strang_langevin") {
+    if (name == "sim_strang" || name == "sim_lietrotter" || name == "sim_yoshida4" || name == "sim_strang_langevin") {
         const bool langevin = (name == "sim_strang_langevin");
         auto sim = std::make_unique<FlavorPlugin::StochasticImpulseIntegrator>(langevin ? 300.0 : 0.0,
                                                                                langevin ? 1.0 : 0.0, 0.01, stiff);
-        sim->setSplitting(name == "sim_lietrotter" ? FlavorPlugin::StochasticImpulseIntegrator::LieTrotter
-                                                   : FlavorPlugin::StochasticImpulseIntegrator::Strang);
+        if (name == "sim_lietrotter")
+            sim->setSplitting(FlavorPlugin::StochasticImpulseIntegrator::LieTrotter);
+        if (name == "sim_yoshida4")
+            sim->setSplitting(FlavorPlugin::StochasticImpulseIntegrator::Yoshida4);
         return sim;
     }
     return nullptr;
@@ -119,7 +154,7 @@ double seconds(std::chrono::steady_clock::time_point start) {
 
 int main(int argc, char** argv) {
     std::string platformName = "Reference", plugins = FLAVORS_PLUGIN_DIR;
-    int chains = 1, threads = 0, repeats = 3;
+    int chains = 1, springs = 0, threads = 0, repeats = 3;
     long long fixedSteps = 0;
     double target = 0.2;
     std::vector<std::string> names;
@@ -136,6 +171,8 @@ int main(int argc, char** argv) {
             platformName = value();
         else if (arg == "--chains")
             chains = std::atoi(value().c_str());
+        else if (arg == "--springs")
+            springs = std::atoi(value().c_str());
         else if (arg == "--threads")
             threads = std::atoi(value().c_str());
         else if (arg == "--seconds")
@@ -163,10 +200,11 @@ int main(int argc, char** argv) {
     if (threads > 0 && platformName == "CPU")
         properties["Threads"] = std::to_string(threads);
 
-    std::unique_ptr<System> system(fpuChains(chains));
-    std::vector<Vec3> positions = fpuPositions(chains);
-    std::printf("{\"platform\": \"%s\", \"chains\": %d, \"particles\": %d, \"threads\": %d, \"results\": {",
-                platformName.c_str(), chains, system->getNumParticles(), threads);
+    std::unique_ptr<System> system(springs > 0 ? independentSprings(springs) : fpuChains(chains));
+    std::vector<Vec3> positions = springs > 0 ? springPositions(springs) : fpuPositions(chains);
+    std::printf("{\"platform\": \"%s\", \"chains\": %d, \"springs\": %d, \"particles\": %d, \"threads\": %d, "
+                "\"results\": {",
+                platformName.c_str(), springs > 0 ? 0 : chains, springs, system->getNumParticles(), threads);
     for (size_t k = 0; k < names.size(); ++k) {
         std::unique_ptr<Integrator> integrator = makeIntegrator(names[k]);
         if (!integrator) {

@@ -143,8 +143,7 @@ def python_loop_cost(integrator, n):
 
 def find_helper(path):
     candidates = [path] if path else []
-    candidates += [os.environ.get("FLAVORS_STEP_COST", ""), os.path.join(REPO_ROOT, "build", "benchmarks", "step_cost"),
-                   "/tmp/benchbuild/benchmarks/step_cost"]
+    candidates += [os.environ.get("FLAVORS_STEP_COST", ""), os.path.join(REPO_ROOT, "build", "benchmarks", "step_cost")]
     for c in candidates:
         if c and os.path.isfile(c) and os.access(c, os.X_OK):
             return c
@@ -163,18 +162,26 @@ def run_helper(helper, args, label):
     return json.loads(out.stdout)["results"]
 
 
+def callgrind_total(valgrind, command, options=()):
+    """The instructions callgrind counts in one run of command."""
+    command = [valgrind, "--tool=callgrind", "--callgrind-out-file=/dev/null"] + list(options) + command
+    out = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    found = re.search(r"I\s+refs:\s+([\d,]+)", out.stderr)
+    if out.returncode != 0 or not found:
+        raise RuntimeError(f"callgrind run failed: {' '.join(command)}\n{out.stderr[-2000:]}")
+    return int(found.group(1).replace(",", ""))
+
+
 def count_instructions(helper, valgrind, args, name, steps):
     """Instructions per step of one helper measurement: the difference of two callgrind runs, so setup cancels."""
-    totals = []
-    for n in steps:
-        command = [valgrind, "--tool=callgrind", "--callgrind-out-file=/dev/null", helper] + args + \
-                  ["--steps", str(n), name]
-        out = subprocess.run(command, capture_output=True, text=True, timeout=600)
-        found = re.search(r"I\s+refs:\s+([\d,]+)", out.stderr)
-        if out.returncode != 0 or not found:
-            raise RuntimeError(f"callgrind run failed: {' '.join(command)}\n{out.stderr[-2000:]}")
-        totals.append(int(found.group(1).replace(",", "")))
+    totals = [callgrind_total(valgrind, [helper] + args + ["--steps", str(n), name]) for n in steps]
     return (totals[1] - totals[0]) / (steps[1] - steps[0])
+
+
+def count_instructions_inside(helper, valgrind, args, name, function):
+    """Instructions spent inside one function (and everything it calls) in a helper run of one step: callgrind
+    collects only while the function runs."""
+    return callgrind_total(valgrind, [helper] + args + ["--steps", "1", name], [f"--toggle-collect={function}"])
 
 
 def instruction_counts(helper, valgrind, args, names, steps, label):

@@ -1,9 +1,12 @@
 """Smoke tests of benchmarks/work_precision.py, stability.py, sim_step_cost.py and sim_work_precision.py: each runs
 with --quick into a temporary folder, exits 0 and writes its JSON, markdown and charts with the expected structure.
+The C++ helper benchmarks/step_cost is run once on each of its two systems.
 The numbers themselves are the benchmarks' business, not the tests'; only what must hold by construction is
 checked."""
 import json
 import os
+import subprocess
+import sys
 
 import conftest
 
@@ -90,3 +93,18 @@ def test_sim_work_precision_quick(tmp_path):
             if best is not None:
                 assert best["energy_scale_err_I"] <= criterion["every_I_j_relative"]
     assert data["b_setup"]["rows"] and data["c_step_cost"]["rows"]
+
+
+def test_step_cost_helper_builds_both_systems():
+    sys.path.insert(0, BENCHMARKS)
+    from step_cost import find_helper
+    helper = find_helper(None)
+    assert helper is not None, "build/benchmarks/step_cost is built with the project"
+    for args, particles in ((["--chains", "2"], 12), (["--springs", "50"], 100)):
+        out = subprocess.run([helper, "--steps", "3"] + args + ["sim_strang", "force_soft"], capture_output=True,
+                             text=True, timeout=120)
+        assert out.returncode == 0, out.stderr
+        data = json.loads(out.stdout)
+        assert data["particles"] == particles
+        assert set(data["results"]) == {"sim_strang", "force_soft"}
+        assert all(r["steps"] == 3 and r["us_per_step_min"] > 0 for r in data["results"].values())

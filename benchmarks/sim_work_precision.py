@@ -18,10 +18,12 @@ set-up cost of the stiff modes, and the cost of a SIM step relative to a soft-fo
     above it.  For each method and reading the cheapest passing run (wall time of one integrator.step(steps) call,
     minimum over repeats for short runs, fresh Context each, SIM's first step with the stiffness measurement
     included; the errors come from a separate run with the same steps, stopped at the sample times) and the speedup
-    of SIM over Verlet.
+    of SIM over Verlet.  With valgrind, the speedups in instructions too, and the most a SIM step may cost for 100x
+    and 500x.
 (b) Set-up cost of the stiff modes against the number of stiff components: 10^3..10^5 independent springs
     (HarmonicBondForce length 0) plus a soft x^4 on every particle: first step minus a later step, and
-    getStiffModeFrequencies() on a fresh Context; log-log slope.
+    getStiffModeFrequencies() on a fresh Context; log-log slope.  With valgrind, also the instructions of the set-up
+    itself (callgrind collecting inside ImpulseStepKernel::measureStiffModes, C++ helper --springs N).
 (c) One SIM step relative to one soft-group force evaluation on 1 and 1667 FPU chains (Reference and CPU).  The
     soft evaluation is timed exactly by the C++ helper benchmarks/step_cost (ContextImpl::calcForcesAndEnergy for
     group 0) when it is built, and always bounded from above by a VerletIntegrator restricted to group 0.
@@ -49,12 +51,14 @@ import openmmflavors
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
 import fpu_chain  # noqa: E402
-from step_cost import count_instructions, find_helper, measure, run_helper  # noqa: E402  (benchmarks/step_cost.py)
+from step_cost import (count_instructions, count_instructions_inside, find_helper, measure,  # noqa: E402
+                       run_helper)  # (benchmarks/step_cost.py)
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
 M = 3
 X0_TOL, I_TOL = 1e-3, 1e-2
+SPEEDUP_TARGETS = (100, 500)  # over Verlet, at omega = 200 and 1000
 SAMPLES = 100  # times at which the energy-scale error is taken
 CRITERION_TESTS = {"cheapest": lambda r: r["passes"],
                    "cheapest_energy_scale": lambda r: (r["rel_err_x0_1"] <= X0_TOL and
@@ -326,21 +330,26 @@ def instruction_speedups(part_a, log):
         log("    no C++ helper or valgrind: instruction counts skipped")
         return
     counts = {name: count_instructions(helper, valgrind, ["--platform", "Reference"], name, (2000, 4000))
-              for name in ("verlet", "sim_strang")}
-    log(f"    callgrind: VerletIntegrator {counts['verlet']:.0f}, Strang SIM {counts['sim_strang']:.0f} "
-        f"instructions per step")
+              for name in ("verlet", "sim_strang", "force_soft")}
+    log(f"    callgrind: VerletIntegrator {counts['verlet']:.0f}, Strang SIM {counts['sim_strang']:.0f}, one "
+        f"soft-group evaluation {counts['force_soft']:.0f} instructions per step")
     for res in part_a.values():
         res["instructions_per_step"] = counts
-        speedups = {}
+        speedups, budgets = {}, {}
         for criterion, predicate in CRITERION_TESTS.items():
             # In instructions the cheapest passing run is the one with the fewest steps.
             fewest = {key: min((r["steps"] for r in res["methods"][key]["runs"] if predicate(r)), default=None)
                       for key in ("verlet", "sim_strang")}
             if None in fewest.values():
-                speedups[criterion] = None
+                speedups[criterion] = budgets[criterion] = None
                 continue
-            speedups[criterion] = (fewest["verlet"] * counts["verlet"]) / (fewest["sim_strang"] * counts["sim_strang"])
+            verlet_work = fewest["verlet"] * counts["verlet"]
+            speedups[criterion] = verlet_work / (fewest["sim_strang"] * counts["sim_strang"])
+            # The most a SIM step (which contains one soft-group evaluation) may cost for a given speedup.
+            budgets[criterion] = {f"{target}x": verlet_work / (fewest["sim_strang"] * target)
+                                  for target in SPEEDUP_TARGETS}
         res["speedup_instructions_sim_strang_over_verlet"] = speedups
+        res["sim_step_instructions_allowed_for_speedup"] = budgets
 
 
 def cheapest(rows, predicate):
@@ -420,6 +429,27 @@ def setup_cost(sizes, platforms, threads, log):
     return {"rows": rows, "loglog_slopes": slopes}
 
 
+# The function that measures K, decomposes it and computes the propagator: the whole set-up of the stiff modes.
+SETUP_FUNCTION = "FlavorPlugin::ImpulseStepKernel::measureStiffModes*"
+
+
+def setup_instructions(sizes, log):
+    """Instructions of the stiff-mode set-up (callgrind, collecting only inside SETUP_FUNCTION) on the same kind of
+    system, built by the C++ helper: unlike wall time, not inflated by data outgrowing the caches."""
+    helper, valgrind = find_helper(None), shutil.which("valgrind")
+    if helper is None or valgrind is None:
+        log("    no C++ helper or valgrind: set-up instruction counts skipped")
+        return None
+    rows = []
+    for n in sizes:
+        count = count_instructions_inside(helper, valgrind, ["--platform", "Reference", "--springs", str(n)],
+                                          "sim_strang", SETUP_FUNCTION)
+        rows.append({"springs": n, "instructions": count, "per_spring": count / n})
+        log(f"    [set-up, callgrind] {n} springs: {count:.4g} instructions ({count / n:.0f} per spring)")
+    slope = float(np.polyfit(np.log(sizes), np.log([r["instructions"] for r in rows]), 1)[0]) if len(rows) > 1 else None
+    return {"function": SETUP_FUNCTION, "rows": rows, "loglog_slope": slope}
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # (c) step cost
 
@@ -470,6 +500,27 @@ def step_cost(chain_counts, platforms, threads, target, repeats, log):
                 ", ".join(f"{k} {v:.3g}" for k, v in row["us_per_step"].items()) +
                 f" us/step; soft force {soft:.3g} us ({row['soft_force_source']})")
     return {"rows": rows, "helper": helper}
+
+
+# The C++ helper's measurement for each step-cost case (the same integrators; SIM steps of 0.01 instead of 0.005, which
+# changes no instruction count).
+HELPER_CASES = {"sim_strang": "sim_strang", "sim_lietrotter": "sim_lietrotter", "sim_yoshida4": "sim_yoshida4",
+                "sim_strang_langevin": "sim_strang_langevin", "verlet_all": "verlet", "verlet_soft_only": "verlet_soft"}
+
+
+def step_instructions(log):
+    """The step-cost cases on one chain (Reference) in callgrind instructions, and as multiples of one soft-group
+    evaluation: wall times of sub-microsecond steps on a shared machine scatter by 50 %, these do not."""
+    helper, valgrind = find_helper(None), shutil.which("valgrind")
+    if helper is None or valgrind is None:
+        log("    no C++ helper or valgrind: step instruction counts skipped")
+        return None
+    counts = {key: count_instructions(helper, valgrind, ["--platform", "Reference"], name, (2000, 4000))
+              for key, name in list(HELPER_CASES.items()) + [("force_soft", "force_soft")]}
+    log("    [step cost, callgrind, 1 chain] " + ", ".join(f"{k} {v:.0f}" for k, v in counts.items()))
+    soft = counts.pop("force_soft")
+    return {"platform": "Reference", "chains": 1, "instructions_per_step": counts, "force_soft_instructions": soft,
+            "ratio_to_soft_force": {k: v / soft for k, v in counts.items()}}
 
 
 def _with_splitting(integrator, splitting):
@@ -539,8 +590,12 @@ def main():
         instruction_speedups(part_a, log)
     log("[b] set-up cost of the stiff modes")
     part_b = setup_cost(springs, args.platforms, args.threads, log)
+    if not (args.quick or args.no_instructions):
+        part_b["instructions"] = setup_instructions(springs, log)
     log("[c] step cost")
     part_c = step_cost(chains, args.platforms, args.threads, seconds, repeats, log)
+    if not (args.quick or args.no_instructions):
+        part_c["instructions"] = step_instructions(log)
 
     print_tables(part_a, part_b, part_c, T)
     os.makedirs(args.out, exist_ok=True)
@@ -602,6 +657,13 @@ def print_tables(part_a, part_b, part_c, T):
             counted = res.get("speedup_instructions_sim_strang_over_verlet", {}).get(criterion)
             print(f"  speedup of Strang SIM over Verlet at omega = {omega}: {fmt(s[criterion])} in wall time"
                   + (f", {counted:.1f}x in instructions (steps x callgrind count per step)" if counted else ""))
+            budget = res.get("sim_step_instructions_allowed_for_speedup", {}).get(criterion)
+            if budget:
+                counts = res["instructions_per_step"]
+                print("  a SIM step may cost at most " +
+                      ", ".join(f"{v:.0f} instructions for {k}" for k, v in budget.items()) +
+                      f" (now {counts['sim_strang']:.0f}, of which one soft-group evaluation "
+                      f"{counts['force_soft']:.0f})")
 
     print("\n(b) Set-up cost of the stiff modes: independent springs (HarmonicBondForce length 0) + soft x^4")
     head = f"  {'platform':9s} {'springs':>8s} {'1st step s':>10s} {'later s':>9s} {'set-up s':>9s} " \
@@ -614,6 +676,11 @@ def print_tables(part_a, part_b, part_c, T):
     for platform, s in part_b["loglog_slopes"].items():
         print(f"  log-log slope on {platform}: first step - later step {s['first_step_minus_later']:.2f}, "
               f"getStiffModeFrequencies() on a fresh Context {s['get_frequencies_fresh']:.2f}")
+    counted = part_b.get("instructions")
+    if counted:
+        print(f"  instructions inside {counted['function']} (callgrind, Reference): " +
+              ", ".join(f"{r['springs']} springs {r['per_spring']:.0f}/spring" for r in counted["rows"]) +
+              f"; log-log slope {counted['loglog_slope']:.3f}")
 
     print("\n(c) Step cost on FPU chains (omega = 200), us per step, and as a multiple of one soft-group force "
           "evaluation")
@@ -625,6 +692,12 @@ def print_tables(part_a, part_b, part_c, T):
         print(f"  {r['platform']:9s} {r['chains']:6d} {r['soft_force_us_used']:9.3g} " +
               " ".join(f"{r['us_per_step'][k]:9.3g} ({r['ratio_to_soft_force'][k]:5.2f}x)" for k in keys))
     print(f"  soft force source: {part_c['rows'][0]['soft_force_source']}")
+    counted = part_c.get("instructions")
+    if counted:
+        print(f"  Reference, 1 chain, callgrind instructions per step (one soft-group evaluation "
+              f"{counted['force_soft_instructions']:.0f}): " +
+              ", ".join(f"{k} {v:.0f} ({counted['ratio_to_soft_force'][k]:.2f}x)"
+                        for k, v in counted["instructions_per_step"].items()))
 
 
 def plot(part_a, part_b, part_c, T, path):
@@ -669,6 +742,11 @@ def plot(part_a, part_b, part_c, T, path):
         fresh = slope.get("get_frequencies_fresh", 0)
         ax.loglog(n, [r["get_frequencies_fresh_s"] for r in rows], marker="s", ls=":",
                   label=f"{platform}: getStiffModeFrequencies() fresh (slope {fresh:.2f})")
+    counted = part_b.get("instructions")
+    if counted:
+        ax.loglog([r["springs"] for r in counted["rows"]], [r["instructions"] / 3e9 for r in counted["rows"]],
+                  marker="^", color="k", ls="--",
+                  label=f"Reference: set-up instructions / 3e9 (callgrind, slope {counted['loglog_slope']:.3f})")
     ax.set_xlabel("independent stiff springs")
     ax.set_ylabel("s")
     ax.set_title("set-up cost of the stiff modes")
@@ -676,10 +754,16 @@ def plot(part_a, part_b, part_c, T, path):
     ax = axes[1, 1]
     rows = part_c["rows"]
     keys = list(rows[0]["ratio_to_soft_force"])
-    width = 0.8 / len(rows)
+    counted = part_c.get("instructions")
+    bars = len(rows) + (1 if counted else 0)
+    width = 0.8 / bars
     for i, r in enumerate(rows):
         ax.bar(np.arange(len(keys)) + i * width, [r["ratio_to_soft_force"][k] for k in keys], width,
                label=f"{r['platform']}, {r['chains']} chains (soft F {r['soft_force_us_used']:.3g} us)")
+    if counted:
+        ax.bar(np.arange(len(keys)) + len(rows) * width, [counted["ratio_to_soft_force"][k] for k in keys], width,
+               color="0.6", hatch="//", edgecolor="k",
+               label=f"Reference, 1 chain, callgrind instructions (soft F {counted['force_soft_instructions']:.0f})")
     ax.set_xticks(np.arange(len(keys)) + 0.4 - width / 2)
     ax.set_xticklabels(keys, rotation=20, fontsize=8)
     ax.set_ylabel("step cost / one soft-group force evaluation")

@@ -321,18 +321,13 @@ def work_precision(omega, T, args, log):
     return {"reference": reference, "methods": results, "speedup_sim_strang_over_verlet": speedups}
 
 
-def instruction_speedups(part_a, log):
-    """Speedups that do not depend on the machine's load: steps times instructions per step (callgrind, one chain on
-    Reference, through the C++ helper).  The per-step count depends on neither omega nor the step size; SIM's
-    one-off stiffness measurement (about ten force evaluations) is left out."""
-    helper, valgrind = find_helper(None), shutil.which("valgrind")
-    if helper is None or valgrind is None:
-        log("    no C++ helper or valgrind: instruction counts skipped")
-        return
-    counts = {name: count_instructions(helper, valgrind, ["--platform", "Reference"], name, (2000, 4000))
-              for name in ("verlet", "sim_strang", "force_soft")}
-    log(f"    callgrind: VerletIntegrator {counts['verlet']:.0f}, Strang SIM {counts['sim_strang']:.0f}, one "
-        f"soft-group evaluation {counts['force_soft']:.0f} instructions per step")
+def instruction_speedups(part_a, step_counts):
+    """Speedups that do not depend on the machine's load: steps times instructions per step (step_counts, from
+    step_instructions()).  The per-step count depends on neither omega nor the step size; SIM's one-off stiffness
+    measurement (about ten force evaluations) is left out."""
+    per_step = step_counts["instructions_per_step"]
+    counts = {"verlet": per_step["verlet_all"], "sim_strang": per_step["sim_strang"],
+              "force_soft": step_counts["force_soft_instructions"]}
     for res in part_a.values():
         res["instructions_per_step"] = counts
         speedups, budgets = {}, {}
@@ -585,17 +580,19 @@ def main():
 
     started = time.perf_counter()
     load = os.getloadavg()
+    count = not (args.quick or args.no_instructions)
     part_a = {f"{omega:g}": work_precision(omega, T, args, log) for omega in omegas}
-    if not (args.quick or args.no_instructions):
-        instruction_speedups(part_a, log)
+    step_counts = step_instructions(log) if count else None
+    if step_counts:
+        instruction_speedups(part_a, step_counts)
     log("[b] set-up cost of the stiff modes")
     part_b = setup_cost(springs, args.platforms, args.threads, log)
-    if not (args.quick or args.no_instructions):
+    if count:
         part_b["instructions"] = setup_instructions(springs, log)
     log("[c] step cost")
     part_c = step_cost(chains, args.platforms, args.threads, seconds, repeats, log)
-    if not (args.quick or args.no_instructions):
-        part_c["instructions"] = step_instructions(log)
+    if step_counts:
+        part_c["instructions"] = step_counts
 
     print_tables(part_a, part_b, part_c, T)
     os.makedirs(args.out, exist_ok=True)

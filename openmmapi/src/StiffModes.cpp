@@ -182,7 +182,14 @@ template <int W> void fromModes(int D, const double* u, const double* in, double
     }
 }
 
-typedef void (*SmallFlow)(const int* particles, const double* propagator, const StiffModes::Flow& flow);
+/** toModes<W> for the one of the widths Ws that equals width, a value known only at run time. */
+template <int... Ws> void toModesOfWidth(int width, int D, const double* u, const double* in, double* out) {
+    const bool found = ((width == Ws && (toModes<Ws>(D, u, in, out), true)) || ...);
+    if (!found)
+        throw OpenMMException("StiffModes: no mode product for a component of width " + std::to_string(width));
+}
+
+typedef StiffModes::ComponentFlow SmallFlow;
 
 /** The compiled flows of isotropic components (C = 3) of 1, 2, ... rows. */
 template <bool Noisy, int... Index>
@@ -455,20 +462,7 @@ void StiffModes::Flow::applyLarge(int component, const double* m) const {
         }
     }
     const double* u = &modes.eigenvectors[comp.matrixOffset];
-    switch (width) {
-    case 2:
-        toModes<2>(D, u, particleSpace, modeSpace);
-        break;
-    case 4:
-        toModes<4>(D, u, particleSpace, modeSpace);
-        break;
-    case 6:
-        toModes<6>(D, u, particleSpace, modeSpace);
-        break;
-    case 12:
-        toModes<12>(D, u, particleSpace, modeSpace);
-        break;
-    }
+    toModesOfWidth<2, 4, 6, 12>(width, D, u, particleSpace, modeSpace);
     // Each mode's exact 2 x 2 flow and noise; the result (q then v, C columns each) goes to the first block.
     const ModeLayout layout{(size_t)D, (size_t)C};
     const double *gx = m + layout.gx(noisy), *gv = m + layout.gv(noisy);

@@ -90,9 +90,13 @@ public:
         const StiffModes& modes;
     };
 
-private:
-    /** The flow of one small component, compiled for its size. */
+    /**
+     * The flow of one small component, compiled for its size: its particles, its part of the propagator data and
+     * the Flow being applied.
+     */
     typedef void (*ComponentFlow)(const int* particles, const double* propagator, const Flow& flow);
+
+private:
     struct Component {
         int firstParticle, numParticles; // into particleList
         int firstMode;                   // its 3 * numParticles modes start here

@@ -8,7 +8,7 @@ namespace {
 const int Stiff = 1 << 1;
 const int Soft = ~Stiff;
 
-FlavorParameters parameters(FlavorParameters::Scheme scheme, double delta, double tau, double friction = 0.0,
+FlavorParameters parameters(FlavorIntegrator::Scheme scheme, double delta, double tau, double friction = 0.0,
                             bool stiffFriction = false) {
     return FlavorParameters{scheme, delta, tau, Stiff, AllForceGroups, friction, stiffFriction};
 }
@@ -34,21 +34,21 @@ double totalTime(const Schedule& s, SubFlow::Kind kind, int requiredGroups = 0) 
 } // namespace
 
 TEST(FlowSchedule, SymplecticEulerIsEquation2_17) {
-    Schedule s = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, 0.01, 0.001));
+    Schedule s = flavorSchedule(parameters(FlavorIntegrator::SymplecticEuler, 0.01, 0.001));
     Schedule expected = {kick(0.001, AllForceGroups), drift(0.001), kick(0.01 - 0.001, Soft), drift(0.01 - 0.001)};
     EXPECT_EQ(expected, s);
 }
 
 TEST(FlowSchedule, VerletIsEquation2_7) {
     const double delta = 0.01, tau = 0.001, rest = delta - tau;
-    Schedule s = flavorSchedule(parameters(FlavorParameters::Verlet, delta, tau));
+    Schedule s = flavorSchedule(parameters(FlavorIntegrator::Verlet, delta, tau));
     Schedule expected = {kick(tau / 2, AllForceGroups), drift(tau / 2), kick(rest / 2, Soft),         drift(rest),
                          kick(rest / 2, Soft),          drift(tau / 2), kick(tau / 2, AllForceGroups)};
     EXPECT_EQ(expected, s);
 }
 
 TEST(FlowSchedule, StiffForcesActForTheMicrostepAndTimeAdvancesByTheMesostep) {
-    for (auto scheme : {FlavorParameters::SymplecticEuler, FlavorParameters::Verlet}) {
+    for (auto scheme : {FlavorIntegrator::SymplecticEuler, FlavorIntegrator::Verlet}) {
         Schedule s = flavorSchedule(parameters(scheme, 0.02, 0.003));
         EXPECT_NEAR(0.003, totalTime(s, SubFlow::Kick, Stiff), 1e-17);
         EXPECT_NEAR(0.02, totalTime(s, SubFlow::Kick, 1), 1e-17); // group 0 is soft: always on
@@ -57,24 +57,24 @@ TEST(FlowSchedule, StiffForcesActForTheMicrostepAndTimeAdvancesByTheMesostep) {
 }
 
 TEST(FlowSchedule, EqualStepsReduceToTheLegacyIntegrators) {
-    Schedule euler = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, 0.01, 0.01));
+    Schedule euler = flavorSchedule(parameters(FlavorIntegrator::SymplecticEuler, 0.01, 0.01));
     EXPECT_EQ((Schedule{kick(0.01, AllForceGroups), drift(0.01)}), euler);
-    Schedule verlet = flavorSchedule(parameters(FlavorParameters::Verlet, 0.01, 0.01));
+    Schedule verlet = flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.01));
     EXPECT_EQ((Schedule{kick(0.005, AllForceGroups), drift(0.01), kick(0.005, AllForceGroups)}), verlet);
 }
 
 TEST(FlowSchedule, LangevinPlacesTheThermostatsOfEquations4_7To4_10) {
     const double delta = 0.01, tau = 0.002;
-    Schedule slowEuler = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, delta, tau, 1.0, false));
+    Schedule slowEuler = flavorSchedule(parameters(FlavorIntegrator::SymplecticEuler, delta, tau, 1.0, false));
     EXPECT_EQ((Schedule{thermostat(tau), kick(tau, AllForceGroups), drift(tau), thermostat(delta - tau),
                         kick(delta - tau, Soft), drift(delta - tau)}),
               slowEuler);
-    Schedule stiffEuler = flavorSchedule(parameters(FlavorParameters::SymplecticEuler, delta, tau, 1.0, true));
+    Schedule stiffEuler = flavorSchedule(parameters(FlavorIntegrator::SymplecticEuler, delta, tau, 1.0, true));
     EXPECT_EQ(
         (Schedule{thermostat(tau), kick(tau, AllForceGroups), drift(tau), kick(delta - tau, Soft), drift(delta - tau)}),
         stiffEuler);
     for (bool stiff : {false, true}) {
-        Schedule verlet = flavorSchedule(parameters(FlavorParameters::Verlet, delta, tau, 1.0, stiff));
+        Schedule verlet = flavorSchedule(parameters(FlavorIntegrator::Verlet, delta, tau, 1.0, stiff));
         double edge = stiff ? tau / 2 : delta / 2;
         EXPECT_EQ(thermostat(edge), verlet.front());
         EXPECT_EQ(thermostat(edge), verlet.back());
@@ -88,12 +88,12 @@ TEST(FlowSchedule, SimplifyDropsEmptyFlowsAndMergesExactCompositions) {
 }
 
 TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
-    StepPlan plan = compileStepPlan(flavorSchedule(parameters(FlavorParameters::Verlet, 0.01, 0.001)), false);
+    StepPlan plan = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), false);
     // K_A D | K_S D | K_S D | K_A: three force evaluations per step once the last one is reused.
     ASSERT_EQ(4u, plan.passes.size());
     EXPECT_EQ(2u, plan.passes[0].flows.size());
     EXPECT_EQ(1u, plan.passes[3].flows.size());
     EXPECT_EQ((std::vector<int>{AllForceGroups, Soft}), plan.slotGroups);
-    StepPlan constrained = compileStepPlan(flavorSchedule(parameters(FlavorParameters::Verlet, 0.01, 0.001)), true);
+    StepPlan constrained = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), true);
     EXPECT_EQ(7u, constrained.passes.size());
 }

@@ -50,7 +50,7 @@ Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
     const int soft = p.integrationGroups & ~p.stiffGroups;
     const bool friction = p.friction > 0.0;
     Schedule s;
-    if (p.scheme == FlavorParameters::SymplecticEuler) {
+    if (p.scheme == FlavorIntegrator::SymplecticEuler) {
         // Eq. (2.17); Langevin: eqs. (4.7) and (4.8).
         if (friction)
             s.push_back(thermostat(tau));
@@ -87,10 +87,10 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
         s.push_back(stiffFlow(h));
         s.push_back(kick(h / 2, soft));
     };
-    if (p.splitting == ImpulseParameters::LieTrotter) {
+    if (p.splitting == StochasticImpulseIntegrator::LieTrotter) {
         s.push_back(stiffFlow(H));
         s.push_back(kick(H, soft));
-    } else if (p.splitting == ImpulseParameters::Strang) {
+    } else if (p.splitting == StochasticImpulseIntegrator::Strang) {
         strang(H);
     } else {
         const double c = 1.0 / (2.0 - std::cbrt(2.0));

@@ -1,7 +1,7 @@
 #include "StochasticImpulseIntegrator.h"
 #include "FlavorKernels.h"
 #include "internal/ParameterChecks.h"
-#include "internal/StiffProbe.h"
+#include "internal/StiffGroupChecks.h"
 #include "openmm/Context.h"
 #include "openmm/Force.h"
 #include "openmm/OpenMMException.h"

@@ -272,6 +272,19 @@ inline ModeFlow computeModeFlow(double omega, double gamma, double h) {
     return ModeFlowDetail::flowAndCovariance(omega, gamma, h).flow;
 }
 
+/** The exact Ornstein-Uhlenbeck flow of a velocity alone: v' = decay v + noise sqrt(kT/m) xi. */
+struct VelocityFlow {
+    double decay, noise;
+};
+
+/**
+ * The velocity part of a free (omega = 0) mode's flow, for friction gamma >= 0 over h >= 0: decay = e^-gamma h and
+ * noise = sqrt(1 - e^-2 gamma h), the velocity's standard deviation for kT/m = 1.
+ */
+inline VelocityFlow computeVelocityFlow(double gamma, double h) {
+    return {std::exp(-gamma * h), std::sqrt(-std::expm1(-2.0 * gamma * h))};
+}
+
 } // namespace FlavorPlugin
 
 #endif // OPENMM_FLAVORS_EXACT_MODE_FLOW_H_

@@ -1,6 +1,8 @@
 #ifndef OPENMM_FLAVORS_FLOW_SCHEDULE_H_
 #define OPENMM_FLAVORS_FLOW_SCHEDULE_H_
 
+#include "../FlavorIntegrator.h"
+#include "../StochasticImpulseIntegrator.h"
 #include "windowsExportFlavors.h"
 #include <vector>
 
@@ -34,8 +36,7 @@ typedef std::vector<SubFlow> Schedule;
 
 /** The parameters that define a FLAVOR step. */
 struct FlavorParameters {
-    enum Scheme { SymplecticEuler = 0, Verlet = 1 };
-    Scheme scheme;
+    FlavorIntegrator::Scheme scheme;
     double mesoStep, microStep;
     int stiffGroups;
     /** The force groups integrated at all (stiff and soft together). */
@@ -50,14 +51,13 @@ struct FlavorParameters {
 };
 
 /**
- * Builds the schedule of one FLAVOR mesostep (DESIGN.md section 2), already simplified.
+ * Builds the schedule of one FLAVOR mesostep (docs/ARCHITECTURE.md), already simplified.
  */
 OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
 
 /** The parameters that define a stochastic impulse step. */
 struct ImpulseParameters {
-    enum Splitting { LieTrotter = 0, Strang = 1, Yoshida4 = 2 };
-    Splitting splitting;
+    StochasticImpulseIntegrator::Splitting splitting;
     double stepSize;
     int stiffGroups;
     int integrationGroups;
@@ -68,7 +68,7 @@ struct ImpulseParameters {
 };
 
 /**
- * Builds the schedule of one stochastic impulse step (DESIGN.md section 2): E(H) K_soft(H) (LieTrotter),
+ * Builds the schedule of one stochastic impulse step (docs/ARCHITECTURE.md): E(H) K_soft(H) (LieTrotter),
  * K_soft(H/2) E(H) K_soft(H/2) (Strang), or Strang composed as S(c H) S((1-2c) H) S(c H) with
  * c = 1/(2 - 2^(1/3)) (Yoshida4).
  */

@@ -2,8 +2,8 @@
 #define OPENMM_FLAVORS_STIFF_PROBE_H_
 
 #include "StiffModes.h"
+#include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
-#include "windowsExportFlavors.h"
 #include <vector>
 
 namespace OpenMM {
@@ -30,16 +30,6 @@ struct ProbedStiffness {
  */
 OPENMM_EXPORT_FLAVORS ProbedStiffness probeStiffness(OpenMM::ContextImpl& context, int stiffGroups,
                                                      const std::vector<double>& masses);
-
-/**
- * The particles that the bonded stiff forces link to others, known without positions (for checks at Context
- * creation).
- */
-OPENMM_EXPORT_FLAVORS std::vector<bool> bondedStiffParticles(OpenMM::ContextImpl& context, int stiffGroups);
-
-/** Throws if a constraint of the System touches a particle for which stiff[i] is true. */
-OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
-                                                           const std::vector<bool>& stiff);
 
 } // namespace FlavorPlugin
 

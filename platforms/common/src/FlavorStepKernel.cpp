@@ -1,4 +1,4 @@
-#include "internal/FlavorStepKernel.h"
+#include "FlavorStepKernel.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 
@@ -14,7 +14,7 @@ void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& 
 }
 
 void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) {
-    FlavorParameters current{(FlavorParameters::Scheme)integrator.getScheme(),
+    FlavorParameters current{integrator.getScheme(),
                              integrator.getMesoStep(),
                              integrator.getMicroStep(),
                              integrator.getStiffGroups(),

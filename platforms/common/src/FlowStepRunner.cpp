@@ -1,4 +1,5 @@
-#include "internal/FlowStepRunner.h"
+#include "FlowStepRunner.h"
+#include "internal/ExactModeFlow.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferenceConstraints.h"
@@ -6,6 +7,7 @@
 #include <cmath>
 #include <istream>
 #include <ostream>
+#include <string>
 #include <utility>
 
 using namespace FlavorPlugin;
@@ -63,13 +65,15 @@ void FlowStepRunner::setSchedule(const Schedule& newSchedule, double newKT, doub
 
 void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     stiffModes = modes;
+    stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
     prepare();
 }
 
 void FlowStepRunner::prepare() {
     plan = compileStepPlan(schedule, hasConstraints);
     if (plan.slotGroups.size() > (size_t)MaxForceSlots)
-        throw OpenMMException("FlowStepRunner: a step may kick with at most 4 distinct force-group sets");
+        throw OpenMMException("FlowStepRunner: a step may kick with at most " + std::to_string(MaxForceSlots) +
+                              " distinct force-group sets");
     slots.resize(plan.slotGroups.size());
     for (size_t i = 0; i < slots.size(); ++i) {
         slots[i].groups = plan.slotGroups[i];
@@ -88,8 +92,9 @@ void FlowStepRunner::prepare() {
             const SubFlow& flow = pass.flows[k];
             PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0};
             if (flow.kind == SubFlow::Thermostat) {
-                p.decay = std::exp(-friction * flow.h);
-                p.noise = std::sqrt(-std::expm1(-2.0 * friction * flow.h));
+                const VelocityFlow ou = computeVelocityFlow(friction, flow.h);
+                p.decay = ou.decay;
+                p.noise = ou.noise;
                 p.streamOffset = thermostatsPerStep++;
             }
             if (flow.kind == SubFlow::StiffFlow) {
@@ -210,7 +215,7 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     vector<Vec3>& positions = *data.positions;
     if (hasConstraints)
         previousPositions = positions;
-    StiffModes::Flow task(*stiffModes);
+    StiffFlowTask& task = *stiffFlowTask;
     task.propagator = &stiffFlows[passIndex];
     task.positions = positions.data();
     task.velocities = data.velocities->data();

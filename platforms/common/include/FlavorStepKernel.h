@@ -1,9 +1,9 @@
 #ifndef OPENMM_FLAVORS_FLAVOR_STEP_KERNEL_H_
 #define OPENMM_FLAVORS_FLAVOR_STEP_KERNEL_H_
 
-#include "../FlavorKernels.h"
+#include "FlavorKernels.h"
 #include "FlowStepRunner.h"
-#include "windowsExportFlavors.h"
+#include "internal/windowsExportFlavors.h"
 #include <memory>
 
 namespace FlavorPlugin {

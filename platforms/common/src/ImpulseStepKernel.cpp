@@ -1,5 +1,7 @@
-#include "internal/ImpulseStepKernel.h"
-#include "internal/StiffProbe.h"
+#include "ImpulseStepKernel.h"
+#include "StiffProbe.h"
+#include "internal/StiffGroupChecks.h"
+#include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include <algorithm>
@@ -61,7 +63,12 @@ void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups)
     ProbedStiffness stiffness = probeStiffness(context, stiffGroups, masses);
     if (modes && samePotential(stiffness, measured))
         return;
-    auto decomposed = std::make_shared<const StiffModes>(masses, stiffness.blocks, stiffness.constantForce);
+    std::shared_ptr<const StiffModes> decomposed;
+    try {
+        decomposed = std::make_shared<const StiffModes>(masses, stiffness.blocks, stiffness.constantForce);
+    } catch (const OpenMMException& e) {
+        throw OpenMMException(std::string("StochasticImpulseIntegrator: ") + e.what());
+    }
     std::vector<bool> stiff(masses.size());
     for (size_t i = 0; i < masses.size(); ++i)
         stiff[i] = decomposed->isStiffParticle((int)i);
@@ -73,8 +80,8 @@ void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups)
 
 void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
                                 bool& stiffModesValid) {
-    ImpulseParameters current{(ImpulseParameters::Splitting)integrator.getSplitting(), integrator.getStepSize(),
-                              integrator.getStiffGroups(), integrator.getIntegrationForceGroups()};
+    ImpulseParameters current{integrator.getSplitting(), integrator.getStepSize(), integrator.getStiffGroups(),
+                              integrator.getIntegrationForceGroups()};
     const double currentKT = BOLTZ * integrator.getTemperature();
     if (!configured || !(current == parameters) || currentKT != kT || integrator.getFriction() != friction) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.

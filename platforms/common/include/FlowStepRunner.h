@@ -1,13 +1,14 @@
 #ifndef OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 #define OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 
-#include "CounterRandom.h"
-#include "FlowSchedule.h"
 #include "ParticleFlows.h"
+#include "StiffFlowTask.h"
 #include "StiffModes.h"
+#include "internal/CounterRandom.h"
+#include "internal/FlowSchedule.h"
+#include "internal/windowsExportFlavors.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
-#include "windowsExportFlavors.h"
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
@@ -82,6 +83,7 @@ private:
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.
     std::vector<bool> kickFusedIntoNext;
     std::shared_ptr<const StiffModes> stiffModes;
+    std::unique_ptr<StiffFlowTask> stiffFlowTask;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;
     std::vector<ForceSlot> slots;

@@ -1,8 +1,8 @@
 #ifndef OPENMM_FLAVORS_PARTICLE_FLOWS_H_
 #define OPENMM_FLAVORS_PARTICLE_FLOWS_H_
 
-#include "CounterRandom.h"
-#include "FlowSchedule.h"
+#include "internal/CounterRandom.h"
+#include "internal/FlowSchedule.h"
 #include "openmm/Vec3.h"
 #include <algorithm>
 #include <array>

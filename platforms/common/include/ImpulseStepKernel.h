@@ -1,11 +1,11 @@
 #ifndef OPENMM_FLAVORS_IMPULSE_STEP_KERNEL_H_
 #define OPENMM_FLAVORS_IMPULSE_STEP_KERNEL_H_
 
-#include "../FlavorKernels.h"
+#include "FlavorKernels.h"
 #include "FlowStepRunner.h"
 #include "StiffModes.h"
 #include "StiffProbe.h"
-#include "windowsExportFlavors.h"
+#include "internal/windowsExportFlavors.h"
 #include <memory>
 
 namespace FlavorPlugin {

@@ -1,0 +1,25 @@
+#ifndef OPENMM_FLAVORS_STIFF_GROUP_CHECKS_H_
+#define OPENMM_FLAVORS_STIFF_GROUP_CHECKS_H_
+
+#include "windowsExportFlavors.h"
+#include <vector>
+
+namespace OpenMM {
+class ContextImpl;
+}
+
+namespace FlavorPlugin {
+
+/**
+ * The particles that the bonded stiff forces link to others, known without positions (for checks at Context
+ * creation).
+ */
+OPENMM_EXPORT_FLAVORS std::vector<bool> bondedStiffParticles(OpenMM::ContextImpl& context, int stiffGroups);
+
+/** Throws if a constraint of the System touches a particle for which stiff[i] is true. */
+OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
+                                                           const std::vector<bool>& stiff);
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,137 @@
+#ifndef OPENMM_FLAVORS_STIFF_MODES_H_
+#define OPENMM_FLAVORS_STIFF_MODES_H_
+
+#include "internal/windowsExportFlavors.h"
+#include "openmm/Vec3.h"
+#include <cstddef>
+#include <vector>
+
+namespace FlavorPlugin {
+
+/** The 3x3 block K_ij of a stiffness matrix, for particles i and j (K_ji is its transpose). */
+struct StiffnessBlock {
+    int i, j;
+    double k[3][3];
+};
+
+/**
+ * A quadratic stiff potential U(q) = q^T K q / 2 - b^T q, decomposed into independent normal modes (see
+ * docs/ARCHITECTURE.md, "The exact stiff flow").  Particles coupled by nonzero blocks of K form connected components;
+ * each component is diagonalized in mass-weighted coordinates, Omega = M^-1/2 K M^-1/2 = U diag(omega^2) U^T.  Every
+ * other movable particle is a component of its own with three zero modes, so the free flow is the same code.
+ *
+ * This class describes the modes and computes their exact flow over a step (a Propagator); StiffFlowTask applies a
+ * Propagator to particle data.
+ */
+class OPENMM_EXPORT_FLAVORS StiffModes {
+public:
+    /** One connected component of the coupling graph. */
+    struct Component {
+        /** Its particles are getComponentParticles(c)[0 .. numParticles). */
+        int firstParticle, numParticles;
+        /** Its 3 * numParticles modes start here (mode C k + col is mode k in column col). */
+        int firstMode;
+        /** Where its column-major rows() x rows() eigenvector matrix starts. */
+        std::size_t matrixOffset;
+        bool stiff;
+        /** Every block a multiple of the identity: the rows() x rows() eigenvectors are shared by x, y and z. */
+        bool isotropic;
+        /** D: its particles when isotropic, else their 3n coordinates. */
+        int rows() const { return isotropic ? numParticles : 3 * numParticles; }
+        /** C: 3 when isotropic (x, y, z side by side), else 1. */
+        int columns() const { return isotropic ? 3 : 1; }
+    };
+
+    /**
+     * @param masses          the particle masses; massless particles do not move and belong to no component
+     * @param blocks          the nonzero blocks K_ij with i <= j, between particles with mass
+     * @param constantForce   b, the stiff force at q = 0
+     * @throws OpenMMException if a block involves a massless particle or K has a negative eigenvalue
+     */
+    StiffModes(const std::vector<double>& masses, const std::vector<StiffnessBlock>& blocks,
+               const std::vector<OpenMM::Vec3>& constantForce);
+    int getNumComponents() const { return (int)components.size(); }
+    const Component& getComponent(int c) const { return components[c]; }
+    /** The particles of component c, in the order of its rows. */
+    const int* getComponentParticles(int c) const { return &particleList[components[c].firstParticle]; }
+    /** The column-major eigenvectors U of component c. */
+    const double* getEigenvectors(int c) const { return &eigenvectors[components[c].matrixOffset]; }
+    double getSqrtMass(int particle) const { return sqrtMass[particle]; }
+    /** The angular frequencies of the modes of components with nonzero stiffness, ascending. */
+    std::vector<double> getStiffFrequencies() const;
+    /** Whether particle i belongs to a component with nonzero stiffness. */
+    bool isStiffParticle(int i) const { return stiffParticle[i]; }
+    /**
+     * Whether a component of D rows and C columns stores its propagator as particle-space matrices (small components,
+     * applied by code compiled for their size) rather than per mode (large ones, applied through U^T and U).
+     */
+    static bool hasParticleSpacePropagator(int rows, int columns) {
+        return (columns == 3 && rows >= 1 && rows <= MaxIsotropicRows) || (columns == 1 && (rows == 3 || rows == 6));
+    }
+    /** The largest isotropic component stored in particle space. */
+    static constexpr int MaxIsotropicRows = 6;
+
+    /**
+     * The exact flow of every component over one step, mapped back to particle coordinates.  A component has D rows
+     * and C columns, so its positions q and velocities v are D x C row-major blocks, and one step is
+     *
+     *     q' = Axx q + Axv v + gx + Nxx xi1,    v' = Avx q + Avv v + gv + Nvx xi1 + Nvv xi2
+     *
+     * with xi1, xi2 standard normal per particle coordinate.  Each D x D matrix is U f(Omega) U^T with the masses
+     * folded in, so the noise does not depend on which eigenvectors the solver picked in a degenerate subspace.  Small
+     * components store these matrices (PropagatorLayout); large ones store only the diagonal f(Omega) (ModeLayout).
+     */
+    struct Propagator {
+        /** For each component, where its part of data starts. */
+        std::vector<std::size_t> offset;
+        std::vector<double> data;
+        bool noisy = false;
+    };
+    /**
+     * Computes the propagator over a step h with friction gamma and thermal energy kT; h < 0 is allowed for
+     * gamma = 0 (the inverse flow).
+     */
+    void computePropagator(double h, double gamma, double kT, Propagator& propagator) const;
+
+private:
+    std::vector<Component> components;
+    std::vector<int> particleList;
+    std::vector<double> sqrtMass, eigenvectors, omega, modeForce;
+    std::vector<bool> stiffParticle;
+};
+
+/** The D x D matrices of a particle-space propagator. */
+enum PropagatorMatrix { Axx, Axv, Avx, Avv, Nxx, Nvx, Nvv };
+
+/**
+ * Where the parts of a small component's propagator lie: the D x D particle-space matrices Axx, Axv, Avx, Avv, the
+ * D x C offsets gx, gv, then Nxx, Nvx, Nvv if noisy.
+ */
+struct PropagatorLayout {
+    std::size_t D, C;
+    constexpr std::size_t matrix(PropagatorMatrix m) const {
+        return m < Nxx ? m * D * D : 4 * D * D + 2 * D * C + (m - Nxx) * D * D;
+    }
+    constexpr std::size_t gx() const { return 4 * D * D; }
+    constexpr std::size_t gv() const { return 4 * D * D + D * C; }
+    constexpr std::size_t size(bool noisy) const { return (noisy ? 7 : 4) * D * D + 2 * D * C; }
+};
+
+/**
+ * A large component's propagator stays in mode space, where it is diagonal: per mode k the 2 x 2 transition
+ * (xx, xv, vx, vv) and, when noisy, the noise factor sqrt(kT) (lxx, lvx, lvv); then the D x C mode offsets gx, gv.
+ * Applying it costs two products with the eigenvectors, instead of four to seven with D x D particle-space matrices
+ * that would not fit in cache.
+ */
+struct ModeLayout {
+    std::size_t D, C;
+    static constexpr std::size_t Transition = 4, Noise = 3;
+    constexpr std::size_t perMode(bool noisy) const { return noisy ? Transition + Noise : Transition; }
+    constexpr std::size_t gx(bool noisy) const { return perMode(noisy) * D; }
+    constexpr std::size_t gv(bool noisy) const { return perMode(noisy) * D + D * C; }
+    constexpr std::size_t size(bool noisy) const { return perMode(noisy) * D + 2 * D * C; }
+};
+
+} // namespace FlavorPlugin
+
+#endif

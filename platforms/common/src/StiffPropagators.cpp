@@ -1,0 +1,90 @@
+#include "StiffModes.h"
+#include "internal/ExactModeFlow.h"
+#include <Eigen/Dense>
+#include <algorithm>
+
+using namespace FlavorPlugin;
+using std::vector;
+
+namespace {
+
+/** The flow of one mode over h; for h < 0 (friction 0 only) the inverse of the flow over -h. */
+ModeFlow modeFlow(double omega, double gamma, double h) {
+    if (h >= 0)
+        return computeModeFlow(omega, gamma, h);
+    // The deterministic flow has unit determinant, so its inverse is the adjugate.
+    ModeFlow f = computeModeFlow(omega, 0.0, -h);
+    ModeFlow inverse{f.vv, -f.xv, -f.vx, f.xx, 0, 0, 0, 0, 0};
+    inverse.gx = -(inverse.xx * f.gx + inverse.xv * f.gv);
+    inverse.gv = -(inverse.vx * f.gx + inverse.vv * f.gv);
+    return inverse;
+}
+
+} // namespace
+
+void StiffModes::computePropagator(double h, double gamma, double kT, Propagator& propagator) const {
+    propagator.noisy = (gamma > 0.0 && kT > 0.0);
+    const bool noisy = propagator.noisy;
+    propagator.offset.resize(components.size());
+    size_t size = 0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        propagator.offset[c] = size;
+        const size_t D = comp.rows(), C = comp.columns();
+        size += hasParticleSpacePropagator((int)D, (int)C) ? PropagatorLayout{D, C}.size(noisy)
+                                                           : ModeLayout{D, C}.size(noisy);
+    }
+    propagator.data.assign(size, 0.0);
+    const double thermalScale = noisy ? std::sqrt(kT) : 0.0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        const int D = comp.rows(), C = comp.columns();
+        vector<ModeFlow> flows(D);
+        for (int k = 0; k < D; ++k)
+            flows[k] = modeFlow(omega[comp.firstMode + C * k], gamma, h);
+        double* out = &propagator.data[propagator.offset[c]];
+        auto modeForceOf = [&](int k, int col) { return modeForce[comp.firstMode + C * k + col]; };
+        if (!hasParticleSpacePropagator(D, C)) {
+            const ModeLayout layout{(size_t)D, (size_t)C};
+            for (int k = 0; k < D; ++k) {
+                const ModeFlow& f = flows[k];
+                double* entries = out + layout.perMode(noisy) * k;
+                const double values[] = {
+                    f.xx, f.xv, f.vx, f.vv, thermalScale * f.lxx, thermalScale * f.lvx, thermalScale * f.lvv};
+                std::copy(values, values + layout.perMode(noisy), entries);
+                for (int col = 0; col < C; ++col) {
+                    out[layout.gx(noisy) + k * C + col] = f.gx * modeForceOf(k, col);
+                    out[layout.gv(noisy) + k * C + col] = f.gv * modeForceOf(k, col);
+                }
+            }
+            continue;
+        }
+        const PropagatorLayout layout{(size_t)D, (size_t)C};
+        // Row i of a component holds particle coordinates of particle particleList[firstParticle + i / (3 / C)].
+        auto sqrtMassOfRow = [&](int i) { return sqrtMass[particleList[comp.firstParticle + (C == 3 ? i : i / 3)]]; };
+        Eigen::Map<const Eigen::MatrixXd> u(&eigenvectors[comp.matrixOffset], D, D);
+        const double ModeFlow::*entries[] = {&ModeFlow::xx,  &ModeFlow::xv,  &ModeFlow::vx, &ModeFlow::vv,
+                                             &ModeFlow::lxx, &ModeFlow::lvx, &ModeFlow::lvv};
+        for (int m = Axx; m <= (noisy ? Nvv : Avv); ++m) {
+            Eigen::VectorXd diagonal(D);
+            for (int k = 0; k < D; ++k)
+                diagonal[k] = flows[k].*entries[m];
+            // U f U^T acts on mass-weighted coordinates; in particle coordinates it is S^-1 U f U^T S (the noise, drawn
+            // per particle coordinate, is S^-1 U L U^T xi).
+            Eigen::MatrixXd product = u * diagonal.asDiagonal() * u.transpose();
+            const bool noise = (m >= Nxx);
+            double* matrix = out + layout.matrix((PropagatorMatrix)m);
+            for (int i = 0; i < D; ++i)
+                for (int j = 0; j < D; ++j)
+                    matrix[i * D + j] = product(i, j) / sqrtMassOfRow(i) * (noise ? thermalScale : sqrtMassOfRow(j));
+        }
+        // The response to the constant force, U (g_k F_k) in mass-weighted coordinates.
+        double *gx = out + layout.gx(), *gv = out + layout.gv();
+        for (int k = 0; k < D; ++k)
+            for (int col = 0; col < C; ++col)
+                for (int i = 0; i < D; ++i) {
+                    gx[i * C + col] += u(i, k) * flows[k].gx * modeForceOf(k, col) / sqrtMassOfRow(i);
+                    gv[i * C + col] += u(i, k) * flows[k].gv * modeForceOf(k, col) / sqrtMassOfRow(i);
+                }
+    }
+}

@@ -1,7 +1,8 @@
 # openmm-flavors: the commands a user needs.  Every target installs the Debian packages it needs first.
 #   make demo                 build, then the FPU scene (FLAVOR vs Verlet) and a reduced work-precision comparison of
 #                             every integrator on the FPU chain, with tables; results in results/
-#   make test                 build, then run every C++ test (ctest) and every Python test (pytest)
+#   make test                 check the C++ formatting, build (any compiler warning fails), then run every C++ test
+#                             (ctest) and every Python test (pytest)
 #   make install PREFIX=dir   install libraries, headers, kernel plugins and the Python package under dir
 #   make bench                run the benchmarks (not part of the tests)
 
@@ -10,10 +11,10 @@ BUILD ?= build
 PYTHON := /usr/bin/python3
 JOBS ?= $(shell nproc)
 APT_PACKAGES := cmake make gcc g++ swig libopenmm-dev libopenmm-plugins python3-simtk python3-dev libeigen3-dev \
-                libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy
+                libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy clang-format git
 PYTHON_ENV := PYTHONPATH=$(CURDIR)/$(BUILD)/python PYTHONDONTWRITEBYTECODE=1
 
-.PHONY: deps build test demo install bench clean
+.PHONY: deps build format-check test demo install bench clean
 
 deps:
 	@missing=$$(for p in $(APT_PACKAGES); do \
@@ -24,10 +25,14 @@ deps:
 	fi
 
 build: deps
-	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=$(PYTHON)
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=$(PYTHON) -DFLAVORS_WARNINGS_AS_ERRORS=ON
 	cmake --build $(BUILD) -j $(JOBS)
 
-test: build
+# Every C++ file of the project as .clang-format lays it out.
+format-check: deps
+	clang-format --dry-run --Werror $$(git ls-files '*.cpp' '*.h')
+
+test: format-check build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 	$(PYTHON_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python
 

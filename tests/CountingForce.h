@@ -30,10 +30,10 @@ private:
 class CountingForceImpl : public OpenMM::ForceImpl {
 public:
     explicit CountingForceImpl(const CountingForce& owner) : owner(owner) {}
-    void initialize(OpenMM::ContextImpl& context) override {}
+    void initialize(OpenMM::ContextImpl& /*context*/) override {}
     const OpenMM::Force& getOwner() const override { return owner; }
-    void updateContextState(OpenMM::ContextImpl& context, bool& forcesInvalid) override {}
-    double calcForcesAndEnergy(OpenMM::ContextImpl& context, bool includeForces, bool includeEnergy,
+    void updateContextState(OpenMM::ContextImpl& /*context*/, bool& /*forcesInvalid*/) override {}
+    double calcForcesAndEnergy(OpenMM::ContextImpl& /*context*/, bool includeForces, bool /*includeEnergy*/,
                                int groups) override {
         if (includeForces && (groups & (1 << owner.getForceGroup())) != 0)
             ++*owner.count;

@@ -107,8 +107,9 @@ TEST_P(FlavorSystems, ConstraintsHoldAndVirtualSitesFollowTheirParents) {
             // A Verlet step ends with a kick, after which velocities are constrained: they satisfy the constraint's
             // time derivative.  A SymplecticEuler step ends with a constrained drift, whose velocity is the chord
             // (x' - x)/h, as for OpenMM's VerletIntegrator.
-            if (scheme == FlavorIntegrator::Verlet)
+            if (scheme == FlavorIntegrator::Verlet) {
                 EXPECT_NEAR(0.0, bond.dot(v[1] - v[0]), 1e-8) << "scheme " << scheme;
+            }
             Vec3 site = (q[0] + q[1]) * 0.5 - q[3];
             EXPECT_NEAR(0.0, std::sqrt(site.dot(site)), 1e-12) << "scheme " << scheme;
         }

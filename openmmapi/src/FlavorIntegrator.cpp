@@ -122,7 +122,7 @@ vector<string> FlavorIntegrator::getKernelNames() {
     return {IntegrateFlavorStepKernel::Name()};
 }
 
-void FlavorIntegrator::stateChanged(State::DataType changed) {
+void FlavorIntegrator::stateChanged(State::DataType /*changed*/) {
     forcesAreValid = false;
 }
 

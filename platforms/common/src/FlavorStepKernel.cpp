@@ -33,14 +33,14 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
     runner->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
 }
 
-double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const FlavorIntegrator& integrator) {
+double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const FlavorIntegrator& /*integrator*/) {
     return runner->kineticEnergy(context);
 }
 
-void FlavorStepKernel::createCheckpoint(ContextImpl& context, std::ostream& stream) const {
+void FlavorStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
     runner->createCheckpoint(stream);
 }
 
-void FlavorStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+void FlavorStepKernel::loadCheckpoint(ContextImpl& /*context*/, std::istream& stream) {
     runner->loadCheckpoint(stream);
 }

@@ -108,14 +108,15 @@ std::vector<double> ImpulseStepKernel::getStiffModeFrequencies(ContextImpl& cont
     return modes->getStiffFrequencies();
 }
 
-double ImpulseStepKernel::computeKineticEnergy(ContextImpl& context, const StochasticImpulseIntegrator& integrator) {
+double ImpulseStepKernel::computeKineticEnergy(ContextImpl& context,
+                                               const StochasticImpulseIntegrator& /*integrator*/) {
     return runner->kineticEnergy(context);
 }
 
-void ImpulseStepKernel::createCheckpoint(ContextImpl& context, std::ostream& stream) const {
+void ImpulseStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
     runner->createCheckpoint(stream);
 }
 
-void ImpulseStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+void ImpulseStepKernel::loadCheckpoint(ContextImpl& /*context*/, std::istream& stream) {
     runner->loadCheckpoint(stream);
 }

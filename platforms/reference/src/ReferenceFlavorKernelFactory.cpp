@@ -21,7 +21,7 @@ public:
 
 class ReferenceFlavorKernelFactory : public KernelFactory {
 public:
-    KernelImpl* createKernelImpl(std::string name, const Platform& platform, ContextImpl& context) const override {
+    KernelImpl* createKernelImpl(std::string name, const Platform& platform, ContextImpl& /*context*/) const override {
         if (name == IntegrateFlavorStepKernel::Name())
             return new FlavorStepKernel(name, platform, std::make_unique<SerialLoop>());
         if (name == IntegrateStochasticImpulseStepKernel::Name())

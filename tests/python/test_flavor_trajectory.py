@@ -1,5 +1,5 @@
 """FlavorIntegrator trajectories against independent computations: OpenMM's VerletIntegrator when the microstep
-equals the mesostep, and a NumPy evaluation of the FLAVOR compositions of DESIGN.md section 2."""
+equals the mesostep, and a NumPy evaluation of the FLAVOR compositions (docs/ARCHITECTURE.md)."""
 import numpy as np
 import openmm
 import openmm.unit as unit

@@ -1,5 +1,5 @@
 """StochasticImpulseIntegrator (friction 0) on the FPU chain against an independent NumPy computation of the
-splittings of DESIGN.md section 2 with a nonlinear soft force: the stiff flow is written out per spring (centre of
+splittings (docs/ARCHITECTURE.md) with a nonlinear soft force: the stiff flow is written out per spring (centre of
 mass drifts, the bond length rotates at OMEGA), with no probing, no modes and no matrices."""
 import math
 

@@ -25,7 +25,8 @@ namespace FlavorPlugin {
  * set and valid until positions change, so each group set is evaluated once per distinct set of positions.
  * Constraints are applied as OpenMM's VerletIntegrator applies them: positions after each drift (with the
  * velocity corrected to the constrained displacement), velocities after each kick or thermostat.  Virtual sites
- * are placed before each force evaluation and at the end of the step.
+ * are placed before each force evaluation and at the end of the step.  docs/ARCHITECTURE.md follows one step through
+ * it.
  */
 class OPENMM_EXPORT_FLAVORS FlowStepRunner {
 public:

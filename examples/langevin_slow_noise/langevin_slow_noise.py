@@ -18,21 +18,15 @@ autocorrelations of Fig. 6.14 are ensemble means with standard errors, compared 
     PYTHONPATH=build/python /usr/bin/python3 examples/langevin_slow_noise/langevin_slow_noise.py [--quick] [--out DIR]
 """
 import math
-import os
 import sys
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-import openmmflavors
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import ensemble  # noqa: E402
-import scene  # noqa: E402
-from ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, window_means  # noqa: E402
-
-SOFT_GROUP, STIFF_GROUP = 0, 1
+from flavorbench import ensemble, reporting
+from flavorbench.ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, run_ensemble, window_means
+from flavorbench.runners import KB, flavor
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 # A copy is declared blown up once |y| exceeds this (V_stiff would be 1/(4 eps) ~ 1e7 kT) or a coordinate is not finite.
 BLOWUP_Y = 0.5
 
@@ -68,16 +62,6 @@ def build_system(n, eps):
     system.addForce(stiff)
     system.addForce(soft)
     return system
-
-
-def make_integrator(delta, tau, temperature, friction, seed):
-    integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
-    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
-    integrator.setTemperature(temperature * unit.kelvin)
-    integrator.setFriction(friction / unit.picosecond)
-    integrator.setStiffFriction(False)
-    integrator.setRandomNumberSeed(seed)
-    return integrator
 
 
 def per_copy_series(run, kT):
@@ -126,7 +110,7 @@ def mesoscale_stability(delta, tau, eps, beta):
 
 
 def main():
-    parser = scene.parser(__doc__, "langevin_slow_noise",
+    parser = reporting.parser(__doc__, "langevin_slow_noise",
                           quick_help="smoke run of a few seconds (n = 8, T = 1)", out_help=None)
     parser.add_argument("--n", type=int, default=None, help="ensemble size (default 100, the paper's; 8 with --quick)")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default 30; 1 with --quick)")
@@ -151,7 +135,7 @@ def main():
     x0 = y0 + 1.8
     kT = args.sigma ** 2 / (2 * args.c)
     beta = 1.0 / kT
-    temperature = kT / scene.KB
+    temperature = kT / KB
     flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]
     width = max(1, int(round(args.window / args.sample)))
     late_from = 2.0 * T / 3.0
@@ -163,16 +147,16 @@ def main():
     seed = args.seed
     label = f"GLA h={args.h:g}"
     print(f"running {label}: FlavorIntegrator(h, h), SymplecticEuler, friction over the whole step", file=sys.stderr)
-    runs["gla"] = ensemble.simulate(system, make_integrator(args.h, args.h, temperature, args.c, seed), args.h, n,
-                                    y0, x0, args.sample, T, label, BLOWUP_Y)
+    runs["gla"] = run_ensemble(system, flavor(args.h, args.h, "SymplecticEuler", temperature, args.c, seed, False),
+                               args.h, n, y0, x0, args.sample, T, label, BLOWUP_Y)
     runs["gla"].update(delta=args.h, tau=args.h)
     for delta, tau in flavors:
         seed += 1
         key = f"flavor_d{delta:g}_t{tau:g}"
         label = f"FLAVOR d={delta:g} t={tau:g}"
         print(f"running {label}: SymplecticEuler, friction over the whole mesostep (eq. 4.7)", file=sys.stderr)
-        runs[key] = ensemble.simulate(system, make_integrator(delta, tau, temperature, args.c, seed), delta, n,
-                                      y0, x0, args.sample, T, label, BLOWUP_Y)
+        runs[key] = run_ensemble(system, flavor(delta, tau, "SymplecticEuler", temperature, args.c, seed, False),
+                                 delta, n, y0, x0, args.sample, T, label, BLOWUP_Y)
         runs[key].update(delta=delta, tau=tau)
 
     t = np.arange(int(round(T / args.sample)) + 1) * args.sample
@@ -235,7 +219,7 @@ def main():
                    **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
                                 "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
     }
-    scene.save_outputs(args.out, "langevin_slow_noise", data,
+    reporting.save_outputs(args.out, "langevin_slow_noise", data,
                        lambda png_path: plot(t, t_window, stats, summary, equilibrium, data["parameters"], png_path))
 
 
@@ -278,7 +262,7 @@ def print_tables(summary, comparison, stats, equilibrium, late_from, regime, T, 
 
 
 def plot(t, t_window, stats, summary, equilibrium, params, path):
-    plt = scene.pyplot()
+    plt = reporting.pyplot()
 
     colors = {"gla": "k"}
     palette = ["tab:red", "tab:blue", "tab:green", "tab:purple"]
@@ -309,8 +293,7 @@ def plot(t, t_window, stats, summary, equilibrium, params, path):
             ax.set_yscale("log")
         ax.legend(fontsize=7)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 100)
 
 
 if __name__ == "__main__":

@@ -113,14 +113,6 @@ def custom_flavor(n, delta, tau, kT, friction_y, seed):
     return integrator
 
 
-def statistics(run, kT, width, t, late_from):
-    keep = np.isnan(run["blown_at"])
-    x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
-    series = {"s": x - y, "y": y, "s2": (x - y) ** 2, "y2": y * y, "px2": px * px / kT, "py2": py * py / kT}
-    stats = ensemble.series_statistics(series, width, t, late_from)
-    return stats, int(keep.sum())
-
-
 def boltzmann(omega4, beta):
     """Exact Boltzmann moments of V = omega4 y^4/4 + e^y s^2 (s = x - y): s given y is Gaussian with variance
     1/(2 beta e^y), so the marginal of y is exp(-beta omega4 y^4/4 - y/2)."""
@@ -210,7 +202,9 @@ def main():
     t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
     stats, used = {}, {}
     for key, run in runs.items():
-        stats[key], used[key] = statistics(run, kT, width, t, late_from)
+        stats[key], used[key] = ensemble.series_statistics(
+            run, lambda x, y, px, py: {"s": x - y, "y": y, "s2": (x - y) ** 2, "y2": y * y, "px2": px * px / kT,
+                                       "py2": py * py / kT}, width, t, late_from)
     comparison = {key: {q: compare(stats[key][q], stats["gla"][q], t_window, late_from, args.regime)
                         for q in QUANTITIES} for key in runs if key != "gla"}
     # Each CustomIntegrator run against the library run of the same scheme (different random streams).

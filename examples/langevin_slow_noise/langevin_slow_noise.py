@@ -31,17 +31,17 @@ from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 BLOWUP_Y = 0.5
 
 QUANTITIES = {
-    # key: (label, function of (x, y, px, py, x0, y0) -> per-copy series)
-    "acf_y": ("E[y(t) y(0)]  (Fig. 6.14, dominantly fast)", lambda x, y, px, py, x0, y0: y * y0),
+    # key: (label, function of (x, y, px, py, x0, y0, kT) -> per-copy series)
+    "acf_y": ("E[y(t) y(0)]  (Fig. 6.14, dominantly fast)", lambda x, y, px, py, x0, y0, kT: y * y0),
     "acf_s": ("E[(x-y)(t) (x-y)(0)]  (Fig. 6.14, dominantly slow)",
-              lambda x, y, px, py, x0, y0: (x - y) * (x0 - y0)),
-    "s": ("E[x-y]", lambda x, y, px, py, x0, y0: x - y),
-    "y": ("E[y]", lambda x, y, px, py, x0, y0: y),
-    "x": ("E[x]", lambda x, y, px, py, x0, y0: x),
-    "s2": ("E[(x-y)^2]", lambda x, y, px, py, x0, y0: (x - y) ** 2),
-    "y2": ("E[y^2]", lambda x, y, px, py, x0, y0: y * y),
-    "px2": ("E[p_x^2] / kT", None),
-    "py2": ("E[p_y^2] / kT", None),
+              lambda x, y, px, py, x0, y0, kT: (x - y) * (x0 - y0)),
+    "s": ("E[x-y]", lambda x, y, px, py, x0, y0, kT: x - y),
+    "y": ("E[y]", lambda x, y, px, py, x0, y0, kT: y),
+    "x": ("E[x]", lambda x, y, px, py, x0, y0, kT: x),
+    "s2": ("E[(x-y)^2]", lambda x, y, px, py, x0, y0, kT: (x - y) ** 2),
+    "y2": ("E[y^2]", lambda x, y, px, py, x0, y0, kT: y * y),
+    "px2": ("E[p_x^2] / kT", lambda x, y, px, py, x0, y0, kT: px * px / kT),
+    "py2": ("E[p_y^2] / kT", lambda x, y, px, py, x0, y0, kT: py * py / kT),
 }
 
 
@@ -62,28 +62,6 @@ def build_system(n, eps):
     system.addForce(stiff)
     system.addForce(soft)
     return system
-
-
-def per_copy_series(run, kT):
-    """Every quantity for every copy (samples x copies), for the copies that stayed finite up to T."""
-    keep = np.isnan(run["blown_at"])
-    x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
-    x0, y0 = x[0], y[0]
-    series = {}
-    for key, (_, f) in QUANTITIES.items():
-        if key == "px2":
-            series[key] = px * px / kT
-        elif key == "py2":
-            series[key] = py * py / kT
-        else:
-            series[key] = f(x, y, px, py, x0, y0)
-    return series, int(keep.sum())
-
-
-def statistics(run, kT, width, t, late_from):
-    series, used = per_copy_series(run, kT)
-    stats = ensemble.series_statistics(series, width, t, late_from)
-    return stats, used
 
 
 def quartic_second_moment(a, beta):
@@ -163,7 +141,9 @@ def main():
     t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
     stats, used = {}, {}
     for key, run in runs.items():
-        stats[key], used[key] = statistics(run, kT, width, t, late_from)
+        stats[key], used[key] = ensemble.series_statistics(
+            run, lambda x, y, px, py: {q: f(x, y, px, py, x[0], y[0], kT) for q, (_, f) in QUANTITIES.items()},
+            width, t, late_from)
 
     # Exact Boltzmann values: V = y^4/(4 eps) + s^4 separates in (y, s = x - y).  The Langevin FLAVOR samples
     # H_eff = K + V_soft + (tau/delta) V_stiff, i.e. eps -> eps delta/tau.

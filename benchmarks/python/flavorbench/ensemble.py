@@ -48,18 +48,20 @@ def mean_se(values):
     return mean, se
 
 
-def series_statistics(series, width, t, late_from):
-    """Per quantity (series: {key: samples x copies}): mean and SE per sample, per window of `width` samples, and of
-    the per-copy average over t >= late_from."""
+def series_statistics(run, series, width, t, late_from):
+    """Per quantity of the copies of run_ensemble() that stayed finite (series(x, y, px, py) -> {key: samples x
+    copies}): mean and SE per sample, per window of `width` samples, and of the per-copy average over t >= late_from.
+    Returns them and the number of copies used."""
+    keep = np.isnan(run["blown_at"])
     late = t >= late_from - 1e-12
     stats = {}
-    for key, values in series.items():
+    for key, values in series(*(run[k][:, keep] for k in ("x", "y", "px", "py"))).items():
         mean, se = mean_se(values)
         w_mean, w_se = mean_se(window_means(values, width))
         l_mean, l_se = mean_se(values[late].mean(axis=0))
         stats[key] = {"mean": mean, "se": se, "w_mean": w_mean, "w_se": w_se, "late_mean": float(l_mean),
                       "late_se": float(l_se)}
-    return stats
+    return stats, int(keep.sum())
 
 
 def compare(other, ref, t_window, late_from, regime_split, names=("run", "reference")):

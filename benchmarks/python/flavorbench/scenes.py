@@ -117,8 +117,8 @@ def run_all(sc, p):
         cases[key] = (start_context(sc.system(specs[key][4]), integrator, 0.0, sc.positions, sc.velocities), integrator)
     quick = p.get("quick")
     for key, cost in time_batches(cases, 0.005 if quick else 0.02, 6 if quick else 20).items():
-        runs[key]["wall_s"], runs[key]["us_per_step"] = 1e-6 * cost["us_per_step"] * runs[key]["steps"], \
-            cost["us_per_step"]
+        runs[key]["us_per_step"] = cost["us_per_step"]
+        runs[key]["wall_s"] = 1e-6 * cost["us_per_step"] * runs[key]["steps"]
     for run in runs.values():
         run["coarse"] = on_grid(run["t"], coarse_times)
     return runs, coarse_times

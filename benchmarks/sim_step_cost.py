@@ -11,18 +11,14 @@ the mode work grows with the size of the stiff components.
 
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/sim_step_cost.py [--chains N] [--quick] [--out DIR]
 """
-import os
 import sys
-import time
 
 import numpy as np
 import openmm
 
-import openmmflavors
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples", "common"))
-import fpu_chain  # noqa: E402
-import scene  # noqa: E402
+from flavorbench import reporting
+from flavorbench.runners import best_time, sim, start_context, verlet
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP, chain_positions, fpu_system
 
 OMEGA, M, H = 200.0, 3, 0.005
 PARTICLES = 6144  # divisible by every component size of part (b)
@@ -30,17 +26,12 @@ COMPONENT_SIZES = [2, 3, 4, 6, 8, 16, 32, 64, 128, 256]
 COMPILED_MAX = 6  # components of up to 6 particles run a flow compiled for their size
 
 
-def per_step_us(system, integrator, positions, steps, repeats):
-    """Best of `repeats` batches of `steps` steps, in microseconds per step."""
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
-    context.setPositions(positions)
+def per_step_us(system, make, positions, steps, repeats):
+    """Best of `repeats` batches of `steps` steps after five untimed ones, in microseconds per step."""
+    integrator = make()
+    context = start_context(system, integrator, 0.0, positions)
     integrator.step(5)
-    best = float("inf")
-    for _ in range(repeats):
-        start = time.perf_counter()
-        integrator.step(steps)
-        best = min(best, (time.perf_counter() - start) / steps)
-    return best * 1e6
+    return 1e6 * best_time(lambda: (context, integrator), steps, repeats)[0] / steps
 
 
 def stiff_chains(particles, size):
@@ -48,7 +39,7 @@ def stiff_chains(particles, size):
     force; chain c along x at y = c."""
     system = openmm.System()
     springs = openmm.HarmonicBondForce()
-    springs.setForceGroup(fpu_chain.STIFF_GROUP)
+    springs.setForceGroup(STIFF_GROUP)
     positions = []
     for c in range(particles // size):
         for k in range(size):
@@ -68,9 +59,8 @@ def component_scaling(particles, sizes, steps, repeats):
         row = {"n_c": size, "components": particles // size, "sum_nc2": particles * size}
         for friction in (0.0, 1.0):
             print(f"  chains of {size}, friction {friction:g}", file=sys.stderr, flush=True)
-            integrator = openmmflavors.StochasticImpulseIntegrator(300, friction, H, {fpu_chain.STIFF_GROUP})
-            integrator.setRandomNumberSeed(1)
-            row[f"step_us_friction{friction:g}"] = per_step_us(system, integrator, positions, steps, repeats)
+            row[f"step_us_friction{friction:g}"] = per_step_us(
+                system, lambda: sim(H, temperature=300, friction=friction, seed=1), positions, steps, repeats)
         rows.append(row)
     slopes = {}
     for name, smallest in (("general_path", COMPILED_MAX + 1), ("n_c_32_up", 32)):
@@ -84,38 +74,33 @@ def component_scaling(particles, sizes, steps, repeats):
 
 
 def main():
-    p = scene.parser(__doc__, "sim_step_cost", quick_help="a few seconds: 100 chains, short batches")
+    p = reporting.parser(__doc__, "sim_step_cost", quick_help="a few seconds: 100 chains, short batches")
     p.add_argument("--chains", type=int, default=1667)
     p.add_argument("--particles", type=int, default=PARTICLES, help="particles of part (b)")
     args = p.parse_args()
     chains = 100 if args.quick else args.chains
     steps, repeats = (20, 2) if args.quick else (200, 5)
-    positions = fpu_chain.chain_positions(M, OMEGA, chains)
-    full = fpu_chain.fpu_system(M, OMEGA, chains)
-    stiff_only = fpu_chain.fpu_system(M, OMEGA, chains)
+    positions = chain_positions(M, OMEGA, chains)
+    full = fpu_system(M, OMEGA, chains)
+    stiff_only = fpu_system(M, OMEGA, chains)
     for k in reversed(range(stiff_only.getNumForces())):
-        if stiff_only.getForce(k).getForceGroup() != fpu_chain.STIFF_GROUP:
+        if stiff_only.getForce(k).getForceGroup() != STIFF_GROUP:
             stiff_only.removeForce(k)
-    soft_only = openmm.VerletIntegrator(1e-4)
-    soft_only.setIntegrationForceGroups({fpu_chain.SOFT_GROUP})
     print(f"measuring: {chains} chains, best of {repeats} x {steps} steps", file=sys.stderr, flush=True)
-    soft = per_step_us(full, soft_only, positions, steps, repeats)
+    soft = per_step_us(full, lambda: verlet(1e-4, {SOFT_GROUP}), positions, steps, repeats)
     rows, results = [], {"chains": chains, "particles": 2 * M * chains, "soft_evaluation_us": soft, "runs": {}}
     for friction in (0.0, 1.0):
         for splitting in ("Strang", "LieTrotter"):
             def make():
-                integrator = openmmflavors.StochasticImpulseIntegrator(300, friction, H, {fpu_chain.STIFF_GROUP})
-                integrator.setSplitting(getattr(openmmflavors.StochasticImpulseIntegrator, splitting))
-                integrator.setRandomNumberSeed(1)
-                return integrator
+                return sim(H, splitting, temperature=300, friction=friction, seed=1)
             print(f"  {splitting}, friction {friction:g}", file=sys.stderr, flush=True)
-            step = per_step_us(full, make(), positions, steps, repeats)
-            modes = per_step_us(stiff_only, make(), positions, steps, repeats)
+            step = per_step_us(full, make, positions, steps, repeats)
+            modes = per_step_us(stiff_only, make, positions, steps, repeats)
             ratio = (step - modes) / soft
             results["runs"][f"{splitting}_friction{friction:g}"] = {"step_us": step, "mode_work_us": modes,
                                                                    "soft_evaluations_beyond_mode_work": ratio}
             rows.append([splitting, f"{friction:g}", f"{step:.0f}", f"{modes:.0f}", f"{soft:.0f}", f"{ratio:.2f}"])
-    scene.table(f"SIM step cost, {chains} FPU chains, Reference (target: (step - mode work) / soft <= 1.3)",
+    reporting.table(f"SIM step cost, {chains} FPU chains, Reference (target: (step - mode work) / soft <= 1.3)",
                 [("splitting", 10, ""), ("friction", 8, ""), ("step us", 9, ""), ("mode work us", 12, ""),
                  ("soft eval us", 12, ""), ("(step - modes) / soft", 21, "")], rows)
 
@@ -123,7 +108,7 @@ def main():
     particles = 768 if args.quick else args.particles
     scaling = component_scaling(particles, sizes, steps, repeats)
     results["component_scaling"] = scaling
-    scene.table(f"Mode work against component size, {particles} particles in stiff chains of n_c, Reference",
+    reporting.table(f"Mode work against component size, {particles} particles in stiff chains of n_c, Reference",
                 [("n_c", 5, ""), ("components", 10, ""), ("sum n_c^2", 10, ""), ("us, friction 0", 15, ""),
                  ("us, friction 1", 15, ""), ("ns / n_c^2 unit, fr. 0", 22, "")],
                 [[r["n_c"], r["components"], r["sum_nc2"], f"{r['step_us_friction0']:.1f}",
@@ -134,7 +119,7 @@ def main():
     print("(per particle work, the gathering and the noise, is O(N); the products with the eigenvectors O(sum n_c^2))")
 
     def plot(path):
-        plt = scene.pyplot()
+        plt = reporting.pyplot()
         fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 3.6))
         names = list(results["runs"])
         ax.bar(names, [results["runs"][n]["mode_work_us"] for n in names], label="mode work")
@@ -160,9 +145,9 @@ def main():
         bx.set_title(f"(b) mode work, {particles} particles in stiff chains", fontsize=9)
         bx.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(path, dpi=90)
+        reporting.save_figure(fig, path, 90)
 
-    scene.save_outputs(args.out, "sim_step_cost", results, plot)
+    reporting.save_outputs(args.out, "sim_step_cost", results, plot)
 
 
 if __name__ == "__main__":

@@ -33,8 +33,6 @@ PNG in --out.
 
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/sim_work_precision.py [--quick] [--out DIR]
 """
-import argparse
-import json
 import math
 import os
 import shutil
@@ -45,17 +43,14 @@ import time
 import numpy as np
 import openmm as mm
 import openmm.unit as unit
-from scipy.integrate import ode
 
-import openmmflavors
+from flavorbench import reporting
+from flavorbench.helper import count_instructions, count_instructions_inside, find_helper, run_helper
+from flavorbench.reference import reference
+from flavorbench.runners import best_time, masses_of, read_state, sim, simulate, start_context, time_batches, verlet
+from flavorbench.systems import STIFF_GROUP as STIFF, SOFT_GROUP as SOFT, as_vec3, chain_positions, fpu_initial, \
+    fpu_system, observables
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
-import fpu_chain  # noqa: E402
-from step_cost import (count_instructions, count_instructions_inside, find_helper, measure,  # noqa: E402
-                       run_helper)  # (benchmarks/step_cost.py)
-
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
 M = 3
 X0_TOL, I_TOL = 1e-3, 1e-2
 SPEEDUP_TARGETS = (100, 500)  # over Verlet, at omega = 200 and 1000
@@ -67,70 +62,25 @@ CRITERION_TESTS = {"cheapest": lambda r: r["passes"],
 CRITERIA = {"cheapest": "strict (x0,1 and every I_j(T) relative to itself)",
             "cheapest_energy_scale": "energy scale (x0,1 and every I_j relative to sum_j I_j over [0, T])",
             "cheapest_x0_only": "x0,1 alone (for information)"}
-SIM = openmmflavors.StochasticImpulseIntegrator
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# FPU chain
+# (a) work-precision
 
 
-def fpu_system(omega, chains=1):
-    """`chains` copies of eq. (6.7); particle 2M c + k is q_{k+1} of chain c."""
-    return fpu_chain.fpu_system(M, omega, chains)
-
-
-def initial_q(omega):
-    return fpu_chain.from_slow_fast([1.0] + [0.0] * (M - 1), [1.0 / omega] + [0.0] * (M - 1))
-
-
-def chain_positions(omega, chains, seed=1234):
-    """Chain 0 as in Fig. 6.5, the others at random slow/fast coordinates of the same size; chain c at y = c."""
-    return fpu_chain.chain_positions(M, omega, chains, seed)
-
-
-def observables(q, v, omega):
-    """x0,1 and I_j = (y1_j^2 + omega^2 x1_j^2)/2 from the x coordinates of one chain."""
-    o = fpu_chain.observables(q, v, omega)
-    return float(o["x0"][0]), o["I"]
-
-
-def reference_solution(omega, T, rtol):
-    """FPU eq. (6.7) with DOP853; returns (x0,1(T), I(T), I at the SAMPLES sample times, wall seconds,
-    right-hand-side evaluations)."""
-    k = omega * omega / 2
-    calls = [0]
-
-    def rhs(t, s):
-        # Unrolled for m = 3: the Python call overhead dominates this integration.
-        calls[0] += 1
-        q0, q1, q2, q3, q4, q5 = s[0], s[1], s[2], s[3], s[4], s[5]
-        d0, d1, d2 = k * (q1 - q0), k * (q3 - q2), k * (q5 - q4)
-        r0, r1 = q2 - q1, q4 - q3
-        g0, g1 = 4 * r0 * r0 * r0, 4 * r1 * r1 * r1
-        return [s[6], s[7], s[8], s[9], s[10], s[11], d0 - 4 * q0 * q0 * q0, -d0 + g0, d1 - g0, -d1 + g1, d2 - g1,
-                -d2 - 4 * q5 * q5 * q5]
-
-    start = time.perf_counter()
-    solver = ode(rhs).set_integrator("dop853", rtol=rtol, atol=1e-15, nsteps=10**9)
-    solver.set_initial_value(np.concatenate([initial_q(omega), np.zeros(2 * M)]), 0.0)
-    samples = []
-    for t in sample_times(T):
-        y = solver.integrate(t)
-        if not solver.successful():
-            raise RuntimeError(f"DOP853 failed at omega={omega}, rtol={rtol}")
-        samples.append(observables(y[:2 * M], y[2 * M:], omega)[1])
-    x0, stiff = observables(y[:2 * M], y[2 * M:], omega)
-    return x0, stiff, np.array(samples), time.perf_counter() - start, calls[0]
+def x0_and_stiff(q, v, omega):
+    """x0,1 and the stiff energies I_j from the x coordinates of one chain (last axis: particles)."""
+    o = observables(q, v, omega)
+    return o["x0"][..., 0], o["I"]
 
 
 def stiffest_mode(omega):
     """The largest stiff-mode angular frequency of the chain, as StochasticImpulseIntegrator reports it."""
-    integrator = SIM(0.0, 0.0, 0.01, {STIFF})
-    context = mm.Context(fpu_system(omega), integrator, mm.Platform.getPlatformByName("Reference"))
-    q = np.zeros((2 * M, 3))
-    q[:, 0] = initial_q(omega)
-    context.setPositions(q)
-    return max(f.value_in_unit(unit.picosecond**-1) for f in integrator.getStiffModeFrequencies())
+    integrator = sim(0.01)
+    context = start_context(fpu_system(M, omega), integrator, 0.0, as_vec3(fpu_initial(M, omega)[0]))
+    frequencies = integrator.getStiffModeFrequencies()
+    del context
+    return max(f.value_in_unit(unit.picosecond**-1) for f in frequencies)
 
 
 def sample_times(T):
@@ -143,41 +93,28 @@ def run_openmm(omega, T, make, dt, leapfrog, repeats_for_short, enough=0.3, samp
     steps = int(round(T / dt))
     if abs(steps * dt - T) > 1e-9 * T or steps % SAMPLES:
         raise ValueError(f"step {dt} does not divide T / {SAMPLES} = {T / SAMPLES}")
-    system = fpu_system(omega)
-    masses = fpu_chain.masses_of(system)
-    q = np.zeros((2 * M, 3))
-    q[:, 0] = initial_q(omega)
-
-    def start_context():
-        integrator = make()
-        return fpu_chain.start_context(system, integrator, dt, leapfrog, q), integrator
+    system = fpu_system(M, omega)
+    masses = masses_of(system)
+    q = as_vec3(fpu_initial(M, omega)[0])
 
     def observe(context):
-        pos, vel = fpu_chain.read_x(context, dt, leapfrog, masses)
-        return observables(pos, vel, omega)
+        pos, vel, _ = read_state(context, dt, leapfrog, masses)
+        x0, stiff = x0_and_stiff(pos[:, 0], vel[:, 0], omega)
+        return float(x0), stiff
 
     samples = None
     if sampled:
         # The same trajectory, stopped at the sample times (step(n) in pieces takes the same steps).
-        context, integrator = start_context()
-        samples = []
-        for _ in range(SAMPLES):
-            integrator.step(steps // SAMPLES)
-            samples.append(observe(context)[1])
-        samples = np.array(samples)
-        del context, integrator
-    walls, final = [], None
-    while True:
-        context, integrator = start_context()
-        start = time.perf_counter()
-        integrator.step(steps)
-        walls.append(time.perf_counter() - start)
-        if final is None:
-            final = observe(context)
-        # Short runs are repeated (fresh Context each) and the minimum kept: background load only adds time.
-        if len(walls) >= repeats_for_short or sum(walls) > enough:
-            break
-    return final[0], final[1], samples, min(walls), steps
+        run = simulate(system, make(), dt, q, None, sample_times(T), "", leapfrog, progress=False)
+        samples = x0_and_stiff(run["q"][:, :, 0], run["v"][:, :, 0], omega)[1]
+
+    def start():
+        integrator = make()
+        return start_context(system, integrator, dt, q, None, leapfrog), integrator
+
+    # Short runs are repeated (fresh Context each) and the minimum kept: background load only adds time.
+    wall, final = best_time(start, steps, repeats_for_short, enough, observe)
+    return final[0], final[1], samples, wall, steps
 
 
 def sweep_grid(start, stop, per_octave, T, avoid_omega=None, margin=0.0):
@@ -221,38 +158,33 @@ def work_precision(omega, T, args, log):
     """Part (a) at one omega."""
     print(f"[a] omega = {omega:g}: reference DOP853 rtol {args.rtol:g} and {args.rtol_check:g}", file=sys.stderr,
           flush=True)
-    ref_x0, ref_I, ref_samples, ref_wall, ref_calls = reference_solution(omega, T, args.rtol)
-    chk_x0, chk_I, chk_samples, chk_wall, chk_calls = reference_solution(omega, T, args.rtol_check)
-    reference = {
-        "method": f"SciPy DOP853 (scipy.integrate.ode), rtol {args.rtol:g}, atol 1e-15",
-        "x0_1_T": ref_x0, "I_T": ref_I.tolist(), "wall_s": ref_wall, "rhs_evaluations": ref_calls,
-        "check": {"rtol": args.rtol_check, "x0_1_T": chk_x0, "I_T": chk_I.tolist(), "wall_s": chk_wall},
+    ref = reference(*fpu_initial(M, omega), omega, sample_times(T), args.rtol, args.rtol_check)
+    ref_x0, ref_samples = x0_and_stiff(ref["q"], ref["v"], omega)
+    chk_x0, chk_samples = x0_and_stiff(ref["q_check"], ref["v_check"], omega)
+    ref_x0, ref_I, chk_x0, chk_I = float(ref_x0[-1]), ref_samples[-1], float(chk_x0[-1]), chk_samples[-1]
+    reference_info = {
+        "method": ref["method"], "x0_1_T": ref_x0, "I_T": ref_I.tolist(), "wall_s": ref["wall_s"],
+        "rhs_evaluations": ref["rhs_evaluations"],
+        "check": {"rtol": args.rtol_check, "x0_1_T": chk_x0, "I_T": chk_I.tolist(), "wall_s": ref["check_wall_s"]},
         "own_error_bound_x0_1_relative": abs(chk_x0 - ref_x0) / abs(ref_x0),
         "own_error_bound_I_relative": (np.abs(chk_I - ref_I) / np.abs(ref_I)).tolist(),
         "own_error_bound_energy_scale": energy_scale_error(chk_samples, ref_samples),
     }
-    print(f"    reference x0,1(T) = {ref_x0:.12f}, I(T) = {ref_I}, {ref_wall:.1f} s; own error bound (relative) "
-          f"x0,1 {reference['own_error_bound_x0_1_relative']:.1e}, I_j "
-          f"{', '.join(f'{e:.1e}' for e in reference['own_error_bound_I_relative'])}", file=sys.stderr, flush=True)
-
-    def sim(splitting, H):
-        def make():
-            integrator = SIM(0.0, 0.0, H, {STIFF})
-            integrator.setSplitting(splitting)
-            return integrator
-        return make
+    print(f"    reference x0,1(T) = {ref_x0:.12f}, I(T) = {ref_I}, {ref['wall_s']:.1f} s; own error bound (relative) "
+          f"x0,1 {reference_info['own_error_bound_x0_1_relative']:.1e}, I_j "
+          f"{', '.join(f'{e:.1e}' for e in reference_info['own_error_bound_I_relative'])}", file=sys.stderr, flush=True)
 
     # SIM steps keep away from the resonances of the stiffest mode, as a user would.
     stiffest = stiffest_mode(omega)
     sim_grid = sweep_grid(args.H_max, args.H_min, args.per_octave, T, stiffest, args.resonance_margin)
     methods = {
-        "sim_strang": ("SIM Strang", lambda H: sim(SIM.Strang, H), False, sim_grid, False),
-        "verlet": ("VerletIntegrator", lambda h: (lambda: mm.VerletIntegrator(h)), True,
+        "sim_strang": ("SIM Strang", lambda H: (lambda: sim(H, "Strang")), False, sim_grid, False),
+        "verlet": ("VerletIntegrator", lambda h: (lambda: verlet(h)), True,
                    sweep_grid(args.verlet_start / omega, args.verlet_min, args.per_octave, T), True),
     }
     if not args.strang_only:
-        methods["sim_yoshida4"] = ("SIM Yoshida4", lambda H: sim(SIM.Yoshida4, H), False, sim_grid, False)
-        methods["sim_lietrotter"] = ("SIM LieTrotter", lambda H: sim(SIM.LieTrotter, H), False,
+        methods["sim_yoshida4"] = ("SIM Yoshida4", lambda H: (lambda: sim(H, "Yoshida4")), False, sim_grid, False)
+        methods["sim_lietrotter"] = ("SIM LieTrotter", lambda H: (lambda: sim(H, "LieTrotter")), False,
                                      sweep_grid(args.H_max, args.H_min / 2, args.per_octave, T, stiffest,
                                                 args.resonance_margin), False)
     results = {}
@@ -318,7 +250,7 @@ def work_precision(omega, T, args, log):
     for criterion in ("cheapest", "cheapest_x0_only", "cheapest_energy_scale"):
         a, b = results["verlet"][criterion], results["sim_strang"][criterion]
         speedups[criterion] = (a["wall_s"] / b["wall_s"]) if a and b else None
-    return {"reference": reference, "methods": results, "speedup_sim_strang_over_verlet": speedups}
+    return {"reference": reference_info, "methods": results, "speedup_sim_strang_over_verlet": speedups}
 
 
 def instruction_speedups(part_a, step_counts):
@@ -384,11 +316,9 @@ def setup_cost(sizes, platforms, threads, log):
             positions[1::2] = positions[0::2] + rng.uniform(-0.01, 0.01, (n, 3))
 
             def context_for():
-                integrator = SIM(0.0, 0.0, 0.01, {STIFF})
-                context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
-                context.setPositions(positions)
-                context.setVelocities(np.zeros_like(positions))
-                return context, integrator
+                integrator = sim(0.01)
+                return start_context(system, integrator, 0.0, positions, platform=platform,
+                                     properties=properties), integrator
 
             context, integrator = context_for()
             start = time.perf_counter()
@@ -431,7 +361,7 @@ SETUP_FUNCTION = "FlavorPlugin::ImpulseStepKernel::measureStiffModes*"
 def setup_instructions(sizes, log):
     """Instructions of the stiff-mode set-up (callgrind, collecting only inside SETUP_FUNCTION) on the same kind of
     system, built by the C++ helper: unlike wall time, not inflated by data outgrowing the caches."""
-    helper, valgrind = find_helper(None), shutil.which("valgrind")
+    helper, valgrind = find_helper(), shutil.which("valgrind")
     if helper is None or valgrind is None:
         log("    no C++ helper or valgrind: set-up instruction counts skipped")
         return None
@@ -450,32 +380,30 @@ def setup_instructions(sizes, log):
 
 
 def step_cost(chain_counts, platforms, threads, target, repeats, log):
-    helper = find_helper(None)
+    helper = find_helper()
     rows = []
     omega = 200.0
     for platform in platforms:
         properties = {"Threads": str(threads)} if platform == "CPU" else {}
         for chains in chain_counts:
-            system = fpu_system(omega, chains)
-            positions = chain_positions(omega, chains)
+            system = fpu_system(M, omega, chains)
+            positions = chain_positions(M, omega, chains)
             cases = {
-                "sim_strang": lambda: SIM(0.0, 0.0, 0.005, {STIFF}),
-                "sim_lietrotter": lambda: _with_splitting(SIM(0.0, 0.0, 0.005, {STIFF}), SIM.LieTrotter),
-                "sim_yoshida4": lambda: _with_splitting(SIM(0.0, 0.0, 0.005, {STIFF}), SIM.Yoshida4),
-                "sim_strang_langevin": lambda: SIM(300.0, 1.0, 0.005, {STIFF}),
-                "verlet_all": lambda: mm.VerletIntegrator(1e-4),
-                "verlet_soft_only": lambda: _with_groups(mm.VerletIntegrator(1e-4), {SOFT}),
+                "sim_strang": lambda: sim(0.005),
+                "sim_lietrotter": lambda: sim(0.005, "LieTrotter"),
+                "sim_yoshida4": lambda: sim(0.005, "Yoshida4"),
+                "sim_strang_langevin": lambda: sim(0.005, temperature=300.0, friction=1.0),
+                "verlet_all": lambda: verlet(1e-4),
+                "verlet_soft_only": lambda: verlet(1e-4, {SOFT}),
             }
             row = {"platform": platform, "chains": chains, "particles": 6 * chains}
             contexts = {}
             for key, make in cases.items():
                 integrator = make()
-                context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
-                context.setPositions(positions)
-                context.setVelocities(np.zeros_like(positions))
-                contexts[key] = (context, integrator)
+                contexts[key] = (start_context(system, integrator, 0.0, positions, platform=platform,
+                                               properties=properties), integrator)
             # Batches taken in turn, so that background load hits all alike; minimum and median kept.
-            timed = measure(contexts, target, repeats, f"step cost {platform}, {chains} chains")
+            timed = time_batches(contexts, target, repeats, f"step cost {platform}, {chains} chains")
             row["us_per_step"] = {key: value["us_per_step"] for key, value in timed.items()}
             row["us_per_step_median"] = {key: value["us_per_step_median"] for key, value in timed.items()}
             del contexts
@@ -506,7 +434,7 @@ HELPER_CASES = {"sim_strang": "sim_strang", "sim_lietrotter": "sim_lietrotter", 
 def step_instructions(log):
     """The step-cost cases on one chain (Reference) in callgrind instructions, and as multiples of one soft-group
     evaluation: wall times of sub-microsecond steps on a shared machine scatter by 50 %, these do not."""
-    helper, valgrind = find_helper(None), shutil.which("valgrind")
+    helper, valgrind = find_helper(), shutil.which("valgrind")
     if helper is None or valgrind is None:
         log("    no C++ helper or valgrind: step instruction counts skipped")
         return None
@@ -518,23 +446,11 @@ def step_instructions(log):
             "ratio_to_soft_force": {k: v / soft for k, v in counts.items()}}
 
 
-def _with_splitting(integrator, splitting):
-    integrator.setSplitting(splitting)
-    return integrator
-
-
-def _with_groups(integrator, groups):
-    integrator.setIntegrationForceGroups(groups)
-    return integrator
-
-
 # ---------------------------------------------------------------------------------------------------------------
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="smoke run (T = 5, omega = 200, small sizes)")
-    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "sim_bench"), help="output directory")
+    parser = reporting.parser(__doc__, "sim_bench", quick_help="smoke run (T = 5, omega = 200, small sizes)")
     parser.add_argument("--omega", type=float, nargs="+", default=None, help="default 200 1000 5000 (200 with --quick)")
     parser.add_argument("--T", type=float, default=None, help="default 50 (5 with --quick)")
     parser.add_argument("--rtol", type=float, default=None, help="reference DOP853 rtol (default 1e-12)")
@@ -595,7 +511,6 @@ def main():
         part_c["instructions"] = step_counts
 
     print_tables(part_a, part_b, part_c, T)
-    os.makedirs(args.out, exist_ok=True)
     data = {
         "openmm_version": mm.__version__, "cpu_count": os.cpu_count(), "load_average_at_start": load,
         "T": T, "m": M, "criterion": {"x0_1_relative": X0_TOL, "every_I_j_relative": I_TOL},
@@ -603,8 +518,7 @@ def main():
         "a_work_precision": part_a, "b_setup": part_b, "c_step_cost": part_c,
     }
     json_path = os.path.join(args.out, "sim_work_precision.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1, default=float)
+    reporting.write_json(json_path, data, strict=False)
     png_path = os.path.join(args.out, "sim_work_precision.png")
     plot(part_a, part_b, part_c, T, png_path)
     print(f"\nwrote {json_path} and {png_path} ({time.perf_counter() - started:.0f} s)")
@@ -698,10 +612,7 @@ def print_tables(part_a, part_b, part_c, T):
 
 
 def plot(part_a, part_b, part_c, T, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = reporting.pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(20, 10))
     fig.suptitle(f"StochasticImpulseIntegrator work-precision (FPU m = {M}, T = {T:g}, Reference), set-up and step "
                  f"cost")
@@ -788,8 +699,7 @@ def plot(part_a, part_b, part_c, T, path):
     ax.set_ylim(0.5, 30 * top)
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 110)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@
     FLAVORS paper, H = px^2/2 + py^2/2 + x^2/2 + omega^2/2 (y - x)^2 with omega = 1000, over a grid of mesostep delta
     and tau*omega^2 (= tau/epsilon, the axes of the paper's Fig. 5.1).  Each grid point is run with the integrator for N
     mesosteps from x = 0.8, y = x + 1.1/omega (Fig. 5.2's start) and called blown up if |x| or |y| exceeds 100.  The
-    same schemes written as 4x4 transfer matrices in NumPy (DESIGN.md section 2) give the exact linear answer
+    same schemes written as 4x4 transfer matrices in NumPy (docs/ARCHITECTURE.md) give the exact linear answer
     (spectral radius <= 1), drawn as a contour, and the two are compared point by point; at a few tau*omega^2 the
     boundary in delta is also found by bisection, from runs and from the matrix.  Lines: Theorem 5.1's delta = 2; the
     averaged oscillator (stiffness scaled by tau/delta) integrated with step delta, whose boundary
@@ -23,24 +23,19 @@
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/stability.py            # ~3-4 min
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/stability.py --quick    # seconds (smoke test)
 """
-import argparse
 import json
 import math
 import os
-import sys
 import time
 
 import numpy as np
 import openmm as mm
 import openmm.unit as unit
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import fpu_systems as fs  # noqa: E402
-import openmmflavors  # noqa: E402
-
-FI = openmmflavors.FlavorIntegrator
-SI = openmmflavors.StochasticImpulseIntegrator
-KB = 0.0083144626  # kJ/mol/K
+from flavorbench import reporting
+from flavorbench.progress import Progress
+from flavorbench.runners import KB, flavor, mts, sim, simulate
+from flavorbench.systems import as_vec3, fpu_energy, fpu_initial, fpu_system, two_mass_system
 
 
 # ----------------------------------------------------------------------------------------------------------------------
@@ -93,14 +88,14 @@ def averaged_boundary(tau_w2, omega):
 
 def flavor_domain(omega, deltas, tau_w2s, steps, scheme, progress):
     """Run-based (bool grid [tau, delta], True = bounded) and matrix-based (spectral radius) stability maps."""
-    system = fs.two_mass_system(omega)
+    system = two_mass_system(omega)
     x0 = 0.8
-    q0 = fs.as_vec3([x0, x0 + 1.1 / omega])
+    q0 = as_vec3([x0, x0 + 1.1 / omega])
     v0 = np.zeros((2, 3))
     bounded = np.zeros((len(tau_w2s), len(deltas)), dtype=bool)
     radius = np.zeros((len(tau_w2s), len(deltas)))
     growth = np.zeros((len(tau_w2s), len(deltas)))
-    integrator = fs.flavor(deltas[0], tau_w2s[0] / omega ** 2, getattr(FI, scheme))
+    integrator = flavor(deltas[0], tau_w2s[0] / omega ** 2, scheme)
     context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
     for i, tw in enumerate(tau_w2s):
         tau = tw / omega ** 2
@@ -143,12 +138,12 @@ def bisect(stable, lo, hi, iterations=30):
 def boundaries(omega, steps, tau_w2s):
     """For each tau*omega^2: the delta where each scheme stops being bounded, found by bisection with runs of the
     integrator, by bisection on the transfer matrix's spectral radius, and from the averaged oscillator."""
-    system = fs.two_mass_system(omega)
-    q0 = fs.as_vec3([0.8, 0.8 + 1.1 / omega])
+    system = two_mass_system(omega)
+    q0 = as_vec3([0.8, 0.8 + 1.1 / omega])
     v0 = np.zeros((2, 3))
     out = {"tau_omega2": list(tau_w2s), "averaged": averaged_boundary(tau_w2s, omega).tolist()}
     for scheme in ("SymplecticEuler", "Verlet"):
-        integrator = fs.flavor(0.1, 1e-9, getattr(FI, scheme))
+        integrator = flavor(0.1, 1e-9, scheme)
         context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
         runs, matrix = [], []
         for tw in tau_w2s:
@@ -195,57 +190,32 @@ def resonance_grid(quick):
 
 def deterministic_run(system, integrator, q0, v0, omega, T, H, samples=20):
     """|H(T) - H(0)|/H(0) and the maximum over `samples` equally spaced times; inf if the run blew up."""
-    context = fs.make_context(system, integrator, fs.as_vec3(q0), fs.as_vec3(v0), False)
     n = max(1, int(round(T / H)))
     marks = np.unique(np.linspace(0, n, samples + 1).astype(int))[1:]
-    e0 = fs.fpu_energy(q0, v0, omega)
-    worst, done, final = 0.0, 0, math.inf
-    try:
-        for mark in marks:
-            integrator.step(int(mark - done))
-            done = int(mark)
-            state = context.getState(getPositions=True, getVelocities=True)
-            q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-            v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-            if not (np.all(np.isfinite(q)) and np.max(np.abs(q)) < 1e3):
-                return math.inf, math.inf
-            final = abs(fs.fpu_energy(q, v, omega) - e0) / e0
-            worst = max(worst, final)
-    except mm.OpenMMException:
+    run = simulate(system, integrator, H, as_vec3(q0), as_vec3(v0), marks * H, "", progress=False, blowup=1e3)
+    if not run["finite"]:
         return math.inf, math.inf
-    return final, worst
+    e0 = fpu_energy(q0, v0, omega)
+    errors = [abs(fpu_energy(q[:, 0], v[:, 0], omega) - e0) / e0 for q, v in zip(run["q"], run["v"])]
+    return errors[-1], max(errors)
 
 
 def langevin_run(omega, chains, T, H, temperature, friction, seed):
     """Kinetic-temperature error of a Langevin SIM ensemble over the second half of the run, and the mean total energy
     per chain there; inf if it blew up."""
     m = 3
-    system = fs.fpu_system(m, omega, chains)
-    q0, v0 = fs.fpu_initial(m, omega, "paper")
-    q = fs.as_vec3(np.tile(q0, chains), np.repeat(np.arange(chains, dtype=float), 2 * m))
-    integrator = fs.sim(H, SI.Strang, friction=friction, temperature=temperature, seed=seed)
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-    context.setPositions(q)
-    context.setVelocities(fs.as_vec3(np.tile(v0, chains)))
+    system = fpu_system(m, omega, chains)
+    q0, v0 = fpu_initial(m, omega)
     n = max(2, int(round(T / H)))
-    samples = 40
-    marks = np.unique(np.linspace(n // 2, n, samples + 1).astype(int))
-    kinetic, energy = [], []
-    try:
-        integrator.step(int(marks[0]))
-        done = int(marks[0])
-        for mark in marks[1:]:
-            integrator.step(int(mark - done))
-            done = int(mark)
-            state = context.getState(getVelocities=True, getEnergy=True)
-            v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
-            k = 0.5 * float(np.sum(v * v))
-            if not math.isfinite(k) or k > 1e6 * chains:
-                return math.inf, math.inf, 0
-            kinetic.append(k)
-            energy.append((k + state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)) / chains)
-    except mm.OpenMMException:
+    marks = np.unique(np.linspace(n // 2, n, 40 + 1).astype(int))
+    run = simulate(system, sim(H, temperature=temperature, friction=friction, seed=seed), H,
+                   as_vec3(np.tile(q0, chains), np.repeat(np.arange(chains, dtype=float), 2 * m)),
+                   as_vec3(np.tile(v0, chains)), marks * H, "", energy=True, progress=False, blowup=math.inf)
+    # The first sample only starts the averaging window.
+    kinetic = [0.5 * float(np.sum(v * v)) for v in run["v"][1:]]
+    if not run["finite"] or not all(k <= 1e6 * chains for k in kinetic):
         return math.inf, math.inf, 0
+    energy = [(k + pe) / chains for k, pe in zip(kinetic, run["pe"][1:])]
     k_eq = 0.5 * 3 * system.getNumParticles() * KB * temperature
     return abs(np.mean(kinetic) / k_eq - 1.0), float(np.mean(energy)), len(kinetic)
 
@@ -253,8 +223,8 @@ def langevin_run(omega, chains, T, H, temperature, friction, seed):
 def part_b(args, progress):
     omega = 200.0
     m = 3
-    system = fs.fpu_system(m, omega)
-    q0, v0 = fs.fpu_initial(m, omega, "paper")
+    system = fpu_system(m, omega)
+    q0, v0 = fpu_initial(m, omega)
     grid = resonance_grid(args.quick)
     frictions = args.frictions
     dof = 3 * 2 * m * args.chains
@@ -269,8 +239,8 @@ def part_b(args, progress):
     for wH in grid:
         H = wH / omega
         n = max(1, math.ceil(wH / args.inner_wh - 1e-9))
-        out["rrespa"].append(deterministic_run(system, fs.mts(H, n), q0, v0, omega, args.b_T, H))
-        out["sim"].append(deterministic_run(system, fs.sim(H, SI.Strang), q0, v0, omega, args.b_T, H))
+        out["rrespa"].append(deterministic_run(system, mts(H, n), q0, v0, omega, args.b_T, H))
+        out["sim"].append(deterministic_run(system, sim(H), q0, v0, omega, args.b_T, H))
         for g in frictions:
             err, energy, count = langevin_run(omega, args.chains, args.b_T_langevin, H, args.temperature, g, 1234)
             out["sim_langevin"][f"{g:g}"].append(err)
@@ -317,10 +287,8 @@ def intervals(grid, ok):
 # Charts
 
 def plot_stability(a, path, dpi, small=False):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+    plt = reporting.pyplot()
 
     deltas, tw = np.array(a["deltas"]), np.array(a["tau_omega2"])
     fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharey=True)
@@ -350,14 +318,11 @@ def plot_stability(a, path, dpi, small=False):
     axes[1].legend(fontsize=7, loc="upper right", framealpha=0.9)
     fig.suptitle(f"Stability domain on (5.1), omega = {a['omega']:g} (FLAVORS paper Fig. 5.1)", fontsize=11)
     fig.tight_layout()
-    fs.save_figure(fig, path, dpi, small)
-    plt.close(fig)
+    reporting.save_figure(fig, path, dpi, small)
 
 
 def plot_resonance(b, path, dpi, small=False):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = reporting.pyplot()
 
     grid = np.array(b["omega_H"])
     cap = 1e3
@@ -387,15 +352,12 @@ def plot_resonance(b, path, dpi, small=False):
                  f"{b['T_langevin']:g})", fontsize=10)
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
-    fs.save_figure(fig, path, dpi, small)
-    plt.close(fig)
+    reporting.save_figure(fig, path, dpi, small)
 
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="coarse grids and short runs (smoke test)")
-    parser.add_argument("--out", default=os.path.join(fs.REPO_ROOT, "results", "stability"))
+    parser = reporting.parser(__doc__, "stability", quick_help="coarse grids and short runs (smoke test)")
     parser.add_argument("--docs", default=None,
                         help="also write small copies of the charts (dpi 80, 64 colours) to this folder")
     parser.add_argument("--replot", action="store_true",
@@ -427,15 +389,13 @@ def main():
         args.a_deltas, args.a_taus, args.a_steps = 10, 8, 400
         args.b_T, args.b_T_langevin, args.chains, args.frictions = 5.0, 3.0, 4, [1.0]
     started = time.perf_counter()
-    progress = fs.ProgressBar(2 * args.a_taus + 1 + len(resonance_grid(args.quick)))
+    progress = Progress("stability", 2 * args.a_taus + 1 + len(resonance_grid(args.quick)), fmt="d")
     a = part_a(args, progress)
     b = part_b(args, progress)
     data = {"quick": args.quick, "openmm_version": mm.__version__, "platform": "Reference", "flavor_domain": a,
             "resonance": b}
     data["wall_s_total"] = time.perf_counter() - started
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "stability.json"), "w") as f:
-        json.dump(fs.jsonable(data), f, indent=1)
+    reporting.write_json(os.path.join(args.out, "stability.json"), data)
     plot_stability(a, os.path.join(args.out, "stability.png"), 100)
     plot_resonance(b, os.path.join(args.out, "resonance.png"), 100)
     if args.docs:

@@ -20,50 +20,26 @@ load-independent cost ratios.  This is a benchmark: it prints what it measures a
 
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/step_cost.py [--quick] [--out DIR] [--helper PATH]
 """
-import argparse
-import json
 import os
-import re
 import shutil
-import statistics
-import subprocess
 import sys
 import time
 
 import numpy as np
 import openmm as mm
 import openmm.unit as unit
-from openmm import mtsintegrator
 
-import openmmflavors
+from flavorbench import reporting
+from flavorbench.helper import count_instructions, find_helper, run_helper
+from flavorbench.runners import flavor, mts, start_context, time_batches, verlet
+from flavorbench.systems import SOFT_GROUP as SOFT, STIFF_GROUP as STIFF, chain_positions, fpu_system
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "examples", "common"))
-import fpu_chain  # noqa: E402
-
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SOFT, STIFF = fpu_chain.SOFT_GROUP, fpu_chain.STIFF_GROUP
 M, OMEGA = 3, 200.0
 DELTA, TAU, H = 2e-3, 1e-4, 1e-4
 
 
-def fpu_chains(chains):
-    """`chains` copies of eq. (6.7); particle 6c + k is q_{k+1} of chain c."""
-    return fpu_chain.fpu_system(M, OMEGA, chains)
-
-
-def fpu_positions(chains, seed=1234):
-    """Chain 0 as in Fig. 6.5; the others at random slow/fast coordinates of the same size.  Chain c lies at y = c."""
-    return fpu_chain.chain_positions(M, OMEGA, chains, seed)
-
-
-def flavor(scheme):
-    integrator = openmmflavors.FlavorIntegrator(DELTA * unit.picoseconds, TAU * unit.picoseconds, {STIFF})
-    integrator.setScheme(scheme)
-    return integrator
-
-
 def custom_flavor_verlet():
-    """The Verlet FLAVOR (DESIGN.md section 2) as a CustomIntegrator: "f" is every group, "f0" the soft group."""
+    """The Verlet FLAVOR (docs/ARCHITECTURE.md) as a CustomIntegrator: "f" is every group, "f0" the soft group."""
     integrator = mm.CustomIntegrator(DELTA)
     integrator.addGlobalVariable("tau", TAU)
     integrator.addGlobalVariable("rest", DELTA - TAU)
@@ -77,60 +53,22 @@ def custom_flavor_verlet():
     return integrator
 
 
-def verlet(groups=None):
-    integrator = mm.VerletIntegrator(H)
-    if groups is not None:
-        integrator.setIntegrationForceGroups(groups)
-    return integrator
-
-
 INTEGRATORS = {
     # key: (label, factory, step size)
-    "flavor_verlet": ("FlavorIntegrator Verlet (native)", lambda: flavor(openmmflavors.FlavorIntegrator.Verlet), DELTA),
-    "flavor_euler": ("FlavorIntegrator SymplecticEuler (native)",
-                     lambda: flavor(openmmflavors.FlavorIntegrator.SymplecticEuler), DELTA),
+    "flavor_verlet": ("FlavorIntegrator Verlet (native)", lambda: flavor(DELTA, TAU, "Verlet"), DELTA),
+    "flavor_euler": ("FlavorIntegrator SymplecticEuler (native)", lambda: flavor(DELTA, TAU, "SymplecticEuler"), DELTA),
     "custom_flavor_verlet": ("Verlet FLAVOR as CustomIntegrator", custom_flavor_verlet, DELTA),
-    "verlet": ("VerletIntegrator (all groups)", verlet, H),
-    "verlet_soft": ("VerletIntegrator groups {0} (soft)", lambda: verlet({SOFT}), H),
-    "verlet_stiff": ("VerletIntegrator groups {1} (stiff)", lambda: verlet({STIFF}), H),
-    "mts": ("MTSIntegrator [(0,1),(1,20)]",
-            lambda: mtsintegrator.MTSIntegrator(DELTA, [(SOFT, 1), (STIFF, 20)]), DELTA),
+    "verlet": ("VerletIntegrator (all groups)", lambda: verlet(H), H),
+    "verlet_soft": ("VerletIntegrator groups {0} (soft)", lambda: verlet(H, {SOFT}), H),
+    "verlet_stiff": ("VerletIntegrator groups {1} (stiff)", lambda: verlet(H, {STIFF}), H),
+    "mts": ("MTSIntegrator [(0,1),(1,20)]", lambda: mts(DELTA, 20), DELTA),
     "langevin_middle": ("LangevinMiddleIntegrator", lambda: mm.LangevinMiddleIntegrator(300, 1.0, H), H),
 }
 
 
 def make_context(system, positions, key, platform, properties):
     integrator = INTEGRATORS[key][1]()
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties)
-    context.setPositions(positions)
-    context.setVelocities(np.zeros_like(positions))
-    return context, integrator
-
-
-def measure(cases, target, repeats, label):
-    """cases: {name: (context, integrator)}.  Round-robin timing of integrator.step(N); returns us/step stats."""
-    sizes = {}
-    for name, (_, integrator) in cases.items():
-        integrator.step(2)
-        n = 1
-        while True:
-            start = time.perf_counter()
-            integrator.step(n)
-            elapsed = time.perf_counter() - start
-            if elapsed > 0.2 * target or n > 10**8:
-                break
-            n *= 4
-        sizes[name] = max(1, int(n * target / elapsed))
-    times = {name: [] for name in cases}
-    for r in range(repeats):
-        for name, (_, integrator) in cases.items():
-            start = time.perf_counter()
-            integrator.step(sizes[name])
-            times[name].append(1e6 * (time.perf_counter() - start) / sizes[name])
-        print(f"  [{label}] repeat {r + 1}/{repeats}: " +
-              ", ".join(f"{name} {times[name][-1]:.4g}" for name in cases) + " us/step", file=sys.stderr, flush=True)
-    return {name: {"us_per_step": min(t), "us_per_step_median": statistics.median(t), "all": t,
-                   "steps_per_batch": sizes[name]} for name, t in times.items()}
+    return start_context(system, integrator, 0.0, positions, platform=platform, properties=properties), integrator
 
 
 def python_loop_cost(integrator, n):
@@ -139,49 +77,6 @@ def python_loop_cost(integrator, n):
     for _ in range(n):
         integrator.step(1)
     return 1e6 * (time.perf_counter() - start) / n
-
-
-def find_helper(path):
-    candidates = [path] if path else []
-    candidates += [os.environ.get("FLAVORS_STEP_COST", ""), os.path.join(REPO_ROOT, "build", "benchmarks", "step_cost")]
-    for c in candidates:
-        if c and os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    return shutil.which("step_cost")
-
-
-def run_helper(helper, args, label):
-    if helper is None:
-        return None
-    print(f"  [{label}] C++ helper: {' '.join([os.path.basename(helper)] + args)}", file=sys.stderr, flush=True)
-    try:
-        out = subprocess.run([helper] + args, check=True, capture_output=True, text=True, timeout=300)
-    except (subprocess.SubprocessError, OSError) as error:
-        print(f"  [{label}] C++ helper failed: {error}", file=sys.stderr)
-        return None
-    return json.loads(out.stdout)["results"]
-
-
-def callgrind_total(valgrind, command, options=()):
-    """The instructions callgrind counts in one run of command."""
-    command = [valgrind, "--tool=callgrind", "--callgrind-out-file=/dev/null"] + list(options) + command
-    out = subprocess.run(command, capture_output=True, text=True, timeout=600)
-    found = re.search(r"I\s+refs:\s+([\d,]+)", out.stderr)
-    if out.returncode != 0 or not found:
-        raise RuntimeError(f"callgrind run failed: {' '.join(command)}\n{out.stderr[-2000:]}")
-    return int(found.group(1).replace(",", ""))
-
-
-def count_instructions(helper, valgrind, args, name, steps):
-    """Instructions per step of one helper measurement: the difference of two callgrind runs, so setup cancels."""
-    totals = [callgrind_total(valgrind, [helper] + args + ["--steps", str(n), name]) for n in steps]
-    return (totals[1] - totals[0]) / (steps[1] - steps[0])
-
-
-def count_instructions_inside(helper, valgrind, args, name, function):
-    """Instructions spent inside one function (and everything it calls) in a helper run of one step: callgrind
-    collects only while the function runs."""
-    return callgrind_total(valgrind, [helper] + args + ["--steps", "1", name], [f"--toggle-collect={function}"])
 
 
 def instruction_counts(helper, valgrind, args, names, steps, label):
@@ -223,16 +118,14 @@ def force_costs(c_soft, c_stiff, c_all):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", default=os.path.join(REPO_ROOT, "results", "bench"), help="output directory")
+    parser = reporting.parser(__doc__, "bench",
+                              quick_help="smoke run: 170 chains, short batches, 2 repeats, no instruction counts")
     parser.add_argument("--chains", type=int, default=1700, help="FPU chains on the CPU platform (6 particles each)")
     parser.add_argument("--seconds", type=float, default=0.15, help="target duration of one timed batch")
     parser.add_argument("--repeats", type=int, default=7, help="timed batches per integrator (minimum reported)")
     parser.add_argument("--helper", default=None, help="path of the C++ step_cost helper (default: search)")
     parser.add_argument("--no-helper", action="store_true", help="do not run the C++ helper")
     parser.add_argument("--no-instructions", action="store_true", help="skip the callgrind instruction counts")
-    parser.add_argument("--quick", action="store_true",
-                        help="smoke run: 170 chains, short batches, 2 repeats, no instruction counts")
     args = parser.parse_args()
     if args.quick:
         args.chains, args.seconds, args.repeats = min(args.chains, 170), 0.03, 2
@@ -246,12 +139,12 @@ def main():
 
     # (a) One chain on Reference.
     print("(a) Reference, one FPU chain", file=sys.stderr)
-    small = fpu_chains(1)
-    q_small = fpu_positions(1)
+    small = fpu_system(M, OMEGA)
+    q_small = chain_positions(M, OMEGA, 1)
     keys_a = ["flavor_verlet", "flavor_euler", "custom_flavor_verlet", "verlet", "verlet_soft", "verlet_stiff", "mts",
               "langevin_middle"]
     cases = {k: make_context(small, q_small, k, "Reference", {}) for k in keys_a}
-    ref = measure(cases, args.seconds, args.repeats, "Reference")
+    ref = time_batches(cases, args.seconds, args.repeats, "Reference")
     loop_n = max(1000, int(ref["flavor_verlet"]["steps_per_batch"] / 10))
     ref_loop = python_loop_cost(cases["flavor_verlet"][1], loop_n)
     del cases
@@ -271,8 +164,8 @@ def main():
     data["a_reference"] = part_a
 
     # (b) and (c): many chains on CPU.
-    big = fpu_chains(args.chains)
-    q_big = fpu_positions(args.chains)
+    big = fpu_system(M, OMEGA, args.chains)
+    q_big = chain_positions(M, OMEGA, args.chains)
     print(f"(b) CPU, {args.chains} FPU chains ({big.getNumParticles()} particles)", file=sys.stderr)
     keys_b = ["flavor_verlet", "flavor_euler", "verlet", "verlet_soft", "verlet_stiff"]
     cases = {}
@@ -281,7 +174,7 @@ def main():
             cases[f"{k}@{threads}"] = make_context(big, q_big, k, "CPU", {"Threads": str(threads)})
     for k in ("mts", "langevin_middle"):
         cases[f"{k}@2"] = make_context(big, q_big, k, "CPU", {"Threads": "2"})
-    cpu = measure(cases, args.seconds, args.repeats, "CPU")
+    cpu = time_batches(cases, args.seconds, args.repeats, "CPU")
     del cases
     part_b = {"platform": "CPU", "chains": args.chains, "particles": big.getNumParticles(), "threads": {}}
     for threads in (1, 2):
@@ -305,10 +198,8 @@ def main():
     data["wall_s"] = time.perf_counter() - started
 
     report(data)
-    os.makedirs(args.out, exist_ok=True)
     json_path = os.path.join(args.out, "step_cost.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1)
+    reporting.write_json(json_path, data, strict=False)
     png_path = os.path.join(args.out, "step_cost.png")
     plot(data, png_path)
     print(f"\nwrote {json_path} and {png_path} ({data['wall_s']:.0f} s)")
@@ -414,10 +305,7 @@ def print_force_ratios(r, target):
 
 
 def plot(data, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = reporting.pyplot()
     counts = [(label, c) for label, c in (("Reference", data["a_reference"].get("callgrind")),
                                           ("CPU, Threads=1", data["b_cpu"].get("callgrind_threads_1"))) if c]
     fig = plt.figure(figsize=(16, 11 if counts else 6.5))
@@ -509,8 +397,7 @@ def plot(data, path):
     fig.suptitle(f"Per-step cost, OpenMM {data['openmm_version']}: FLAVOR delta = {DELTA:g}, tau = {TAU:g}; "
                  f"Verlet and Langevin h = {H:g}; MTS outer {DELTA:g} with 20 stiff substeps")
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 110)
 
 
 if __name__ == "__main__":

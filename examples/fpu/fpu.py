@@ -13,30 +13,21 @@ is measured in this run; speedups are wall-clock ratios of the integrator.step()
     PYTHONPATH=build/python /usr/bin/python3 examples/fpu/fpu.py [--quick] [--out DIR]
 """
 import math
-import os
 import sys
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-import openmmflavors
+from flavorbench import reporting
+from flavorbench.runners import flavor, simulate_fpu
+from flavorbench.scenes import running_mean
+from flavorbench.systems import as_vec3, fpu_initial, fpu_system
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import fpu_chain  # noqa: E402
-import scene  # noqa: E402
-from fpu_chain import STIFF_GROUP, fpu_positions, fpu_system  # noqa: E402
-
-
-def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
-    """Run on the Reference platform and sample at `times` (Verlet runs leapfrog-corrected: see fpu_chain)."""
-    return fpu_chain.simulate_observed(
-        system, integrator, dt, leapfrog, positions, times, omega, label, scene.Progress(label, fmt="8.2f"),
-        "step size {dt} does not divide the sampling times; choose --sample/--fine accordingly")
+HINT = "step size {dt} does not divide the sampling times; choose --sample/--fine accordingly"
 
 
 def main():
-    parser = scene.parser(__doc__, "fpu",
+    parser = reporting.parser(__doc__, "fpu",
                           quick_help="smoke run of a few seconds (T = 4, coarser reference)")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default omega = 200; 4 with --quick)")
     parser.add_argument("--omega", type=float, default=200.0)
@@ -66,7 +57,7 @@ def main():
     x0_init = [1.0] + [0.0] * (m - 1)
     x1_init = [1.0 / omega] + [0.0] * (m - 1)
     system = fpu_system(m, omega)
-    positions = fpu_positions(x0_init, x1_init)
+    positions = as_vec3(fpu_initial(m, omega)[0])
 
     coarse = np.arange(0, int(round(T / sample)) + 1) * sample
     fine = T - window + np.arange(0, int(round(window / args.fine)) + 1) * args.fine
@@ -75,13 +66,6 @@ def main():
     on_grid = np.abs(times / sample - np.rint(times / sample)) < 1e-6
     checkpoints = [T / 20, T / 4, T]
     checkpoint_index = [int(np.argmin(np.abs(times - t))) for t in checkpoints]
-
-    def flavor(scheme, tau):
-        # Quantities and a set of group numbers, as OpenMM's own integrators take them.
-        integrator = openmmflavors.FlavorIntegrator(args.delta * unit.picoseconds, tau * unit.picoseconds,
-                                                    {STIFF_GROUP})
-        integrator.setScheme(scheme)
-        return integrator
 
     # key, label, make integrator, step, leapfrog velocities, tau/delta (the weight of the stiff forces)
     runs = [
@@ -93,20 +77,18 @@ def main():
     for k, tau in enumerate(args.tau):
         key = "flavor_verlet" if k == 0 else f"flavor_verlet_tau{tau:g}"
         runs.append((key, f"FLAVOR Verlet d={args.delta:g} t={tau:g}",
-                     lambda tau=tau: flavor(openmmflavors.FlavorIntegrator.Verlet, tau), args.delta, False,
-                     tau / args.delta))
+                     lambda tau=tau: flavor(args.delta, tau, "Verlet"), args.delta, False, tau / args.delta))
     if not args.no_euler:
         tau = args.tau[0]
         runs.append(("flavor_euler", f"FLAVOR SympEuler d={args.delta:g} t={tau:g}",
-                     lambda: flavor(openmmflavors.FlavorIntegrator.SymplecticEuler, tau), args.delta, False,
-                     tau / args.delta))
+                     lambda: flavor(args.delta, tau, "SymplecticEuler"), args.delta, False, tau / args.delta))
 
     print(f"FPU m={m} omega={omega:g} T={T:g}: {len(times)} samples (every {sample:g}, every {args.fine:g} in the "
           f"final window of {window:g})", file=sys.stderr)
     results = {}
     for key, label, make, dt, leapfrog, weight in runs:
         print(f"running {label}: {int(round(T / dt))} steps", file=sys.stderr, flush=True)
-        r = simulate(system, make(), dt, leapfrog, positions, times, omega, label)
+        r = simulate_fpu(system, make(), dt, leapfrog, positions, times, omega, label, "8.2f", HINT)
         # Per mesostep FLAVOR drifts for delta but applies the stiff forces for tau only: to leading order (BCH) it
         # is the flow of H_F = K + V_soft + (tau/delta) U_stiff, so its stiff oscillation keeps omega^2 <x1^2> but
         # has <y1^2> scaled by tau/delta.  H_F = H for Verlet.
@@ -157,8 +139,8 @@ def main():
             omega_eff = omega * math.sqrt(weight)
             label = f"Verlet h={args.h:g}, FPU omega_eff={omega_eff:.4g}"
             print(f"running {label} (compared with {results[key]['label']})", file=sys.stderr, flush=True)
-            e = simulate(fpu_system(m, omega_eff), mm.VerletIntegrator(args.h), args.h, True, positions, times, omega,
-                         label)
+            e = simulate_fpu(fpu_system(m, omega_eff), mm.VerletIntegrator(args.h), args.h, True, positions, times,
+                             omega, label, "8.2f", HINT)
             err = np.abs(results[key]["x0"][:, 0] - e["x0"][:, 0])
             results[key]["effective_error"] = err
             effective[key] = {
@@ -184,7 +166,7 @@ def main():
                             "omega2_x1sq": results[key]["Ix"].tolist(), "E": results[key]["E"].tolist(),
                             "H_F": results[key]["Ht"].tolist()} for key in results}},
     }
-    scene.save_outputs(args.out, "fpu", data,
+    reporting.save_outputs(args.out, "fpu", data,
                        lambda png_path: plot(times, on_grid, results, summary, T, window, omega, png_path))
 
 
@@ -239,7 +221,7 @@ def print_tables(summary, effective, checkpoints, T, window, omega):
 
 
 def plot(times, coarse, results, summary, T, window, omega, path):
-    plt = scene.pyplot()
+    plt = reporting.pyplot()
 
     shown = [k for k in results if k != "reference_check"]
     palette = ["tab:blue", "tab:red", "tab:purple", "tab:green", "tab:brown", "tab:olive"]
@@ -282,7 +264,7 @@ def plot(times, coarse, results, summary, T, window, omega, path):
         for key in shown:
             if key.startswith("flavor_verlet"):
                 ls = "--" if key == "flavor_verlet" else ":"
-                ax.plot(tc, scene.running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls,
+                ax.plot(tc, running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls,
                         label=f"{summary[key]['label']}: mean omega^2 x1_j^2" if j == 0 else None)
     ax.set_title(f"stiff energies I1 (blue), I2 (orange), I3 (green); FLAVOR: running means over {window:g}")
     ax.set_xlabel("t")
@@ -302,8 +284,7 @@ def plot(times, coarse, results, summary, T, window, omega, path):
     ax.legend(fontsize=7)
 
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 110)
 
 
 if __name__ == "__main__":

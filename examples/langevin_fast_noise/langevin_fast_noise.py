@@ -20,21 +20,15 @@ FLAVOR runs at the paper's delta = 0.01, tau = 1e-4 and at tau = 1e-5, where the
     PYTHONPATH=build/python /usr/bin/python3 examples/langevin_fast_noise/langevin_fast_noise.py [--quick] [--out DIR]
 """
 import math
-import os
 import sys
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-import openmmflavors
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import ensemble  # noqa: E402
-import scene  # noqa: E402
-from ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, window_means  # noqa: E402
-
-SOFT_GROUP, STIFF_GROUP = 0, 1
+from flavorbench import ensemble, reporting
+from flavorbench.ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, run_ensemble, window_means
+from flavorbench.runners import KB, flavor
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 BLOWUP_Y = 0.5
 
 QUANTITIES = {
@@ -73,14 +67,7 @@ def damped_particles(n):
 
 def flavor_integrator(n, delta, tau, temperature, friction, stiff_friction, seed):
     """FlavorIntegrator(delta, tau), SymplecticEuler, friction and noise on every copy's y only."""
-    integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
-    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
-    integrator.setTemperature(temperature * unit.kelvin)
-    integrator.setFriction(friction / unit.picosecond)
-    integrator.setStiffFriction(stiff_friction)
-    integrator.setFrictionParticles(damped_particles(n))
-    integrator.setRandomNumberSeed(seed)
-    return integrator
+    return flavor(delta, tau, "SymplecticEuler", temperature, friction, seed, stiff_friction, damped_particles(n))
 
 
 def per_dof_ou(n, kT, h, friction_y):
@@ -126,14 +113,6 @@ def custom_flavor(n, delta, tau, kT, friction_y, seed):
     return integrator
 
 
-def statistics(run, kT, width, t, late_from):
-    keep = np.isnan(run["blown_at"])
-    x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
-    series = {"s": x - y, "y": y, "s2": (x - y) ** 2, "y2": y * y, "px2": px * px / kT, "py2": py * py / kT}
-    stats = ensemble.series_statistics(series, width, t, late_from)
-    return stats, int(keep.sum())
-
-
 def boltzmann(omega4, beta):
     """Exact Boltzmann moments of V = omega4 y^4/4 + e^y s^2 (s = x - y): s given y is Gaussian with variance
     1/(2 beta e^y), so the marginal of y is exp(-beta omega4 y^4/4 - y/2)."""
@@ -162,7 +141,7 @@ def mesoscale_stability(delta, tau, omega, beta):
 
 
 def main():
-    parser = scene.parser(__doc__, "langevin_fast_noise",
+    parser = reporting.parser(__doc__, "langevin_fast_noise",
                           quick_help="smoke run of a few seconds (n = 8, T = 0.2)", out_help=None)
     parser.add_argument("--n", type=int, default=None, help="ensemble size (default 50, the paper's; 8 with --quick)")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default 10; 0.2 with --quick)")
@@ -187,7 +166,7 @@ def main():
     x0 = y0 + 1.8
     kT = args.sigma ** 2 / (2 * args.c)
     beta = 1.0 / kT
-    temperature = kT / scene.KB
+    temperature = kT / KB
     gamma = omega ** 2 * args.c
     h = args.h
     flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]
@@ -214,7 +193,7 @@ def main():
     runs, twins = {}, {}
     for i, (key, label, make, dt, micro, twin) in enumerate(plan):
         print(f"running {label}", file=sys.stderr, flush=True)
-        runs[key] = ensemble.simulate(system, make(args.seed + i), dt, n, y0, x0, args.sample, T, label, BLOWUP_Y)
+        runs[key] = run_ensemble(system, make(args.seed + i), dt, n, y0, x0, args.sample, T, label, BLOWUP_Y)
         runs[key].update(delta=dt, tau=micro)
         if twin is not None:
             twins[key] = twin
@@ -223,7 +202,9 @@ def main():
     t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
     stats, used = {}, {}
     for key, run in runs.items():
-        stats[key], used[key] = statistics(run, kT, width, t, late_from)
+        stats[key], used[key] = ensemble.series_statistics(
+            run, lambda x, y, px, py: {"s": x - y, "y": y, "s2": (x - y) ** 2, "y2": y * y, "px2": px * px / kT,
+                                       "py2": py * py / kT}, width, t, late_from)
     comparison = {key: {q: compare(stats[key][q], stats["gla"][q], t_window, late_from, args.regime)
                         for q in QUANTITIES} for key in runs if key != "gla"}
     # Each CustomIntegrator run against the library run of the same scheme (different random streams).
@@ -282,7 +263,7 @@ def main():
                    **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
                                 "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
     }
-    scene.save_outputs(args.out, "langevin_fast_noise", data,
+    reporting.save_outputs(args.out, "langevin_fast_noise", data,
                        lambda png_path: plot(t_window, stats, summary, equilibrium, data["parameters"], png_path))
 
 
@@ -340,7 +321,7 @@ def print_tables(summary, comparison, cross_check, equilibrium, late_from, regim
 
 
 def plot(t_window, stats, summary, equilibrium, params, path):
-    plt = scene.pyplot()
+    plt = reporting.pyplot()
 
     fixed = {"gla": ("k", "-", 1.6), "gla_custom": ("tab:gray", "--", 1.0)}
     reds, blues = iter(["tab:red", "tab:orange", "tab:brown"]), iter(["tab:blue", "tab:cyan", "tab:purple"])
@@ -380,8 +361,7 @@ def plot(t_window, stats, summary, equilibrium, params, path):
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8)
     fig.tight_layout(rect=(0, 0.07, 1, 0.95))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 100)
 
 
 if __name__ == "__main__":

@@ -18,36 +18,30 @@ autocorrelations of Fig. 6.14 are ensemble means with standard errors, compared 
     PYTHONPATH=build/python /usr/bin/python3 examples/langevin_slow_noise/langevin_slow_noise.py [--quick] [--out DIR]
 """
 import math
-import os
 import sys
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-import openmmflavors
-
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import ensemble  # noqa: E402
-import scene  # noqa: E402
-from ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, window_means  # noqa: E402
-
-SOFT_GROUP, STIFF_GROUP = 0, 1
+from flavorbench import ensemble, reporting
+from flavorbench.ensemble import LATE_Z_AGREE, MEAN_Z2_AGREE, compare, run_ensemble, window_means
+from flavorbench.runners import KB, flavor
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 # A copy is declared blown up once |y| exceeds this (V_stiff would be 1/(4 eps) ~ 1e7 kT) or a coordinate is not finite.
 BLOWUP_Y = 0.5
 
 QUANTITIES = {
-    # key: (label, function of (x, y, px, py, x0, y0) -> per-copy series)
-    "acf_y": ("E[y(t) y(0)]  (Fig. 6.14, dominantly fast)", lambda x, y, px, py, x0, y0: y * y0),
+    # key: (label, function of (x, y, px, py, x0, y0, kT) -> per-copy series)
+    "acf_y": ("E[y(t) y(0)]  (Fig. 6.14, dominantly fast)", lambda x, y, px, py, x0, y0, kT: y * y0),
     "acf_s": ("E[(x-y)(t) (x-y)(0)]  (Fig. 6.14, dominantly slow)",
-              lambda x, y, px, py, x0, y0: (x - y) * (x0 - y0)),
-    "s": ("E[x-y]", lambda x, y, px, py, x0, y0: x - y),
-    "y": ("E[y]", lambda x, y, px, py, x0, y0: y),
-    "x": ("E[x]", lambda x, y, px, py, x0, y0: x),
-    "s2": ("E[(x-y)^2]", lambda x, y, px, py, x0, y0: (x - y) ** 2),
-    "y2": ("E[y^2]", lambda x, y, px, py, x0, y0: y * y),
-    "px2": ("E[p_x^2] / kT", None),
-    "py2": ("E[p_y^2] / kT", None),
+              lambda x, y, px, py, x0, y0, kT: (x - y) * (x0 - y0)),
+    "s": ("E[x-y]", lambda x, y, px, py, x0, y0, kT: x - y),
+    "y": ("E[y]", lambda x, y, px, py, x0, y0, kT: y),
+    "x": ("E[x]", lambda x, y, px, py, x0, y0, kT: x),
+    "s2": ("E[(x-y)^2]", lambda x, y, px, py, x0, y0, kT: (x - y) ** 2),
+    "y2": ("E[y^2]", lambda x, y, px, py, x0, y0, kT: y * y),
+    "px2": ("E[p_x^2] / kT", lambda x, y, px, py, x0, y0, kT: px * px / kT),
+    "py2": ("E[p_y^2] / kT", lambda x, y, px, py, x0, y0, kT: py * py / kT),
 }
 
 
@@ -68,38 +62,6 @@ def build_system(n, eps):
     system.addForce(stiff)
     system.addForce(soft)
     return system
-
-
-def make_integrator(delta, tau, temperature, friction, seed):
-    integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
-    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
-    integrator.setTemperature(temperature * unit.kelvin)
-    integrator.setFriction(friction / unit.picosecond)
-    integrator.setStiffFriction(False)
-    integrator.setRandomNumberSeed(seed)
-    return integrator
-
-
-def per_copy_series(run, kT):
-    """Every quantity for every copy (samples x copies), for the copies that stayed finite up to T."""
-    keep = np.isnan(run["blown_at"])
-    x, y, px, py = (run[k][:, keep] for k in ("x", "y", "px", "py"))
-    x0, y0 = x[0], y[0]
-    series = {}
-    for key, (_, f) in QUANTITIES.items():
-        if key == "px2":
-            series[key] = px * px / kT
-        elif key == "py2":
-            series[key] = py * py / kT
-        else:
-            series[key] = f(x, y, px, py, x0, y0)
-    return series, int(keep.sum())
-
-
-def statistics(run, kT, width, t, late_from):
-    series, used = per_copy_series(run, kT)
-    stats = ensemble.series_statistics(series, width, t, late_from)
-    return stats, used
 
 
 def quartic_second_moment(a, beta):
@@ -126,7 +88,7 @@ def mesoscale_stability(delta, tau, eps, beta):
 
 
 def main():
-    parser = scene.parser(__doc__, "langevin_slow_noise",
+    parser = reporting.parser(__doc__, "langevin_slow_noise",
                           quick_help="smoke run of a few seconds (n = 8, T = 1)", out_help=None)
     parser.add_argument("--n", type=int, default=None, help="ensemble size (default 100, the paper's; 8 with --quick)")
     parser.add_argument("--T", type=float, default=None, help="simulated time (default 30; 1 with --quick)")
@@ -151,7 +113,7 @@ def main():
     x0 = y0 + 1.8
     kT = args.sigma ** 2 / (2 * args.c)
     beta = 1.0 / kT
-    temperature = kT / scene.KB
+    temperature = kT / KB
     flavors = [tuple(float(v) for v in spec.split(",")) for spec in args.flavor]
     width = max(1, int(round(args.window / args.sample)))
     late_from = 2.0 * T / 3.0
@@ -163,23 +125,25 @@ def main():
     seed = args.seed
     label = f"GLA h={args.h:g}"
     print(f"running {label}: FlavorIntegrator(h, h), SymplecticEuler, friction over the whole step", file=sys.stderr)
-    runs["gla"] = ensemble.simulate(system, make_integrator(args.h, args.h, temperature, args.c, seed), args.h, n,
-                                    y0, x0, args.sample, T, label, BLOWUP_Y)
+    runs["gla"] = run_ensemble(system, flavor(args.h, args.h, "SymplecticEuler", temperature, args.c, seed, False),
+                               args.h, n, y0, x0, args.sample, T, label, BLOWUP_Y)
     runs["gla"].update(delta=args.h, tau=args.h)
     for delta, tau in flavors:
         seed += 1
         key = f"flavor_d{delta:g}_t{tau:g}"
         label = f"FLAVOR d={delta:g} t={tau:g}"
         print(f"running {label}: SymplecticEuler, friction over the whole mesostep (eq. 4.7)", file=sys.stderr)
-        runs[key] = ensemble.simulate(system, make_integrator(delta, tau, temperature, args.c, seed), delta, n,
-                                      y0, x0, args.sample, T, label, BLOWUP_Y)
+        runs[key] = run_ensemble(system, flavor(delta, tau, "SymplecticEuler", temperature, args.c, seed, False),
+                                 delta, n, y0, x0, args.sample, T, label, BLOWUP_Y)
         runs[key].update(delta=delta, tau=tau)
 
     t = np.arange(int(round(T / args.sample)) + 1) * args.sample
     t_window = (np.arange(window_means(t[:, None], width).shape[0]) + 0.5) * width * args.sample
     stats, used = {}, {}
     for key, run in runs.items():
-        stats[key], used[key] = statistics(run, kT, width, t, late_from)
+        stats[key], used[key] = ensemble.series_statistics(
+            run, lambda x, y, px, py: {q: f(x, y, px, py, x[0], y[0], kT) for q, (_, f) in QUANTITIES.items()},
+            width, t, late_from)
 
     # Exact Boltzmann values: V = y^4/(4 eps) + s^4 separates in (y, s = x - y).  The Langevin FLAVOR samples
     # H_eff = K + V_soft + (tau/delta) V_stiff, i.e. eps -> eps delta/tau.
@@ -235,7 +199,7 @@ def main():
                    **{key: {q: {"mean": s["mean"].tolist(), "se": s["se"].tolist(), "window_mean": s["w_mean"].tolist(),
                                 "window_se": s["w_se"].tolist()} for q, s in stats[key].items()} for key in stats}},
     }
-    scene.save_outputs(args.out, "langevin_slow_noise", data,
+    reporting.save_outputs(args.out, "langevin_slow_noise", data,
                        lambda png_path: plot(t, t_window, stats, summary, equilibrium, data["parameters"], png_path))
 
 
@@ -278,7 +242,7 @@ def print_tables(summary, comparison, stats, equilibrium, late_from, regime, T, 
 
 
 def plot(t, t_window, stats, summary, equilibrium, params, path):
-    plt = scene.pyplot()
+    plt = reporting.pyplot()
 
     colors = {"gla": "k"}
     palette = ["tab:red", "tab:blue", "tab:green", "tab:purple"]
@@ -309,8 +273,7 @@ def plot(t, t_window, stats, summary, equilibrium, params, path):
             ax.set_yscale("log")
         ax.legend(fontsize=7)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 100)
 
 
 if __name__ == "__main__":

@@ -16,14 +16,11 @@ order.  Slow variable: x (and p_x); fast: y.
     PYTHONPATH=build/python /usr/bin/python3 examples/nonlinear_stiff_soft/nonlinear_stiff_soft.py [--quick] [--out DIR]
 """
 import os
-import sys
 
 import openmm as mm
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import scene  # noqa: E402
-
-import openmmflavors  # noqa: E402,F401  (loads the plugin)
+from flavorbench import reporting, scenes
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 
 
 class NonlinearStiffSoft:
@@ -42,10 +39,10 @@ class NonlinearStiffSoft:
         stiff = mm.CustomExternalForce("stiffness*x^6")
         stiff.addGlobalParameter("stiffness", scale / self.eps)
         stiff.addParticle(0, [])
-        stiff.setForceGroup(scene.STIFF_GROUP)
+        stiff.setForceGroup(STIFF_GROUP)
         soft = mm.CustomCompoundBondForce(2, "(x2-x1)^4")
         soft.addBond([0, 1], [])
-        soft.setForceGroup(scene.SOFT_GROUP)
+        soft.setForceGroup(SOFT_GROUP)
         system.addForce(stiff)
         system.addForce(soft)
         return system
@@ -72,7 +69,7 @@ class NonlinearStiffSoft:
 
 
 def main():
-    ap = scene.parser(__doc__, NonlinearStiffSoft.name)
+    ap = reporting.parser(__doc__, NonlinearStiffSoft.name)
     ap.add_argument("--eps", type=float, default=1e-6)
     ap.add_argument("--T", type=float, default=None, help="simulated time (default 2; 0.2 with --quick)")
     ap.add_argument("--delta", type=float, default=1e-3)
@@ -88,15 +85,15 @@ def main():
          "period_window": min(T, 0.2), "zoom": min(T, 0.06), "avg_window": 0.05,
          "eps": args.eps, "x0": 2.2, "y0": 1.1, "quick": args.quick}
     sc = NonlinearStiffSoft(args.eps, p["x0"], p["y0"])
-    T_checks = scene.checkpoints(T, (0.25, 0.5, 1.0))
+    T_checks = scenes.checkpoints(T, (0.25, 0.5, 1.0))
 
-    runs, _ = scene.run_all(sc, p)
-    out = scene.summarize(sc, runs, p, T_checks)
-    scene.print_summary(sc, out, T_checks, ["x", "p_x"], ["y^2", "y^6/eps", "p_y^2"])
+    runs, _ = scenes.run_all(sc, p)
+    out = scenes.summarize(sc, runs, p, T_checks)
+    scenes.print_summary(sc, out, T_checks, ["x", "p_x"], ["y^2", "y^6/eps", "p_y^2"])
 
     os.makedirs(args.out, exist_ok=True)
     png = os.path.join(args.out, f"{sc.name}.png")
-    scene.plot(sc, runs, out, p, png, [
+    scenes.plot(sc, runs, out, p, png, [
         ("x(t) (slow)", lambda r: sc.coords(r)[1], "slow"),
         ("x(t) - y(t) (slow, modulated by the fast y), zoom", lambda r: sc.coords(r)[1] - sc.coords(r)[0], "fast"),
         ("y(t) (fast), zoom", lambda r: sc.coords(r)[0], "fast"),
@@ -106,9 +103,9 @@ def main():
     ])
     data = {"scene": "FLAVORS paper section 6.2, eq. (6.6), Fig. 6.2", "platform": "Reference",
             "openmm_version": mm.__version__, "parameters": p, **out,
-            "series": scene.series(runs, lambda r: {"x": sc.coords(r)[1], "y": sc.coords(r)[0]})}
+            "series": scenes.series(runs, lambda r: {"x": sc.coords(r)[1], "y": sc.coords(r)[0]})}
     js = os.path.join(args.out, f"{sc.name}.json")
-    scene.write_json(js, data)
+    reporting.write_json(js, data)
     print(f"\nwrote {js} and {png}")
 
 

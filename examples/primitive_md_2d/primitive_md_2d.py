@@ -18,15 +18,12 @@ L = x p_y - y p_x (the stiff force is central, so dL/dt = sin(2 theta) has no fa
 """
 import math
 import os
-import sys
 
 import numpy as np
 import openmm as mm
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import scene  # noqa: E402
-
-import openmmflavors  # noqa: E402,F401  (loads the plugin)
+from flavorbench import reporting, scenes
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 
 
 class PrimitiveMD2D:
@@ -45,10 +42,10 @@ class PrimitiveMD2D:
         stiff.addGlobalParameter("k", scale * self.omega ** 2)
         stiff.addGlobalParameter("r0", self.r0)
         stiff.addParticle(0, [])
-        stiff.setForceGroup(scene.STIFF_GROUP)
+        stiff.setForceGroup(STIFF_GROUP)
         soft = mm.CustomExternalForce("x^2/(x^2+y^2)")
         soft.addParticle(0, [])
-        soft.setForceGroup(scene.SOFT_GROUP)
+        soft.setForceGroup(SOFT_GROUP)
         system.addForce(stiff)
         system.addForce(soft)
         return system
@@ -79,7 +76,7 @@ class PrimitiveMD2D:
 
 
 def main():
-    ap = scene.parser(__doc__, PrimitiveMD2D.name)
+    ap = reporting.parser(__doc__, PrimitiveMD2D.name)
     ap.add_argument("--omega", type=float, default=500.0)
     ap.add_argument("--r0", type=float, default=1.0, help="rest length of the bond (not stated in the paper)")
     ap.add_argument("--T", type=float, default=None, help="simulated time (default 100; 5 with --quick)")
@@ -96,16 +93,16 @@ def main():
          "period_window": min(T, 2.0), "zoom": min(T, 0.5), "zoom_end": min(T, 10.0), "avg_window": 1.0,
          "omega": args.omega, "r0": args.r0, "x0": 1.1, "y0": 0.8, "quick": args.quick}
     sc = PrimitiveMD2D(args.omega, args.r0, p["x0"], p["y0"])
-    T_checks = scene.checkpoints(T, (0.1, 0.5, 1.0))
+    T_checks = scenes.checkpoints(T, (0.1, 0.5, 1.0))
 
-    runs, _ = scene.run_all(sc, p)
-    out = scene.summarize(sc, runs, p, T_checks)
-    scene.print_summary(sc, out, T_checks, ["theta", "L"], ["r", "(r-r0)^2", "1/r^2", "p_r^2"])
+    runs, _ = scenes.run_all(sc, p)
+    out = scenes.summarize(sc, runs, p, T_checks)
+    scenes.print_summary(sc, out, T_checks, ["theta", "L"], ["r", "(r-r0)^2", "1/r^2", "p_r^2"])
     out["theta0"] = math.atan2(p["y0"], p["x0"])
 
     os.makedirs(args.out, exist_ok=True)
     png = os.path.join(args.out, f"{sc.name}.png")
-    scene.plot(sc, runs, out, p, png, [
+    scenes.plot(sc, runs, out, p, png, [
         ("theta(t) (slow)", lambda r: sc.coords(r)["theta"], "slow"),
         (f"theta(t), last {p['zoom_end']:g} of the run", lambda r: sc.coords(r)["theta"], "slow_end"),
         ("angular momentum L = x p_y - y p_x (slow)", lambda r: sc.coords(r)["L"], "slow"),
@@ -114,9 +111,9 @@ def main():
     ])
     data = {"scene": "FLAVORS paper section 6.4, eq. (6.8), Fig. 6.9", "platform": "Reference",
             "openmm_version": mm.__version__, "parameters": p, **out,
-            "series": scene.series(runs, lambda r: {k: sc.coords(r)[k] for k in ("theta", "L", "r")})}
+            "series": scenes.series(runs, lambda r: {k: sc.coords(r)[k] for k in ("theta", "L", "r")})}
     js = os.path.join(args.out, f"{sc.name}.json")
-    scene.write_json(js, data)
+    reporting.write_json(js, data)
     print(f"\nwrote {js} and {png}")
 
 

@@ -20,15 +20,12 @@ Slow variables: the bond angle theta and the orientation phi of the vector from 
 """
 import math
 import os
-import sys
 
 import numpy as np
 import openmm as mm
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import scene  # noqa: E402
-
-import openmmflavors  # noqa: E402,F401  (loads the plugin)
+from flavorbench import reporting, scenes
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 
 MASSES = (15.0, 14.0, 15.0)
 START = [(0.0, 0.0), (1.533, 0.0), (2.6136, 1.0826)]
@@ -52,12 +49,12 @@ class PropaneClipper:
         bonds = mm.HarmonicBondForce()  # k/2 (r - r0)^2
         bonds.addBond(0, 1, self.r0, scale * self.k_r)
         bonds.addBond(1, 2, self.r0, scale * self.k_r)
-        bonds.setForceGroup(scene.STIFF_GROUP)
+        bonds.setForceGroup(STIFF_GROUP)
         angle = mm.CustomAngleForce("0.5*k_theta*(cos(theta)-cos0)^2")
         angle.addGlobalParameter("k_theta", self.k_theta)
         angle.addGlobalParameter("cos0", self.cos0)
         angle.addAngle(0, 1, 2, [])
-        angle.setForceGroup(scene.SOFT_GROUP)
+        angle.setForceGroup(SOFT_GROUP)
         system.addForce(bonds)
         system.addForce(angle)
         return system
@@ -94,7 +91,7 @@ class PropaneClipper:
 
 
 def main():
-    ap = scene.parser(__doc__, PropaneClipper.name)
+    ap = reporting.parser(__doc__, PropaneClipper.name)
     ap.add_argument("--T", type=float, default=None, help="simulated time (default 200; 20 with --quick)")
     ap.add_argument("--delta", type=float, default=0.1)
     ap.add_argument("--tau", type=float, default=0.01)
@@ -112,14 +109,14 @@ def main():
          "masses": MASSES, "r0": 1.53, "K_r": args.k_r, "theta0_deg": 109.5, "K_theta": args.k_theta,
          "positions": START, "momenta": MOMENTA, "quick": args.quick}
     sc = PropaneClipper(args.k_r, p["r0"], args.k_theta, p["theta0_deg"])
-    T_checks = scene.checkpoints(T, (0.1, 0.5, 1.0))
+    T_checks = scenes.checkpoints(T, (0.1, 0.5, 1.0))
 
-    runs, _ = scene.run_all(sc, p)
-    out = scene.summarize(sc, runs, p, T_checks)
-    scene.print_summary(sc, out, T_checks, ["theta", "phi"], ["r1", "(r1-r0)^2", "(r2-r0)^2", "r1dot^2"])
+    runs, _ = scenes.run_all(sc, p)
+    out = scenes.summarize(sc, runs, p, T_checks)
+    scenes.print_summary(sc, out, T_checks, ["theta", "phi"], ["r1", "(r1-r0)^2", "(r2-r0)^2", "r1dot^2"])
     # Bond-stretch frequencies of the linearized molecule at the start, for tau*omega and delta*tau*omega^2.
     out["bond_omega"] = bond_frequencies(sc)
-    out["slow_period_reference"] = scene.mean_period(runs["reference"]["t"], sc.coords(runs["reference"])["theta"])
+    out["slow_period_reference"] = scenes.mean_period(runs["reference"]["t"], sc.coords(runs["reference"])["theta"])
     print(f"\nbond-stretch omega at the start: {out['bond_omega']}; tau*omega_max = "
           f"{p['tau'] * max(out['bond_omega']):.3f}, delta*tau*omega_max^2 = "
           f"{p['delta'] * p['tau'] * max(out['bond_omega']) ** 2:.3f}; bending period (reference) = "
@@ -128,7 +125,7 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     png = os.path.join(args.out, f"{sc.name}.png")
     deg = 180 / math.pi
-    scene.plot(sc, runs, out, p, png, [
+    scenes.plot(sc, runs, out, p, png, [
         ("bond angle theta(t) in degrees (slow)", lambda r: deg * sc.coords(r)["theta"], "slow"),
         (f"theta(t), last {p['zoom_end']:g} of the run", lambda r: deg * sc.coords(r)["theta"], "slow_end"),
         ("orientation phi of atom 1 -> atom 3 (slow)", lambda r: sc.coords(r)["phi"], "slow"),
@@ -138,9 +135,9 @@ def main():
     ])
     data = {"scene": "FLAVORS paper section 6.5, eqs. (6.9)-(6.12), Fig. 6.11", "platform": "Reference",
             "openmm_version": mm.__version__, "parameters": p, **out,
-            "series": scene.series(runs, lambda r: {k: sc.coords(r)[k] for k in ("theta", "phi", "r1", "r2")})}
+            "series": scenes.series(runs, lambda r: {k: sc.coords(r)[k] for k in ("theta", "phi", "r1", "r2")})}
     js = os.path.join(args.out, f"{sc.name}.json")
-    scene.write_json(js, data)
+    reporting.write_json(js, data)
     print(f"\nwrote {js} and {png}")
 
 

@@ -17,45 +17,20 @@ speedup = Verlet peer wall time / wall time.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/sim_fpu/sim_fpu.py [--quick] [--out DIR]
 """
-import os
 import sys
-import time
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-import openmmflavors
+from flavorbench import reporting
+from flavorbench.runners import best_time, sim, simulate_fpu, start_context
+from flavorbench.systems import as_vec3, fpu_initial, fpu_system
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import fpu_chain  # noqa: E402
-import scene  # noqa: E402
-from fpu_chain import STIFF_GROUP, fpu_positions, fpu_system  # noqa: E402
-
-
-def simulate(system, integrator, dt, leapfrog, positions, times, omega, label):
-    """Run on the Reference platform, sampling at `times` (Verlet runs leapfrog-corrected: see fpu_chain)."""
-    return fpu_chain.simulate_observed(
-        system, integrator, dt, leapfrog, positions, times, omega, label, scene.Progress(label, fmt="9.2f"),
-        "step {dt} does not divide the sampling times; choose --sample accordingly")
-
-
-def retime(system, make, dt, leapfrog, positions, steps, repeats):
-    """Minimum wall time of integrator.step(steps) over fresh unsampled runs (the machine may be shared: the minimum
-    is the least disturbed)."""
-    best = float("inf")
-    for _ in range(repeats):
-        integrator = make()
-        context = fpu_chain.start_context(system, integrator, dt, leapfrog, positions)
-        start = time.perf_counter()
-        integrator.step(steps)
-        best = min(best, time.perf_counter() - start)
-        del context  # the integrator is bound to it until here
-    return best
+HINT = "step {dt} does not divide the sampling times; choose --sample accordingly"
 
 
 def main():
-    parser = scene.parser(__doc__, "sim_fpu",
+    parser = reporting.parser(__doc__, "sim_fpu",
                           quick_help="smoke run of a few seconds (T = 4, coarse reference)")
     parser.add_argument("--omega", type=float, default=200.0)
     parser.add_argument("--m", type=int, default=3, help="number of stiff springs")
@@ -82,14 +57,7 @@ def main():
     x0_init = [1.0] + [0.0] * (m - 1)
     x1_init = [1.0 / omega] + [0.0] * (m - 1)
     system = fpu_system(m, omega)
-    positions = fpu_positions(x0_init, x1_init)
-
-    def sim(splitting, H):
-        integrator = openmmflavors.StochasticImpulseIntegrator(0.0, 0.0, H * unit.picoseconds, {STIFF_GROUP})
-        integrator.setSplitting(splitting)
-        return integrator
-
-    SIM = openmmflavors.StochasticImpulseIntegrator
+    positions = as_vec3(fpu_initial(m, omega)[0])
     runs = [
         ("reference_check", f"Verlet h={2 * href:g} (ref. check)", lambda: mm.VerletIntegrator(2 * href), 2 * href,
          True),
@@ -98,19 +66,22 @@ def main():
     ]
     for H in args.H:
         runs.append((f"sim_lietrotter_H{H:g}", f"SIM LieTrotter (Int. 1) H={H:g}",
-                     lambda H=H: sim(SIM.LieTrotter, H), H, False))
-        runs.append((f"sim_strang_H{H:g}", f"SIM Strang H={H:g}", lambda H=H: sim(SIM.Strang, H), H, False))
+                     lambda H=H: sim(H, "LieTrotter"), H, False))
+        runs.append((f"sim_strang_H{H:g}", f"SIM Strang H={H:g}", lambda H=H: sim(H, "Strang"), H, False))
 
     print(f"FPU m={m} omega={omega:g} T={T:g}: {len(times)} samples every {sample:g}", file=sys.stderr)
     results = {}
     for key, label, make, dt, leapfrog in runs:
         print(f"running {label}: {int(round(T / dt))} steps", file=sys.stderr, flush=True)
-        r = simulate(system, make(), dt, leapfrog, positions, times, omega, label)
+        r = simulate_fpu(system, make(), dt, leapfrog, positions, times, omega, label, "9.2f", HINT)
         r.update(label=label, step=dt, wall_s_sampled=r["wall_s"])
         if not key.startswith("reference"):
             # Timed again without sampling: SIM runs (cheap) three times, the Verlet peer once; minimum kept.
             repeats = 1 if leapfrog else 3
-            r["wall_s"] = min(r["wall_s"], retime(system, make, dt, leapfrog, positions, r["steps"], repeats))
+            def start():
+                integrator = make()
+                return start_context(system, integrator, dt, positions, None, leapfrog), integrator
+            r["wall_s"] = min(r["wall_s"], best_time(start, r["steps"], repeats)[0])
         results[key] = r
 
     ref, check = results["reference"], results["reference_check"]
@@ -175,7 +146,7 @@ def main():
                    **{key: {"x0_1": r["x0"][:, 0].tolist(), "x1": r["x1"].tolist(), "I": r["I"].tolist(),
                             "E": r["E"].tolist()} for key, r in results.items()}},
     }
-    scene.save_outputs(args.out, "sim_fpu", data,
+    reporting.save_outputs(args.out, "sim_fpu", data,
                        lambda png_path: plot(times, results, summary, T, omega, window, png_path))
 
 
@@ -228,7 +199,7 @@ def print_horizons(summary, window):
 
 
 def plot(times, results, summary, T, omega, window, path):
-    plt = scene.pyplot()
+    plt = reporting.pyplot()
 
     shown = [k for k in results if k not in ("reference_check", "verlet")]
     colors = {"reference": "k"}
@@ -280,8 +251,7 @@ def plot(times, results, summary, T, omega, window, path):
     ax.set_xlabel("t")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 110)
 
 
 if __name__ == "__main__":

@@ -30,21 +30,16 @@ over the same simulated time, same platform, same ensemble size.
     PYTHONPATH=build/python /usr/bin/python3 examples/sim_two_springs/sim_two_springs.py [--quick] [--out DIR]
 """
 import math
-import os
 import sys
-import time
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-import openmmflavors
+from flavorbench import reporting
+from flavorbench.progress import Progress
+from flavorbench.runners import KB, best_time, flavor, sim, simulate, start_context
+from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "common"))
-import scene  # noqa: E402
-
-SOFT_GROUP, STIFF_GROUP = 0, 1
-R_KJ = unit.MOLAR_GAS_CONSTANT_R.value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
 # Positions are compared with the paper's uniform error bound; momenta are shown but SIM's p error is not uniform.
 POSITION_MOMENTS = ["E[x]", "E[y]", "E[x^2]", "E[y^2]"]
 MOMENTUM_MOMENTS = ["E[px^2]", "E[py^2]"]
@@ -67,62 +62,27 @@ def build_system(copies, omega):
     return system
 
 
-def moments(q, v):
-    """Per-realization values whose ensemble means are the moments (rows: MOMENTS)."""
-    x, y, px, py = q[:, 0], q[:, 1], v[:, 0], v[:, 1]
-    return np.stack([x, y, x * x, y * y, px * px, py * py])
-
-
-def start_context(system, integrator, platform, properties, x0, y0):
-    """Every realization at the paper's initial data (x0, y0) at rest."""
-    n = system.getNumParticles()
+def initial_positions(n, x0, y0):
+    """Every realization at the paper's initial data (x0, y0)."""
     q = np.zeros((n, 3))
     q[:, 0], q[:, 1] = x0, y0
-    return scene.start_context(system, integrator, 0.0, q, np.zeros((n, 3)), platform=platform, properties=properties)
+    return q
 
 
-def simulate(system, integrator, platform, properties, x0, y0, samples, steps_per_sample, dt, label):
-    """Run all realizations from the paper's initial data; sample at every steps_per_sample steps."""
-    context = start_context(system, integrator, platform, properties, x0, y0)
-    n = system.getNumParticles()
-    mean = np.empty((samples + 1, len(MOMENTS)))
-    se = np.empty_like(mean)
-    wall = 0.0
-    first_step = None
-    progress = scene.Progress(label, fmt="7.3f")
-    total = samples * steps_per_sample * dt
-    for k in range(samples + 1):
-        if k > 0:
-            start = time.perf_counter()
-            if first_step is None:
-                # The first step measures the stiff potential (SIM) or builds caches: timed on its own too.
-                integrator.step(1)
-                first_step = time.perf_counter() - start
-                if steps_per_sample > 1:
-                    integrator.step(steps_per_sample - 1)
-            else:
-                integrator.step(steps_per_sample)
-            wall += time.perf_counter() - start
-        state = context.getState(getPositions=True, getVelocities=True)
-        pos = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        vel = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
-        values = moments(np.asarray(pos), np.asarray(vel))
-        mean[k] = values.mean(axis=1)
-        se[k] = values.std(axis=1, ddof=1) / math.sqrt(n)
-        progress.update(k * steps_per_sample * dt, total)
-    progress.update(total, total, force=True)
-    steps = samples * steps_per_sample
-    return {"wall_s": wall, "first_step_s": first_step, "steps": steps, "step": dt, "us_per_step": 1e6 * wall / steps,
-            "mean": mean, "se": se}
+def moments(q, v, state):
+    """Ensemble means and their standard errors of the MOMENTS."""
+    x, y, px, py = q[:, 0], q[:, 1], v[:, 0], v[:, 1]
+    values = np.stack([x, y, x * x, y * y, px * px, py * py])
+    return {"mean": values.mean(axis=1), "se": values.std(axis=1, ddof=1) / math.sqrt(len(x))}
 
 
-def time_unsampled(system, integrator, platform, properties, x0, y0, steps):
-    context = start_context(system, integrator, platform, properties, x0, y0)
-    start = time.perf_counter()
-    integrator.step(steps)
-    elapsed = time.perf_counter() - start
-    del context  # the integrator is bound to it until here
-    return elapsed
+def run(system, integrator, platform, properties, x0, y0, samples, steps_per_sample, dt, label):
+    """Run all realizations from the paper's initial data at rest; sample the moments every steps_per_sample
+    steps.  The first step (which measures the stiff potential, SIM, or builds caches) is also timed alone."""
+    times = np.arange(samples + 1) * steps_per_sample * dt
+    r = simulate(system, integrator, dt, initial_positions(system.getNumParticles(), x0, y0), None, times, label,
+                 platform=platform, properties=properties, observe=moments, progress=Progress(label, fmt="7.3f"))
+    return {key: r[key] for key in ("wall_s", "first_step_s", "steps", "us_per_step", "mean", "se")} | {"step": dt}
 
 
 def compare(a, b, skip_first=True):
@@ -149,7 +109,7 @@ def bonferroni_threshold(tests, alpha=0.01):
 
 
 def main():
-    parser = scene.parser(__doc__, "sim_two_springs",
+    parser = reporting.parser(__doc__, "sim_two_springs",
                           quick_help="smoke run of a few seconds (400 copies, T = 2)")
     parser.add_argument("--copies", type=int, default=None, help="realizations (default 5000 as in the paper)")
     parser.add_argument("--fine-copies", type=int, default=None,
@@ -180,7 +140,7 @@ def main():
     substeps = int(math.ceil(H / gla_h_max * (1 - 1e-12)))
     h = H / substeps
     kT = 1.0 / beta
-    temperature = kT / R_KJ
+    temperature = kT / KB
     x0 = 0.8 / omega
     y0 = 1.1 + x0
     properties = {"Threads": str(args.threads)} if args.platform == "CPU" else {}
@@ -197,22 +157,6 @@ def main():
     for n in sim_steps.values():
         gla_every = math.gcd(gla_every, n)
 
-    def sim(splitting, step, seed):
-        integrator = openmmflavors.StochasticImpulseIntegrator(temperature * unit.kelvin, c / unit.picosecond,
-                                                               step * unit.picoseconds, {STIFF_GROUP})
-        integrator.setSplitting(splitting)
-        integrator.setRandomNumberSeed(seed)
-        return integrator
-
-    def gla(step, seed):
-        integrator = openmmflavors.FlavorIntegrator(step * unit.picoseconds, step * unit.picoseconds, {STIFF_GROUP})
-        integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
-        integrator.setTemperature(temperature * unit.kelvin)
-        integrator.setFriction(c / unit.picosecond)
-        integrator.setRandomNumberSeed(seed)
-        return integrator
-
-    SIM = openmmflavors.StochasticImpulseIntegrator
     # key, label, factory, copies, steps per sample, step size, samples, sample interval in units of h
     runs = []
     seed = args.seed
@@ -221,13 +165,16 @@ def main():
         samples = max(1, int(math.floor(T / step + 1e-9)))
         suffix = "" if tag == "res" else "_nonresonant"
         where = f"H={step:.4g}, omega H={omega * step / math.pi:.3f} pi"
-        for name, splitting, number in (("lietrotter", SIM.LieTrotter, 2), ("strang", SIM.Strang, 3)):
+        for name, splitting, number in (("lietrotter", "LieTrotter", 2), ("strang", "Strang", 3)):
             runs.append((f"sim_{name}{suffix}", f"SIM {name} (Int. {number}) {where}",
-                         lambda splitting=splitting, step=step, seed=seed: sim(splitting, step, seed), copies, 1, step,
-                         samples, n))
+                         lambda splitting=splitting, step=step, seed=seed: sim(step, splitting, temperature, c, seed),
+                         copies, 1, step, samples, n))
             seed += 1
     sim_end = max(r[5] * r[6] for r in runs)
     gla_samples = int(round(sim_end / (gla_every * h)))
+    def gla(step, seed):
+        return flavor(step, step, "SymplecticEuler", temperature=temperature, friction=c, seed=seed)
+
     runs.append(("gla", f"GLA (FLAVOR SympEuler tau=delta) h={h:.4g}", lambda seed=seed: gla(h, seed), copies,
                  gla_every, h, gla_samples, gla_every))
     if fine_copies > 0:
@@ -242,14 +189,16 @@ def main():
     for key, label, make, n_copies, per_sample, dt, samples, every in runs:
         print(f"running {label}: {samples * per_sample} steps, {n_copies} copies", file=sys.stderr, flush=True)
         system = build_system(n_copies, omega)
-        r = simulate(system, make(), args.platform, properties, x0, y0, samples, per_sample, dt, label)
+        r = run(system, make(), args.platform, properties, x0, y0, samples, per_sample, dt, label)
         if key.startswith("sim"):
             # SIM runs are short: timed again unsampled (same seed, so the same work) and the minimum kept, which is
             # the least disturbed by other jobs on the machine.
             r["wall_s_sampled_run"] = r["wall_s"]
-            for _ in range(2):
-                r["wall_s"] = min(r["wall_s"], time_unsampled(system, make(), args.platform, properties, x0, y0,
-                                                              samples * per_sample))
+            def start():
+                integrator = make()
+                return start_context(system, integrator, 0.0, initial_positions(n_copies, x0, y0),
+                                     platform=args.platform, properties=properties), integrator
+            r["wall_s"] = min(r["wall_s"], best_time(start, samples * per_sample, 2)[0])
             r["us_per_step"] = 1e6 * r["wall_s"] / r["steps"]
         r.update(label=label, copies=n_copies, times=np.arange(samples + 1) * per_sample * dt, every=every)
         results[key] = r
@@ -295,7 +244,7 @@ def main():
                    **{key: {"t": r["times"].tolist(), "mean": r["mean"].tolist(), "se": r["se"].tolist()}
                       for key, r in results.items()}},
     }
-    scene.save_outputs(args.out, "sim_two_springs", data,
+    reporting.save_outputs(args.out, "sim_two_springs", data,
                        lambda png_path: plot(results, comparison, data["parameters"], args.platform, png_path))
 
 
@@ -367,7 +316,7 @@ def print_tables(results, comparison, speedups, gla_phase):
 
 
 def plot(results, comparison, parameters, platform, path):
-    plt = scene.pyplot()
+    plt = reporting.pyplot()
 
     palette = {"gla": "k", "gla_fine": "tab:gray", "sim_lietrotter": "tab:red", "sim_strang": "tab:blue",
                "sim_lietrotter_nonresonant": "tab:orange", "sim_strang_nonresonant": "tab:cyan"}
@@ -423,8 +372,7 @@ def plot(results, comparison, parameters, platform, path):
     ax.set_xlabel("t")
     ax.legend(fontsize=5, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 110)
 
 
 if __name__ == "__main__":

@@ -6,9 +6,9 @@ checked."""
 import json
 import os
 import subprocess
-import sys
 
 import conftest
+from flavorbench.helper import find_helper
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 BENCHMARKS = os.path.join(REPO_ROOT, "benchmarks")
@@ -96,10 +96,8 @@ def test_sim_work_precision_quick(tmp_path):
 
 
 def test_step_cost_helper_builds_both_systems():
-    sys.path.insert(0, BENCHMARKS)
-    from step_cost import find_helper
-    helper = find_helper(None)
-    assert helper is not None, "build/benchmarks/step_cost is built with the project"
+    helper = find_helper()
+    assert helper is not None, "benchmarks/step_cost is built with the project"
     for args, particles in ((["--chains", "2"], 12), (["--springs", "50"], 100)):
         out = subprocess.run([helper, "--steps", "3"] + args + ["sim_strang", "force_soft"], capture_output=True,
                              text=True, timeout=120)

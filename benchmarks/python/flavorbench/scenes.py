@@ -1,52 +1,27 @@
-"""Shared plumbing for the deterministic example scenes (nonlinear_stiff_soft, primitive_md_2d, propane_clipper).
+"""The comparison every deterministic FLAVOR scene makes (examples/nonlinear_stiff_soft, primitive_md_2d,
+propane_clipper): a velocity Verlet reference with its own error by step halving, the legacy integrator (symplectic
+Euler at a small step), the FLAVORs (SymplecticEuler and Verlet schemes, also at smaller mesosteps), and the H_eff
+system (stiff terms times tau/delta) that a FLAVOR follows to leading order; then the errors of the slow variables,
+the averaged statistics of the fast ones, energies, periods and times, as tables, JSON series and a chart.
 
-Each scene script puts this folder on sys.path and imports `scene`; the FPU, Langevin and SIM examples use its
-command line, progress and output helpers too.  What is here: the command line (--out, --quick),
-running one integrator on one System while sampling positions and velocities at given times (timing only the
-integrator.step() calls), the step-halving estimate of a reference's own error, oscillation periods of a sampled
-signal, JSON output and a few printing helpers.
+A scene is an object with
+  name, title                          strings
+  system(scale)                        the OpenMM System with its stiff terms multiplied by `scale`
+  positions, velocities                initial state (lists of 3-vectors, nm and nm/ps)
+  slow(run) -> {name: array}           slow variables, compared pointwise with the reference
+  fast(run) -> {name: array}           fast variables, compared in the averaged sense (time means)
+  fast_signal(run) -> array            one fast coordinate whose oscillation period is measured
+  energies(run) -> (K, V_soft, V_stiff) arrays (V_stiff unscaled)
+and `run` is what runners.simulate() returns.
 """
-import argparse
-import json
 import math
-import os
 import sys
-import time
 
 import numpy as np
 import openmm as mm
-import openmm.unit as unit
 
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SOFT_GROUP, STIFF_GROUP = 0, 1
-# Boltzmann constant in kJ/mol/K: temperature = kT / KB.
-KB = (unit.BOLTZMANN_CONSTANT_kB * unit.AVOGADRO_CONSTANT_NA).value_in_unit(unit.kilojoule_per_mole / unit.kelvin)
-
-
-def parser(doc, scene, quick_help="smoke run of a few seconds (short T, coarser reference)",
-           out_help="output directory"):
-    """--quick and --out (default results/<scene>); out_help=None leaves --out without help text."""
-    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--quick", action="store_true", help=quick_help)
-    p.add_argument("--out", default=os.path.join(REPO_ROOT, "results", scene), help=out_help)
-    return p
-
-
-class Progress:
-    """Progress lines on stderr, at most every `every` seconds.  fmt: the format of the current time t (each
-    example keeps its own width)."""
-
-    def __init__(self, label, total=None, every=2.0, fmt="9.4g"):
-        self.label, self.total, self.every, self.fmt = label, total, every, fmt
-        self.start = self.last = time.perf_counter()
-
-    def update(self, t, total=None, force=False):
-        total = self.total if total is None else total
-        now = time.perf_counter()
-        if force or now - self.last >= self.every:
-            self.last = now
-            print(f"  [{self.label}] t = {t:{self.fmt}} / {total:g}  ({100 * t / total:5.1f}%)  "
-                  f"{now - self.start:6.1f} s", file=sys.stderr, flush=True)
+from .reporting import pyplot, save_figure, table
+from .runners import flavor, simulate, start_context, time_batches
 
 
 def grid(T, dt):
@@ -55,94 +30,6 @@ def grid(T, dt):
     if abs(n * dt - T) > 1e-9 * max(1.0, T):
         raise SystemExit(f"sampling interval {dt:g} does not divide T = {T:g}")
     return np.arange(n + 1) * dt
-
-
-def masses_of(system):
-    return np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
-
-
-# OpenMM's VerletIntegrator is a leapfrog: the velocities it stores lag the positions by dt/2 and the initial
-# velocities are read as v(-dt/2).  Starting from v0 - dt/2 F(q0)/m and reading v + dt/2 F(q)/m makes a run exactly
-# velocity Verlet from (q0, v0).  FlavorIntegrator's and StochasticImpulseIntegrator's velocities are synchronous.
-FORCE_UNIT = unit.kilojoule_per_mole / unit.nanometer
-
-
-def leapfrog_start(context, v0, dt, masses):
-    """v0 - dt/2 F(q)/m at the context's positions (arrays (particles, 3))."""
-    f0 = context.getState(getForces=True).getForces(asNumpy=True).value_in_unit(FORCE_UNIT)
-    return v0 - 0.5 * dt * np.asarray(f0) / masses[:, None]
-
-
-def synchronized(state, v, dt, masses):
-    """v + dt/2 F/m from a state read with getForces=True (v: (particles, 3) or its x column)."""
-    f = np.asarray(state.getForces(asNumpy=True).value_in_unit(FORCE_UNIT))
-    if v.ndim == 1:
-        return v + 0.5 * dt * f[:, 0] / masses
-    return v + 0.5 * dt * f / masses[:, None]
-
-
-def start_context(system, integrator, dt, positions, velocities, leapfrog=False, platform="Reference", properties=None):
-    """A Context at (positions, velocities); for a leapfrog run the velocities are set to v(-dt/2)."""
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName(platform), properties or {})
-    context.setPositions(positions)
-    v0 = np.array(velocities, dtype=float)
-    if leapfrog:
-        v0 = leapfrog_start(context, v0, dt, masses_of(system))
-    context.setVelocities(v0)
-    return context
-
-
-def read_state(context, dt, leapfrog, masses, energy=False):
-    """Positions and velocities (synchronized for a leapfrog run) as arrays (particles, 3), and the State."""
-    state = context.getState(getPositions=True, getVelocities=True, getEnergy=energy, getForces=leapfrog)
-    q = np.asarray(state.getPositions(asNumpy=True).value_in_unit(unit.nanometer))
-    v = np.asarray(state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond))
-    if leapfrog:
-        v = synchronized(state, v, dt, masses)
-    return q, v, state
-
-
-def sample_steps(times, dt, hint):
-    """The step counts at `times`; hint (with {dt}) is the message when dt does not divide them."""
-    steps = np.rint(times / dt).astype(np.int64)
-    if np.max(np.abs(steps * dt - times)) > 1e-9 * max(1.0, times[-1]):
-        raise SystemExit(hint.format(dt=dt))
-    return steps
-
-
-def simulate(system, integrator, dt, positions, velocities, times, label, leapfrog=False, platform="Reference",
-             energy=False, progress=None, hint=None):
-    """Run `integrator` (step size dt) from (positions, velocities) and sample q, v at `times`.
-
-    leapfrog=True is for OpenMM's VerletIntegrator (see leapfrog_start): the run is exactly velocity Verlet from
-    (q0, v0).  energy=True samples the potential energy too ("pe").  Wall time counts integrator.step() only.
-    """
-    context = start_context(system, integrator, dt, positions, velocities, leapfrog, platform)
-    masses = masses_of(system)
-    steps = sample_steps(times, dt, hint or (label + ": step {dt:g} does not divide the sampling times"))
-    n = system.getNumParticles()
-    qs = np.empty((len(times), n, 3))
-    vs = np.empty((len(times), n, 3))
-    pe = np.empty(len(times))
-    wall, done = 0.0, 0
-    progress = progress or Progress(label, times[-1])
-    for k, target in enumerate(steps):
-        if target > done:
-            start = time.perf_counter()
-            integrator.step(int(target - done))
-            wall += time.perf_counter() - start
-            done = int(target)
-        qs[k], vs[k], state = read_state(context, dt, leapfrog, masses, energy)
-        if energy:
-            pe[k] = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-        progress.update(times[k], times[-1])
-    progress.update(times[-1], times[-1], force=True)
-    del context
-    run = {"t": np.asarray(times), "q": qs, "v": vs, "masses": masses, "wall_s": wall, "steps": int(steps[-1]),
-           "dt": dt, "us_per_step": 1e6 * wall / max(1, int(steps[-1]))}
-    if energy:
-        run["pe"] = pe
-    return run
 
 
 def on_grid(run_times, coarse):
@@ -180,114 +67,9 @@ def at(times, values, when):
     return {f"{t:g}": float(values[int(np.argmin(np.abs(times - t)))]) for t in when}
 
 
-def jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        return None if not math.isfinite(float(obj)) else float(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
-
-
-def write_json(path, data):
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w") as f:
-        json.dump(jsonable(data), f, indent=1)
-
-
-def save_outputs(out, name, data, plot):
-    """<out>/<name>.json (json.dump as is: unlike write_json, NaN stays NaN) and <out>/<name>.png drawn by
-    plot(path)."""
-    os.makedirs(out, exist_ok=True)
-    json_path = os.path.join(out, f"{name}.json")
-    with open(json_path, "w") as f:
-        json.dump(data, f, indent=1)
-    png_path = os.path.join(out, f"{name}.png")
-    plot(png_path)
-    print(f"\nwrote {json_path} and {png_path}")
-
-
-def pyplot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
-
-
-def table(title, columns, rows):
-    """columns: [(header, width, format)], rows: lists of values (str values are left as they are)."""
-    print(f"\n{title}")
-    head = " ".join(f"{h:>{w}s}" if i else f"{h:{w}s}" for i, (h, w, _) in enumerate(columns))
-    print(head)
-    print("-" * len(head))
-    for row in rows:
-        cells = []
-        for i, ((_, w, fmt), v) in enumerate(zip(columns, row)):
-            text = v if isinstance(v, str) else format(v, fmt)
-            cells.append(f"{text:>{w}s}" if i else f"{text:{w}s}")
-        print(" ".join(cells))
-
-
-def flavor(delta, tau, scheme):
-    """FlavorIntegrator(delta, tau, {stiff group}) with the named scheme ("SymplecticEuler" or "Verlet")."""
-    import openmmflavors
-    integrator = openmmflavors.FlavorIntegrator(delta * unit.picoseconds, tau * unit.picoseconds, {STIFF_GROUP})
-    integrator.setScheme(getattr(openmmflavors.FlavorIntegrator, scheme))
-    return integrator
-
-
-# ---------------------------------------------------------------------------------------------------------------------
-# The comparison every scene makes.
-#
-# A scene is an object with
-#   name, title                          strings
-#   system(scale)                        the OpenMM System with its stiff terms multiplied by `scale`
-#   positions, velocities                initial state (lists of 3-vectors, nm and nm/ps)
-#   slow(run) -> {name: array}           slow variables, compared pointwise with the reference
-#   fast(run) -> {name: array}           fast variables, compared in the averaged sense (time means)
-#   fast_signal(run) -> array            one fast coordinate whose oscillation period is measured
-#   energies(run) -> (K, V_soft, V_stiff) arrays (V_stiff unscaled)
-# and `run` is what simulate() returns.
-# ---------------------------------------------------------------------------------------------------------------------
-
 def timed(key):
     """Runs whose wall time is measured without sampling: the legacy integrator and every FLAVOR."""
     return key == "legacy" or key.startswith("flavor")
-
-
-def step_costs(items, budget=0.3, chunk_s=0.02):
-    """Seconds per step of integrator.step() without sampling, for several integrators at once.
-
-    items: {key: (system, make_integrator, positions, velocities)}.  Each integrator continues its trajectory from
-    the initial state in chunks of about chunk_s seconds (one step() call each); the integrators take turns, chunk by
-    chunk, until each has spent `budget` seconds (at least three chunks), and each one's fastest chunk counts: other
-    jobs share the machine, and taking turns exposes every integrator to the same load."""
-    state = {}
-    for key, (system, make, positions, velocities) in items.items():
-        integrator = make()
-        context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-        context.setPositions(positions)
-        context.setVelocities([mm.Vec3(*v) for v in velocities])
-        start = time.perf_counter()
-        integrator.step(100)
-        n = max(1, int(chunk_s / max((time.perf_counter() - start) / 100, 1e-9)))
-        state[key] = {"integrator": integrator, "context": context, "n": n, "best": float("inf"), "spent": 0.0,
-                      "chunks": 0}
-    while any(st["chunks"] < 3 or st["spent"] < budget for st in state.values()):
-        for st in state.values():
-            if st["chunks"] < 3 or st["spent"] < budget:
-                start = time.perf_counter()
-                st["integrator"].step(st["n"])
-                elapsed = time.perf_counter() - start
-                st["best"] = min(st["best"], elapsed / st["n"])
-                st["spent"] += elapsed
-                st["chunks"] += 1
-    return {key: st["best"] for key, st in state.items()}
 
 
 def run_all(sc, p):
@@ -329,11 +111,14 @@ def run_all(sc, p):
     # Sampling a FLAVOR every mesostep means one step() call per step: the wall time of the legacy integrator and
     # of the FLAVORs is their step cost measured without sampling times their number of steps.
     print("timing symplectic Euler and the FLAVORs without sampling", file=sys.stderr, flush=True)
-    costs = step_costs({key: (sc.system(specs[key][4]), specs[key][1], sc.positions, sc.velocities)
-                        for key in specs if timed(key)},
-                       budget=0.03 if p.get("quick") else 0.4, chunk_s=0.005 if p.get("quick") else 0.02)
-    for key, cost in costs.items():
-        runs[key]["wall_s"], runs[key]["us_per_step"] = cost * runs[key]["steps"], 1e6 * cost
+    cases = {}
+    for key in filter(timed, specs):
+        integrator = specs[key][1]()
+        cases[key] = (start_context(sc.system(specs[key][4]), integrator, 0.0, sc.positions, sc.velocities), integrator)
+    quick = p.get("quick")
+    for key, cost in time_batches(cases, 0.005 if quick else 0.02, 6 if quick else 20).items():
+        runs[key]["us_per_step"] = cost["us_per_step"]
+        runs[key]["wall_s"] = 1e-6 * cost["us_per_step"] * runs[key]["steps"]
     for run in runs.values():
         run["coarse"] = on_grid(run["t"], coarse_times)
     return runs, coarse_times
@@ -513,8 +298,7 @@ def plot(sc, runs, out, p, path, panels):
         ax.axis("off")
     # Fixed spacing: tight_layout and legend placement "best" cost seconds with long series.
     fig.subplots_adjust(left=0.05, right=0.98, bottom=0.05, top=0.93, wspace=0.22, hspace=0.42)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, 110)
 
 
 def series(runs, fields, max_points=2000):

@@ -1,15 +1,13 @@
-"""Ensembles of non-interacting (y, x) copies on the x axis, shared by examples/langevin_fast_noise and
-examples/langevin_slow_noise: the sampled run, ensemble means with standard errors, and the window z-score agreement
-of one run with another.  Copy k is particle 2k (y) and 2k+1 (x); unit masses.
+"""Ensembles of non-interacting (y, x) copies on the x axis (examples/langevin_fast_noise and langevin_slow_noise): the
+sampled run, ensemble means with standard errors, and the window z-score agreement of one run with another.  Copy k
+is particle 2k (y) and 2k+1 (x); unit masses.
 """
 import math
-import time
 
 import numpy as np
-import openmm as mm
-import openmm.unit as unit
 
-from scene import Progress
+from .progress import Progress
+from .runners import simulate
 
 # Verdict thresholds on the window z-scores z = (run - reference) / sqrt(SE_run^2 + SE_ref^2): windows are correlated
 # in time, so mean z^2 fluctuates more than chi^2/dof would; 2 is loose enough for agreement, tight enough for a bias.
@@ -17,38 +15,22 @@ MEAN_Z2_AGREE = 2.0
 LATE_Z_AGREE = 3.0
 
 
-def simulate(system, integrator, dt, n, y0, x0, sample, T, label, blowup_y):
-    """Run the ensemble on the Reference platform; sample x, y, p_x, p_y of every copy every `sample`.  A copy is
-    marked blown up (time in blown_at) once |y| >= blowup_y or a coordinate is not finite."""
-    every = int(round(sample / dt))
-    if every < 1 or abs(every * dt - sample) > 1e-9 * sample:
-        raise SystemExit(f"{label}: the step {dt:g} does not divide the sampling interval {sample:g}")
-    num = int(round(T / sample))
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("Reference"))
-    context.setPositions([mm.Vec3(p, 0.0, 0.0) for _ in range(n) for p in (y0, x0)])
-    context.setVelocities([mm.Vec3(0.0, 0.0, 0.0)] * (2 * n))
-    shape = (num + 1, n)
-    ys, xs, pys, pxs = np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape)
-    ys[0], xs[0], pys[0], pxs[0] = y0, x0, 0.0, 0.0
-    blown_at = np.full(n, np.nan)
-    wall = 0.0
-    progress = Progress(label, fmt="7.2f")
-    for k in range(1, num + 1):
-        start = time.perf_counter()
-        integrator.step(every)
-        wall += time.perf_counter() - start
-        state = context.getState(getPositions=True, getVelocities=True)
-        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)[:, 0]
-        v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)[:, 0]
-        ys[k], xs[k], pys[k], pxs[k] = q[0::2], q[1::2], v[0::2], v[1::2]
-        bad = ~(np.isfinite(ys[k]) & np.isfinite(xs[k]) & (np.abs(ys[k]) < blowup_y)) & np.isnan(blown_at)
-        blown_at[bad] = k * sample
-        progress.update(k * sample, T)
-    progress.update(T, T, force=True)
-    del context
-    steps = num * every
-    return {"label": label, "step": dt, "steps": steps, "wall_s": wall, "us_per_step": 1e6 * wall / steps,
-            "x": xs, "y": ys, "px": pxs, "py": pys, "blown_at": blown_at}
+def run_ensemble(system, integrator, dt, n, y0, x0, sample, T, label, blowup_y):
+    """Run the ensemble from (y0, x0) at rest on the Reference platform; sample x, y, p_x, p_y of every copy every
+    `sample`.  A copy is marked blown up (time in blown_at) once |y| >= blowup_y or a coordinate is not finite."""
+    times = np.arange(int(round(T / sample)) + 1) * sample
+    positions = np.zeros((2 * n, 3))
+    positions[0::2, 0], positions[1::2, 0] = y0, x0
+    run = simulate(system, integrator, dt, positions, None, times, label, progress=Progress(label, fmt="7.2f"),
+                   hint=f"{label}: the step {{dt:g}} does not divide the sampling interval {sample:g}")
+    q, v = run["q"][:, :, 0], run["v"][:, :, 0]
+    ys, xs = q[:, 0::2], q[:, 1::2]
+    bad = ~(np.isfinite(ys) & np.isfinite(xs) & (np.abs(ys) < blowup_y))
+    bad[0] = False
+    blown_at = np.where(bad.any(axis=0), times[np.argmax(bad, axis=0)], np.nan)
+    return {"label": label, "step": dt, "steps": run["steps"], "wall_s": run["wall_s"],
+            "us_per_step": run["us_per_step"], "x": xs, "y": ys, "px": v[:, 1::2], "py": v[:, 0::2],
+            "blown_at": blown_at}
 
 
 def window_means(values, width):
@@ -66,18 +48,20 @@ def mean_se(values):
     return mean, se
 
 
-def series_statistics(series, width, t, late_from):
-    """Per quantity (series: {key: samples x copies}): mean and SE per sample, per window of `width` samples, and of
-    the per-copy average over t >= late_from."""
+def series_statistics(run, series, width, t, late_from):
+    """Per quantity of the copies of run_ensemble() that stayed finite (series(x, y, px, py) -> {key: samples x
+    copies}): mean and SE per sample, per window of `width` samples, and of the per-copy average over t >= late_from.
+    Returns them and the number of copies used."""
+    keep = np.isnan(run["blown_at"])
     late = t >= late_from - 1e-12
     stats = {}
-    for key, values in series.items():
+    for key, values in series(*(run[k][:, keep] for k in ("x", "y", "px", "py"))).items():
         mean, se = mean_se(values)
         w_mean, w_se = mean_se(window_means(values, width))
         l_mean, l_se = mean_se(values[late].mean(axis=0))
         stats[key] = {"mean": mean, "se": se, "w_mean": w_mean, "w_se": w_se, "late_mean": float(l_mean),
                       "late_se": float(l_se)}
-    return stats
+    return stats, int(keep.sum())
 
 
 def compare(other, ref, t_window, late_from, regime_split, names=("run", "reference")):

@@ -1,5 +1,7 @@
-"""The Fermi-Pasta-Ulam chain (FLAVORS paper eq. 6.7, SIM paper eq. 9) shared by examples/fpu, examples/sim_fpu and
-the benchmarks.
+"""The systems the benchmarks share: the Fermi-Pasta-Ulam chain and the two-mass linear system.
+
+The FPU chain (FLAVORS paper eq. 6.7, SIM paper eq. 9; Hairer-Lubich-Wanner, Geometric Numerical Integration,
+section I.5):
 
     H = 1/2 sum p^2 + omega^2/4 sum_{i=1..m} (q_2i - q_2i-1)^2 + sum_{i=0..m} (q_2i+1 - q_2i)^4,  q_0 = q_2m+1 = 0
 
@@ -7,15 +9,12 @@ Unit masses on the x axis.  Stiff springs: HarmonicBondForce (length 0, k = omeg
 springs (CustomBondForce "r^4") and the walls (CustomExternalForce "x^4") in group 0.  Slow and fast coordinates:
 x0,i = (q_2i + q_2i-1)/sqrt2, x1,i = (q_2i - q_2i-1)/sqrt2; y0, y1 the same for the velocities.
 
-Named fpu_chain, not fpu: examples/fpu/fpu.py would otherwise import itself.
+Units are OpenMM's, read as the papers' dimensionless ones (mass 1 amu, length 1 nm, time 1 ps, energy 1 kJ/mol).
 """
 import math
 
 import numpy as np
 import openmm as mm
-
-import scene
-from scene import leapfrog_start, masses_of, synchronized  # noqa: F401  (re-exported for the benchmarks)
 
 SQRT2 = math.sqrt(2.0)
 SOFT_GROUP, STIFF_GROUP = 0, 1
@@ -56,14 +55,24 @@ def from_slow_fast(x0, x1):
     return q
 
 
-def fpu_positions(x0, x1):
-    """One chain's positions on the x axis, as a list of 3-tuples."""
-    return [(float(a), 0.0, 0.0) for a in from_slow_fast(x0, x1)]
+def fpu_initial(m, omega, setup="paper"):
+    """(q, v) on the x axis, each of length 2m.
+
+    'paper': FLAVORS Fig. 6.5 and SIM Fig. 4: x0 = (1, 0, ..), x1 = (1/omega, 0, ..), y = 0.
+    'hlw':   Hairer-Lubich-Wanner (GNI section I.5.1): x0,1 = 1, y0,1 = 1, x1,1 = 1/omega, y1,1 = 1, others 0.
+    """
+    x0, x1, y0, y1 = (np.zeros(m) for _ in range(4))
+    x0[0], x1[0] = 1.0, 1.0 / omega
+    if setup == "hlw":
+        y0[0], y1[0] = 1.0, 1.0
+    elif setup != "paper":
+        raise ValueError(f"unknown FPU setup {setup!r}")
+    return from_slow_fast(x0, x1), from_slow_fast(y0, y1)
 
 
 def chain_positions(m, omega, chains, seed=1234):
-    """Chain 0 at the Fig. 6.5 start x0 = (1, 0, ..), x1 = (1/omega, 0, ..); the others at random slow/fast
-    coordinates of the same size.  Chain c lies at y = c.  Returns an array (2m chains, 3)."""
+    """Chain 0 at the Fig. 6.5 start; the others at random slow/fast coordinates of the same size.  Chain c lies at
+    y = c.  Returns an array (2m chains, 3)."""
     rng = np.random.default_rng(seed)
     x0 = 0.5 * rng.uniform(-1, 1, (chains, m))
     x1 = rng.uniform(-1, 1, (chains, m)) / omega
@@ -74,9 +83,17 @@ def chain_positions(m, omega, chains, seed=1234):
     return q.reshape(-1, 3)
 
 
+def as_vec3(x, y=0.0):
+    """Positions or velocities (particles, 3) from their x (and y) components."""
+    out = np.zeros((len(x), 3))
+    out[:, 0] = x
+    out[:, 1] = y
+    return out
+
+
 def observables(q, v, omega):
     """Slow x0, fast x1, fast velocities y1, stiff energies I_j = (y1_j^2 + omega^2 x1_j^2)/2 and omega^2 x1_j^2 (the
-    last axis of q and v: particles)."""
+    last axis of q and v: the particles' x coordinates)."""
     x0 = (q[..., 1::2] + q[..., 0::2]) / SQRT2
     x1 = (q[..., 1::2] - q[..., 0::2]) / SQRT2
     y1 = (v[..., 1::2] - v[..., 0::2]) / SQRT2
@@ -84,31 +101,24 @@ def observables(q, v, omega):
             "Ix": omega * omega * x1 * x1}
 
 
-def start_context(system, integrator, dt, leapfrog, positions):
-    """A Reference Context at `positions` with v = 0 (for a leapfrog run, v(-dt/2): see scene.leapfrog_start)."""
-    return scene.start_context(system, integrator, dt, positions, np.zeros((system.getNumParticles(), 3)), leapfrog)
+def fpu_energy(q, v, omega):
+    """Total energy of one chain from its x coordinates and velocities."""
+    d = np.diff(np.concatenate(([0.0], q, [0.0])))
+    return 0.5 * np.sum(v * v) + 0.25 * omega * omega * np.sum(d[1::2] ** 2) + np.sum(d[0::2] ** 4)
 
 
-def read_x(context, dt, leapfrog, masses):
-    """The x coordinates of the positions and of the velocities (synchronized for a leapfrog run)."""
-    q, v, _ = scene.read_state(context, dt, leapfrog, masses)
-    return q[:, 0], v[:, 0]
-
-
-def simulate(system, integrator, dt, leapfrog, positions, times, label, progress, hint):
-    """Run on the Reference platform from (positions, v = 0) and sample the x coordinates at `times`.
-
-    progress: a Progress for `label`; hint: the message (with {dt}) when dt does not divide the times.
-    Returns q, v (samples x particles), potential energies, the step count and the wall time of the step() calls."""
-    run = scene.simulate(system, integrator, dt, positions, np.zeros((system.getNumParticles(), 3)), times, label,
-                         leapfrog=leapfrog, energy=True, progress=progress, hint=hint)
-    return {"q": run["q"][:, :, 0], "v": run["v"][:, :, 0], "pe": run["pe"], "masses": run["masses"],
-            "steps": run["steps"], "wall_s": run["wall_s"]}
-
-
-def simulate_observed(system, integrator, dt, leapfrog, positions, times, omega, label, progress, hint):
-    """simulate(), returned as the chain's observables (x0, x1, y1, I, Ix) and total energy E at `times`."""
-    run = simulate(system, integrator, dt, leapfrog, positions, times, label, progress, hint)
-    o = observables(run["q"], run["v"], omega)
-    energy = 0.5 * np.sum(run["masses"] * run["v"] * run["v"], axis=1) + run["pe"]
-    return {"steps": run["steps"], "wall_s": run["wall_s"], "E": energy, **o}
+def two_mass_system(omega):
+    """The FLAVORS paper's system (5.1): H = px^2/2 + py^2/2 + x^2/2 + omega^2/2 (y - x)^2.  Particle 0 is x,
+    particle 1 is y."""
+    system = mm.System()
+    system.addParticle(1.0)
+    system.addParticle(1.0)
+    soft = mm.CustomExternalForce("0.5*x^2")
+    soft.addParticle(0)
+    soft.setForceGroup(SOFT_GROUP)
+    stiff = mm.HarmonicBondForce()
+    stiff.addBond(0, 1, 0.0, omega * omega)
+    stiff.setForceGroup(STIFF_GROUP)
+    system.addForce(soft)
+    system.addForce(stiff)
+    return system

@@ -1,0 +1,86 @@
+"""What the scripts write: the command line every one of them has (--quick, --out), JSON, tables on stdout and
+matplotlib charts."""
+import argparse
+import io
+import json
+import math
+import os
+
+import numpy as np
+
+from ._config import SOURCE_DIR
+
+
+def parser(doc, name, quick_help="smoke run of a few seconds (short T, coarser reference)",
+           out_help="output directory"):
+    """An ArgumentParser with --quick and --out (default results/<name> in the source tree)."""
+    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true", help=quick_help)
+    p.add_argument("--out", default=os.path.join(SOURCE_DIR, "results", name), help=out_help)
+    return p
+
+
+def jsonable(obj):
+    """obj with NumPy values as plain ones, and inf and nan as None (strict JSON)."""
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return None if not math.isfinite(float(obj)) else float(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def write_json(path, data, strict=True):
+    """data as JSON at path; strict: through jsonable(), otherwise as it is (inf and NaN stay)."""
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(jsonable(data) if strict else data, f, indent=1, default=float)
+
+
+def save_outputs(out, name, data, plot):
+    """<out>/<name>.json (not strict: NaN stays NaN) and <out>/<name>.png drawn by plot(path)."""
+    json_path, png_path = os.path.join(out, f"{name}.json"), os.path.join(out, f"{name}.png")
+    write_json(json_path, data, strict=False)
+    plot(png_path)
+    print(f"\nwrote {json_path} and {png_path}")
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def save_figure(fig, path, dpi, small=False):
+    """Save and close a figure; small=True quantizes it to a 64-colour palette (docs/ copies must stay small)."""
+    if small:
+        from PIL import Image
+        buffer = io.BytesIO()
+        fig.savefig(buffer, dpi=dpi, format="png")
+        buffer.seek(0)
+        Image.open(buffer).convert("RGB").quantize(colors=64, method=Image.Quantize.MEDIANCUT).save(path,
+                                                                                                    optimize=True)
+    else:
+        fig.savefig(path, dpi=dpi)
+    pyplot().close(fig)
+
+
+def table(title, columns, rows):
+    """columns: [(header, width, format)], rows: lists of values (str values are left as they are)."""
+    print(f"\n{title}")
+    head = " ".join(f"{h:>{w}s}" if i else f"{h:{w}s}" for i, (h, w, _) in enumerate(columns))
+    print(head)
+    print("-" * len(head))
+    for row in rows:
+        cells = []
+        for i, ((_, w, fmt), v) in enumerate(zip(columns, row)):
+            text = v if isinstance(v, str) else format(v, fmt)
+            cells.append(f"{text:>{w}s}" if i else f"{text:{w}s}")
+        print(" ".join(cells))

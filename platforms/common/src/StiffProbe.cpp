@@ -7,6 +7,7 @@
 #include "openmm/reference/ReferencePlatform.h"
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <numeric>
 #include <random>
@@ -186,20 +187,67 @@ vector<Vec3> multiply(const vector<StiffnessBlock>& blocks, const vector<Vec3>& 
     return result;
 }
 
-/** max |F(q+D) - F(q) + K D| / max |K D| at a seeded random displacement D. */
-double linearityDeviation(ForceProbe& probe, const vector<StiffnessBlock>& blocks, const vector<double>& masses,
-                          const vector<Vec3>& f0) {
-    std::mt19937_64 generator(20100425);
+/**
+ * A seeded random displacement of every particle with mass (massless particles are fixed: they never move, and
+ * the forces on them do not matter).
+ */
+vector<Vec3> randomDisplacement(const vector<double>& masses, std::uint64_t seed) {
+    std::mt19937_64 generator(seed);
     std::uniform_real_distribution<double> uniform(-VerificationDisplacement, VerificationDisplacement);
-    vector<Vec3> displacement(masses.size()), displaced = probe.positions();
+    vector<Vec3> displacement(masses.size());
     for (size_t i = 0; i < masses.size(); ++i)
-        if (masses[i] != 0.0) {
+        if (masses[i] != 0.0)
             displacement[i] = Vec3(uniform(generator), uniform(generator), uniform(generator));
-            displaced[i] += displacement[i];
-        }
-    vector<Vec3> f1 = probe.forces(displaced), predicted = multiply(blocks, displacement);
+    return displacement;
+}
+
+vector<Vec3> displaced(const vector<Vec3>& q, const vector<Vec3>& displacement, double factor) {
+    vector<Vec3> result = q;
+    for (size_t i = 0; i < q.size(); ++i)
+        result[i] += displacement[i] * factor;
+    return result;
+}
+
+/**
+ * Tests linearity before any probing, with four force evaluations: along a random displacement D of every
+ * particle with mass, the second difference F(q+D) + F(q-D) - 2F(q) and the third difference
+ * F(q+2D) - 2F(q+D) + 2F(q-D) - F(q-2D) of a force linear in q vanish.  Returns the larger of the two, relative to
+ * the first difference F(q+D) - F(q-D) (the largest values over the particles with mass).
+ */
+double quickLinearityDeviation(ForceProbe& probe, const vector<double>& masses, const vector<Vec3>& f0) {
+    const vector<Vec3> displacement = randomDisplacement(masses, 19700101);
+    const vector<Vec3>& q = probe.positions();
+    const vector<Vec3> fPlus = probe.forces(displaced(q, displacement, 1.0));
+    const vector<Vec3> fMinus = probe.forces(displaced(q, displacement, -1.0));
+    const vector<Vec3> fPlus2 = probe.forces(displaced(q, displacement, 2.0));
+    const vector<Vec3> fMinus2 = probe.forces(displaced(q, displacement, -2.0));
     double deviation = 0, scale = 0;
     for (size_t i = 0; i < masses.size(); ++i) {
+        if (masses[i] == 0.0)
+            continue;
+        const Vec3 first = fPlus[i] - fMinus[i];
+        const Vec3 second = fPlus[i] + fMinus[i] - f0[i] * 2.0;
+        const Vec3 third = fPlus2[i] - fPlus[i] * 2.0 + fMinus[i] * 2.0 - fMinus2[i];
+        scale = std::max(scale, std::sqrt(first.dot(first)));
+        deviation = std::max(deviation, std::max(std::sqrt(second.dot(second)), std::sqrt(third.dot(third))));
+    }
+    if (scale == 0.0)
+        return deviation == 0.0 ? 0.0 : INFINITY;
+    return deviation / scale;
+}
+
+/**
+ * max |F(q+D) - F(q) + K D| / max |K D| at a seeded random displacement D, over the particles with mass.
+ */
+double linearityDeviation(ForceProbe& probe, const vector<StiffnessBlock>& blocks, const vector<double>& masses,
+                          const vector<Vec3>& f0) {
+    const vector<Vec3> displacement = randomDisplacement(masses, 20100425);
+    vector<Vec3> f1 = probe.forces(displaced(probe.positions(), displacement, 1.0)),
+                 predicted = multiply(blocks, displacement);
+    double deviation = 0, scale = 0;
+    for (size_t i = 0; i < masses.size(); ++i) {
+        if (masses[i] == 0.0)
+            continue;
         Vec3 d = f1[i] - f0[i] + predicted[i];
         deviation = std::max(deviation, std::sqrt(d.dot(d)));
         scale = std::max(scale, std::sqrt(predicted[i].dot(predicted[i])));
@@ -215,6 +263,19 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
     ForceProbe probe(context, stiffGroups);
     const vector<Vec3> f0 = probe.forces(probe.positions());
     const int n = (int)masses.size();
+    const string quadraticExamples = "The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, "
+                                     "CustomBondForce \"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); use "
+                                     "FlavorIntegrator for nonlinear stiff forces";
+    const double quickDeviation = quickLinearityDeviation(probe, masses, f0);
+    if (!(quickDeviation <= LinearityTolerance))
+        throw OpenMMException(
+            Owner +
+            ": the stiff force groups are not quadratic in the positions: along a random displacement of up "
+            "to " +
+            formatNumber(VerificationDisplacement) +
+            " nm of every particle their forces are not linear: their second and third differences are " +
+            formatNumber(quickDeviation) + " relative to the first difference (at most " +
+            formatNumber(LinearityTolerance) + " allowed).  " + quadraticExamples);
     ProbedStiffness result;
     result.linearityDeviation = INFINITY;
     std::pair<int, int> asymmetric(-1, -1);
@@ -233,9 +294,6 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
         if (result.linearityDeviation <= LinearityTolerance)
             break;
     }
-    const string quadraticExamples = "The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, "
-                                     "CustomBondForce \"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); use "
-                                     "FlavorIntegrator for nonlinear stiff forces";
     if (asymmetric.first >= 0)
         throw OpenMMException(Owner +
                               ": the stiff force groups are not quadratic in the positions: the measured "

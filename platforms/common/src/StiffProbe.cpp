@@ -86,13 +86,15 @@ public:
         *data.positions = q;
         if (hasVirtualSites)
             context.computeVirtualSites();
-        if (stiffImpls.empty())
+        // The first evaluation goes through the Context, which checks that positions have been set.
+        if (stiffImpls.empty() || !evaluatedOnce)
             context.calcForcesAndEnergy(true, false, groups);
         else {
             std::fill(data.forces->begin(), data.forces->end(), Vec3());
             for (ForceImpl* impl : stiffImpls)
                 impl->calcForcesAndEnergy(context, true, false, groups);
         }
+        evaluatedOnce = true;
         return *data.forces;
     }
     const vector<Vec3>& positions() const { return original; }
@@ -105,6 +107,7 @@ private:
     bool hasVirtualSites;
     // On Reference, the ForceImpls of the stiff groups, evaluated directly; empty where the Context evaluates.
     vector<ForceImpl*> stiffImpls;
+    bool evaluatedOnce = false;
 };
 
 typedef std::map<std::pair<int, int>, StiffnessBlock> BlockMap;

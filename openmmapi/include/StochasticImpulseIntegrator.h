@@ -64,7 +64,8 @@ public:
     int getStiffGroups() const { return stiffGroups; }
     /**
      * Set the bitmask of stiff force groups.  It must be nonzero.  If the integrator is bound to a Context, the
-     * System must contain at least one force in these groups.
+     * System must contain at least one force in these groups, and every stiff group must be an integration force
+     * group.
      */
     void setStiffGroups(int groups);
     /**

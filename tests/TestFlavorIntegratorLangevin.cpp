@@ -28,6 +28,11 @@ System* freeParticles(int n) {
     nothing->addParticle(0);
     nothing->setForceGroup(StiffGroup);
     system->addForce(nothing);
+    // A FLAVOR needs a soft force; this one is zero too.
+    CustomExternalForce* softNothing = new CustomExternalForce("0");
+    softNothing->addParticle(0);
+    softNothing->setForceGroup(SoftGroup);
+    system->addForce(softNothing);
     return system;
 }
 

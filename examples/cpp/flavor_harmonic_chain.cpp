@@ -2,6 +2,11 @@
 // soft quartic springs and walls in group 0), integrated with a mesostep 20x the microstep.
 //
 // Usage: flavor_harmonic_chain [plugin directory]
+// The plugin directory is the kernel plugins' (PREFIX/lib/plugins after make install); built with the project, the
+// build tree's is the default.  Compiled against an installation (the command is in the README):
+//   g++ -std=c++17 flavor_harmonic_chain.cpp -I PREFIX/include -L PREFIX/lib -Wl,-rpath,PREFIX/lib
+//       -lOpenMMFlavors -lOpenMM -o flavor_harmonic_chain
+//   ./flavor_harmonic_chain PREFIX/lib/plugins
 
 #include "FlavorIntegrator.h"
 #include "OpenMM.h"
@@ -10,12 +15,22 @@
 #include <string>
 #include <vector>
 
+#ifndef FLAVORS_PLUGIN_DIR
+#define FLAVORS_PLUGIN_DIR ""
+#endif
+
 using namespace OpenMM;
 
 int main(int argc, char** argv) {
+    const std::string pluginDir = argc > 1 ? argv[1] : FLAVORS_PLUGIN_DIR;
+    if (pluginDir.empty()) {
+        std::fprintf(stderr, "usage: %s PLUGIN_DIR (the kernel plugins, PREFIX/lib/plugins after make install)\n",
+                     argv[0]);
+        return 2;
+    }
     // OpenMM's plugins first (the CPU platform), then this library's kernel plugins.
     Platform::loadPluginsFromDirectory(Platform::getDefaultPluginsDirectory());
-    Platform::loadPluginsFromDirectory(argc > 1 ? argv[1] : FLAVORS_PLUGIN_DIR);
+    Platform::loadPluginsFromDirectory(pluginDir);
 
     const int m = 3;
     const double omega = 200.0;

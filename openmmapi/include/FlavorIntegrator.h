@@ -75,9 +75,17 @@ public:
     int getStiffGroups() const { return stiffGroups; }
     /**
      * Set the bitmask of stiff force groups.  It must be nonzero.  If the integrator is bound to a Context, the
-     * System must contain at least one force in these groups.
+     * System must contain at least one force in these groups and one soft force (a force in an integration force
+     * group that is not stiff), and every stiff group must be an integration force group.
      */
     void setStiffGroups(int groups);
+    /**
+     * Set the force groups the integrator integrates (a bitmask; all by default).  Forces outside them are ignored,
+     * as by OpenMM's integrators, but every stiff group must be one of them: setting a mask that leaves a stiff
+     * group out throws an OpenMMException while the integrator is bound to a Context, and Context creation throws
+     * one for an integrator configured that way.  A soft force must remain, as for setStiffGroups().
+     */
+    void setIntegrationForceGroups(int groups) override;
     /**
      * Get the scheme used for each mesostep.
      */
@@ -119,8 +127,8 @@ public:
     const std::vector<int>& getFrictionParticles() const { return frictionParticles; }
     /**
      * Restrict friction and noise to the given particles (an empty list means every particle).  The other particles
-     * follow the Hamiltonian scheme.  Indices must be non-negative and, once the integrator is bound to a Context,
-     * less than the number of particles.
+     * follow the Hamiltonian scheme.  Indices must be non-negative, distinct and, once the integrator is bound to a
+     * Context, less than the number of particles.
      */
     void setFrictionParticles(const std::vector<int>& particles);
     /**

@@ -43,9 +43,17 @@ public:
      */
     virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
     /**
-     * Restore the kernel's state from a checkpoint.
+     * Restore the kernel's state from a checkpoint.  If the stream holds no state of this integrator (another
+     * integrator's checkpoint, another format version, a truncated one), put back the Context's state saved by
+     * saveContextState(), leave the kernel's state as it was and throw an OpenMMException.
      */
     virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
+    /**
+     * Remember the Context's positions, velocities, periodic box, time and step count (and its parameters when
+     * withParameters is true) for a failed loadCheckpoint() to put back: OpenMM overwrites them from the checkpoint
+     * before the integrator reads its part.
+     */
+    virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
 };
 
 /**
@@ -89,9 +97,17 @@ public:
      */
     virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
     /**
-     * Restore the kernel's state from a checkpoint.
+     * Restore the kernel's state from a checkpoint.  If the stream holds no state of this integrator (another
+     * integrator's checkpoint, another format version, a truncated one), put back the Context's state saved by
+     * saveContextState(), leave the kernel's state as it was and throw an OpenMMException.
      */
     virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
+    /**
+     * Remember the Context's positions, velocities, periodic box, time and step count (and its parameters when
+     * withParameters is true) for a failed loadCheckpoint() to put back: OpenMM overwrites them from the checkpoint
+     * before the integrator reads its part.
+     */
+    virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
 };
 
 } // namespace FlavorPlugin

@@ -64,9 +64,17 @@ public:
     int getStiffGroups() const { return stiffGroups; }
     /**
      * Set the bitmask of stiff force groups.  It must be nonzero.  If the integrator is bound to a Context, the
-     * System must contain at least one force in these groups.
+     * System must contain at least one force in these groups, and every stiff group must be an integration force
+     * group.
      */
     void setStiffGroups(int groups);
+    /**
+     * Set the force groups the integrator integrates (a bitmask; all by default).  Forces outside them are ignored,
+     * as by OpenMM's integrators, but every stiff group must be one of them: setting a mask that leaves a stiff
+     * group out throws an OpenMMException while the integrator is bound to a Context, and Context creation throws
+     * one for an integrator configured that way.
+     */
+    void setIntegrationForceGroups(int groups) override;
     /** Get the splitting. */
     Splitting getSplitting() const { return splitting; }
     /** Set the splitting (Yoshida4 requires friction 0: its middle substep runs backwards in time). */

@@ -5,6 +5,7 @@
 #include "openmm/Force.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
+#include <algorithm>
 #include <cmath>
 
 using namespace FlavorPlugin;
@@ -15,6 +16,25 @@ using std::vector;
 namespace {
 
 const string Owner = "FlavorIntegrator";
+
+/**
+ * Throws, naming parameter, unless a force of the System is soft (in an integration force group and not stiff).  A
+ * FLAVOR without soft forces averages nothing; it almost always comes from a bitmask mistaken for a group number.
+ */
+void requireSoftForce(const System& system, const string& parameter, int stiffGroups, int integrationGroups) {
+    for (int i = 0; i < system.getNumForces(); ++i) {
+        const int group = 1 << system.getForce(i).getForceGroup();
+        if ((group & integrationGroups) != 0 && (group & stiffGroups) == 0)
+            return;
+    }
+    throwInvalidParameter(
+        Owner, parameter, std::to_string(parameter == "stiffGroups" ? stiffGroups : integrationGroups),
+        "no force of the System is soft: every force in the integration force groups " +
+            describeGroups(integrationGroups) + " is in the stiff groups " + describeGroups(stiffGroups) +
+            " (stiffGroups = " + std::to_string(stiffGroups) +
+            "), so FLAVOR has nothing to average.  stiffGroups is a bitmask: 1 means group 0, 2 = 1<<1 means group 1 "
+            "(in Python, {1} means group 1); put the soft forces in other groups (Force.setForceGroup)");
+}
 
 } // namespace
 
@@ -55,9 +75,20 @@ void FlavorIntegrator::setMicroStep(double size) {
 
 void FlavorIntegrator::setStiffGroups(int groups) {
     requireGroupMask(Owner, "stiffGroups", groups);
-    if (context != nullptr)
+    if (context != nullptr) {
         requireForceInGroups(Owner, context->getSystem(), groups);
+        requireStiffGroupsIntegrated(Owner, "stiffGroups", groups, getIntegrationForceGroups());
+        requireSoftForce(context->getSystem(), "stiffGroups", groups, getIntegrationForceGroups());
+    }
     stiffGroups = groups;
+}
+
+void FlavorIntegrator::setIntegrationForceGroups(int groups) {
+    if (context != nullptr) {
+        requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, groups);
+        requireSoftForce(context->getSystem(), "integrationForceGroups", stiffGroups, groups);
+    }
+    Integrator::setIntegrationForceGroups(groups);
 }
 
 void FlavorIntegrator::setScheme(Scheme newScheme) {
@@ -91,6 +122,13 @@ void requireParticleIndices(const vector<int>& particles, int numParticles) {
                                       (numParticles >= 0
                                            ? " and < " + std::to_string(numParticles) + " (the number of particles)"
                                            : string()));
+    vector<int> sorted = particles;
+    std::sort(sorted.begin(), sorted.end());
+    auto repeated = std::adjacent_find(sorted.begin(), sorted.end());
+    if (repeated != sorted.end())
+        throwInvalidParameter(Owner, "frictionParticles", "[..., " + std::to_string(*repeated) + ", ...]",
+                              "particle " + std::to_string(*repeated) +
+                                  " is listed more than once; each particle may appear at most once");
 }
 
 } // namespace
@@ -104,12 +142,15 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     if (owner != nullptr && &contextRef.getOwner() != owner)
         throw OpenMMException("This Integrator is already bound to a context");
     requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
+    requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, getIntegrationForceGroups());
+    requireSoftForce(contextRef.getSystem(), "stiffGroups", stiffGroups, getIntegrationForceGroups());
     requireParticleIndices(frictionParticles, contextRef.getSystem().getNumParticles());
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);
     stepKernel = &kernel.getAs<IntegrateFlavorStepKernel>();
     stepKernel->initialize(contextRef.getSystem(), *this);
+    stepKernel->saveContextState(contextRef, true);
     forcesAreValid = false;
 }
 
@@ -122,8 +163,10 @@ vector<string> FlavorIntegrator::getKernelNames() {
     return {IntegrateFlavorStepKernel::Name()};
 }
 
-void FlavorIntegrator::stateChanged(State::DataType /*changed*/) {
+void FlavorIntegrator::stateChanged(State::DataType changed) {
     forcesAreValid = false;
+    if (stepKernel != nullptr && changed != State::Energy)
+        stepKernel->saveContextState(*context, changed == State::Parameters);
 }
 
 double FlavorIntegrator::computeKineticEnergy() {
@@ -138,6 +181,8 @@ void FlavorIntegrator::step(int steps) {
             forcesAreValid = false;
         stepKernel->execute(*context, *this, forcesAreValid);
     }
+    if (steps > 0)
+        stepKernel->saveContextState(*context, false);
 }
 
 void FlavorIntegrator::createCheckpoint(std::ostream& stream) const {

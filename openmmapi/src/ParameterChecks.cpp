@@ -55,3 +55,28 @@ void FlavorPlugin::requireForceInGroups(const std::string& owner, const OpenMM::
                           "the System has no force in these groups; stiffGroups must select the force group(s) of at "
                           "least one force (Force.setForceGroup)");
 }
+
+std::string FlavorPlugin::describeGroups(int groups) {
+    if (groups == -1)
+        return "{0, ..., 31} (all)";
+    std::string result;
+    for (int group = 0; group < 32; ++group)
+        if ((groups & (1 << group)) != 0)
+            result += (result.empty() ? "{" : ", ") + std::to_string(group);
+    return result.empty() ? "{}" : result + "}";
+}
+
+void FlavorPlugin::requireStiffGroupsIntegrated(const std::string& owner, const std::string& parameter, int stiffGroups,
+                                                int integrationGroups) {
+    const int missing = stiffGroups & ~integrationGroups;
+    if (missing == 0)
+        return;
+    const std::string value = std::to_string(parameter == "stiffGroups" ? stiffGroups : integrationGroups);
+    throwInvalidParameter(owner, parameter, value,
+                          "every stiff group must be one of the integration force groups, but stiffGroups = " +
+                              std::to_string(stiffGroups) + " (groups " + describeGroups(stiffGroups) +
+                              ") and integrationForceGroups = " + std::to_string(integrationGroups) + " (groups " +
+                              describeGroups(integrationGroups) + ") leave stiff group(s) " + describeGroups(missing) +
+                              " out of the integration; add them to setIntegrationForceGroups() or remove them from "
+                              "stiffGroups");
+}

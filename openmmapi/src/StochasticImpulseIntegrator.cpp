@@ -60,10 +60,18 @@ void StochasticImpulseIntegrator::setFriction(double coeff) {
 
 void StochasticImpulseIntegrator::setStiffGroups(int groups) {
     requireGroupMask(Owner, "stiffGroups", groups);
-    if (context != nullptr)
+    if (context != nullptr) {
         requireForceInGroups(Owner, context->getSystem(), groups);
+        requireStiffGroupsIntegrated(Owner, "stiffGroups", groups, getIntegrationForceGroups());
+    }
     stiffGroups = groups;
     stiffModesValid = false;
+}
+
+void StochasticImpulseIntegrator::setIntegrationForceGroups(int groups) {
+    if (context != nullptr)
+        requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, groups);
+    Integrator::setIntegrationForceGroups(groups);
 }
 
 void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
@@ -88,12 +96,14 @@ void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
     if (owner != nullptr && &contextRef.getOwner() != owner)
         throw OpenMMException("This Integrator is already bound to a context");
     requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
+    requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, getIntegrationForceGroups());
     rejectConstrainedStiffParticles(contextRef, bondedStiffParticles(contextRef, stiffGroups));
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateStochasticImpulseStepKernel::Name(), contextRef);
     stepKernel = &kernel.getAs<IntegrateStochasticImpulseStepKernel>();
     stepKernel->initialize(contextRef.getSystem(), *this);
+    stepKernel->saveContextState(contextRef, true);
     forcesAreValid = false;
     stiffModesValid = false;
 }
@@ -112,6 +122,8 @@ void StochasticImpulseIntegrator::stateChanged(State::DataType changed) {
     // Parameters: a context parameter changed.  Energy: a force's updateParametersInContext() (or a checkpoint).
     if (changed == State::Parameters || changed == State::Energy)
         stiffModesValid = false;
+    if (stepKernel != nullptr && changed != State::Energy)
+        stepKernel->saveContextState(*context, changed == State::Parameters);
 }
 
 double StochasticImpulseIntegrator::computeKineticEnergy() {
@@ -126,6 +138,8 @@ void StochasticImpulseIntegrator::step(int steps) {
             forcesAreValid = false;
         stepKernel->execute(*context, *this, forcesAreValid, stiffModesValid);
     }
+    if (steps > 0)
+        stepKernel->saveContextState(*context, false);
 }
 
 void StochasticImpulseIntegrator::createCheckpoint(std::ostream& stream) const {

@@ -141,15 +141,12 @@ def test_context_with_all_forces_in_soft_groups_raises(platform_name):
         openmm.Context(system, integrator, openmm.Platform.getPlatformByName(platform_name))
 
 
-def test_system_with_only_stiff_forces_steps(platform_name):
-    # No soft force at all is a valid (if degenerate) FLAVOR: stiff springs alone.
+def test_system_with_only_stiff_forces_is_rejected(platform_name):
+    # No soft force at all is almost always a bitmask mistaken for a group number: an error naming the cause.
     system = build_fpu_system(stiff_group=1, soft_group=1)
-    context = make_context(system, FlavorIntegrator(0.02, 0.002, {1}), platform_name)
-    pos0, _ = state_arrays(context)
-    context.getIntegrator().step(5)
-    pos, vel = state_arrays(context)
-    assert np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))
-    assert np.max(np.abs(pos - pos0)) > 1e-3
+    integrator = FlavorIntegrator(0.02, 0.002, {1})
+    with pytest.raises(openmm.OpenMMException, match=r"no force of the System is soft.*\{1\} means group 1"):
+        openmm.Context(system, integrator, openmm.Platform.getPlatformByName(platform_name))
 
 
 BOUND_BAD_CALLS = [
@@ -193,11 +190,12 @@ def test_rejected_setter_on_bound_integrator_context_still_steps(platform_name, 
     np.testing.assert_array_equal(velocities, control_velocities)
 
 
-def test_set_stiff_groups_on_bound_integrator_to_existing_group(platform_name):
+def test_set_stiff_groups_on_bound_integrator_leaving_no_soft_force_is_rejected(platform_name):
     integrator = FlavorIntegrator(0.02, 0.002, {1})
     context = make_context(build_fpu_system(), integrator, platform_name)
-    integrator.setStiffGroups({0, 1})
-    assert integrator.getStiffGroups() == 3
+    with pytest.raises(openmm.OpenMMException, match=r"stiffGroups = 3 .*no force of the System is soft"):
+        integrator.setStiffGroups({0, 1})
+    assert integrator.getStiffGroups() == 2
     integrator.step(5)
     pos, vel = state_arrays(context)
     assert np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))

@@ -17,6 +17,9 @@ def free_particles(n):
     zero.addParticle(0, [])
     zero.setForceGroup(1)
     system.addForce(zero)
+    soft = openmm.CustomExternalForce("0")  # FLAVOR needs a soft force
+    soft.addParticle(0, [])
+    system.addForce(soft)
     return system
 
 

@@ -43,7 +43,9 @@
 %pythonbegin %{
 import openmm
 import openmm.unit as unit
-from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupMask
+import numpy as _numpy
+from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupMask, toInt as _toInt, \
+    toBool as _toBool, toIntList as _toIntList
 %}
 
 %template(DoubleVector) std::vector<double>;
@@ -73,6 +75,30 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %pythonprepend FlavorPlugin::FlavorIntegrator::setFriction %{
     coeff = _stripUnits(coeff, unit.picosecond**-1, "friction")
 %}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setScheme %{
+    scheme = _toInt(scheme, "scheme")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setStiffFriction %{
+    stiff = _toBool(stiff, "stiffFriction")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setFrictionParticles %{
+    particles = _toIntList(particles, "frictionParticles")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setRandomNumberSeed %{
+    seed = _toInt(seed, "randomNumberSeed")
+%}
+%pythonprepend FlavorPlugin::FlavorIntegrator::step %{
+    steps = _toInt(steps, "steps")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setSplitting %{
+    splitting = _toInt(splitting, "splitting")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setRandomNumberSeed %{
+    seed = _toInt(seed, "randomNumberSeed")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::step %{
+    steps = _toInt(steps, "steps")
+%}
 
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::StochasticImpulseIntegrator %{
     temperature = _stripUnits(temperature, unit.kelvin, "temperature")
@@ -101,7 +127,7 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
     val = unit.Quantity(val, unit.picosecond**-1)
 %}
 %pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeFrequencies %{
-    val = unit.Quantity(list(val), unit.picosecond**-1)
+    val = unit.Quantity(_numpy.array(val, dtype=float), unit.picosecond**-1)
 %}
 %pythonappend FlavorPlugin::FlavorIntegrator::getMesoStep %{
     val = unit.Quantity(val, unit.picosecond)
@@ -120,6 +146,9 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %}
 
 // The protected Integrator interface is OpenMM's business, not Python's.
+// OpenMM's own Integrator.setIntegrationForceGroups (sets or bitmasks) calls the C++ override.
+%ignore FlavorPlugin::FlavorIntegrator::setIntegrationForceGroups;
+%ignore FlavorPlugin::StochasticImpulseIntegrator::setIntegrationForceGroups;
 %ignore FlavorPlugin::FlavorIntegrator::initialize;
 %ignore FlavorPlugin::FlavorIntegrator::cleanup;
 %ignore FlavorPlugin::FlavorIntegrator::getKernelNames;

@@ -34,6 +34,17 @@ OPENMM_EXPORT_FLAVORS void requireGroupMask(const std::string& owner, const std:
 /** Throws, naming the parameter stiffGroups, unless the System has a force in one of the groups. */
 OPENMM_EXPORT_FLAVORS void requireForceInGroups(const std::string& owner, const OpenMM::System& system, int groups);
 
+/** Lists the groups of a force-group bitmask as "{0, 3}". */
+OPENMM_EXPORT_FLAVORS std::string describeGroups(int groups);
+
+/**
+ * Throws, naming parameter (the setting being changed) and both masks, unless every stiff group is one of the
+ * integration force groups: a stiff force the integrator does not integrate would be applied by one scheme and
+ * dropped by another.
+ */
+OPENMM_EXPORT_FLAVORS void requireStiffGroupsIntegrated(const std::string& owner, const std::string& parameter,
+                                                        int stiffGroups, int integrationGroups);
+
 } // namespace FlavorPlugin
 
 #endif

@@ -20,6 +20,7 @@ public:
     double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
+    void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
 
 private:
     std::unique_ptr<ParallelLoop> loop;

@@ -11,7 +11,9 @@
 #include "openmm/Vec3.h"
 #include <cstdint>
 #include <iosfwd>
+#include <map>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace OpenMM {
@@ -52,8 +54,24 @@ public:
     void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
     /** The kinetic energy of the current velocities (synchronous with positions). */
     double kineticEnergy(OpenMM::ContextImpl& context) const;
-    void createCheckpoint(std::ostream& stream) const;
-    void loadCheckpoint(std::istream& stream);
+    /**
+     * Writes the random streams (seed and stream counter) to a checkpoint, after a tag, the integrator's name and
+     * the format version, and before an end tag.
+     */
+    void createCheckpoint(std::ostream& stream, const std::string& integratorName) const;
+    /**
+     * Reads what createCheckpoint() wrote for integratorName.  If the stream holds no such data (a checkpoint of
+     * another integrator, of another format version, or a truncated one), the random streams are left unchanged,
+     * the Context's state saved by saveContextState() is put back (OpenMM reads its own part of a checkpoint, and
+     * overwrites the Context with it, before the integrator reads its part) and an OpenMMException says what the
+     * stream holds.
+     */
+    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream, const std::string& integratorName);
+    /**
+     * Remembers the Context's positions, velocities, periodic box, time and step count (no allocation after the
+     * first call), and its parameters too when withParameters is true, for a failed loadCheckpoint() to put back.
+     */
+    void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
 
 private:
     struct ForceSlot {
@@ -92,6 +110,16 @@ private:
     int thermostatsPerStep;
     std::uint64_t seed, nextStream;
     CounterRandom random;
+    // The Context's state as of the last saveContextState().
+    struct SavedState {
+        bool valid = false;
+        std::vector<OpenMM::Vec3> positions, velocities;
+        OpenMM::Vec3 boxSize, boxVectors[3];
+        double time = 0.0;
+        long long stepCount = 0;
+        std::map<std::string, double> parameters;
+    } saved;
+    void restoreContextState(OpenMM::ContextImpl& context);
 };
 
 } // namespace FlavorPlugin

@@ -26,6 +26,7 @@ public:
     double computeKineticEnergy(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator) override;
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
+    void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
 
 private:
     void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);

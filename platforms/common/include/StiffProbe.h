@@ -21,12 +21,16 @@ struct ProbedStiffness {
 };
 
 /**
- * Measures K and b of the force groups stiffGroups by central differences of their forces around the current
- * positions, then checks at a random displacement that the forces really are -K q + b.  Particles linked by the
- * bonded stiff forces (ForceImpl::getBondedParticles) are probed together, one particle of every linked group at a
- * time, so the cost grows with the largest group, not with the number of groups; if that misses a coupling, every
- * particle is probed on its own.  Throws an OpenMMException if the forces are not linear in the positions or K is
- * not symmetric.  The Context's positions are left as they were.
+ * Measures K and b of the force groups stiffGroups.  First, with three force evaluations at multiples of one random
+ * displacement of every particle with mass, it checks that the forces are linear in the positions (second and third
+ * differences vanish) and throws an OpenMMException reporting the measured deviation if they are not.  Then it
+ * measures K by central differences of the forces around the current positions and checks at another random
+ * displacement that the forces really are -K q + b.  Particles linked by the bonded stiff forces
+ * (ForceImpl::getBondedParticles) are probed together, one particle of every linked group at a time, so the cost
+ * grows with the largest group, not with the number of groups; if that misses a coupling, every particle is probed
+ * on its own.  Massless particles are fixed: they are never displaced and the forces on them are ignored.  Throws an
+ * OpenMMException if the forces are not linear in the positions or K is not symmetric.  The Context's positions are
+ * left as they were.
  */
 OPENMM_EXPORT_FLAVORS ProbedStiffness probeStiffness(OpenMM::ContextImpl& context, int stiffGroups,
                                                      const std::vector<double>& masses);

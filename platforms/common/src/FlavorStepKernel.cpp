@@ -38,9 +38,13 @@ double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const Flavor
 }
 
 void FlavorStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
-    runner->createCheckpoint(stream);
+    runner->createCheckpoint(stream, "FlavorIntegrator");
 }
 
-void FlavorStepKernel::loadCheckpoint(ContextImpl& /*context*/, std::istream& stream) {
-    runner->loadCheckpoint(stream);
+void FlavorStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+    runner->loadCheckpoint(context, stream, "FlavorIntegrator");
+}
+
+void FlavorStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
+    runner->saveContextState(context, withParameters);
 }

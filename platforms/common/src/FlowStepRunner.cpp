@@ -241,16 +241,111 @@ double FlowStepRunner::kineticEnergy(ContextImpl& context) const {
     return 0.5 * energy;
 }
 
-void FlowStepRunner::createCheckpoint(std::ostream& stream) const {
-    stream.write((const char*)&seed, sizeof(seed));
-    stream.write((const char*)&nextStream, sizeof(nextStream));
+namespace {
+
+// The integrator's part of a checkpoint: Tag, the integrator's name (length, then characters), the format version,
+// the seed and the stream counter, EndTag.
+const char CheckpointTag[] = "openmm-flavors integrator state\n";
+const char CheckpointEndTag[] = "end of openmm-flavors integrator state\n";
+const std::uint32_t CheckpointVersion = 1;
+const std::uint32_t MaxNameLength = 64;
+
+template <class T> bool readValue(std::istream& stream, T& value) {
+    stream.read(reinterpret_cast<char*>(&value), sizeof(T));
+    return stream.gcount() == (std::streamsize)sizeof(T);
 }
 
-void FlowStepRunner::loadCheckpoint(std::istream& stream) {
-    std::uint64_t storedSeed, storedStream;
-    stream.read((char*)&storedSeed, sizeof(storedSeed));
-    stream.read((char*)&storedStream, sizeof(storedStream));
+bool readBytes(std::istream& stream, std::string& text, size_t length) {
+    text.assign(length, '\0');
+    if (length == 0)
+        return true;
+    stream.read(&text[0], (std::streamsize)length);
+    return stream.gcount() == (std::streamsize)length;
+}
+
+} // namespace
+
+void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& integratorName) const {
+    const std::uint32_t nameLength = (std::uint32_t)integratorName.size();
+    stream.write(CheckpointTag, sizeof(CheckpointTag) - 1);
+    stream.write((const char*)&nameLength, sizeof(nameLength));
+    stream.write(integratorName.data(), nameLength);
+    stream.write((const char*)&CheckpointVersion, sizeof(CheckpointVersion));
+    stream.write((const char*)&seed, sizeof(seed));
+    stream.write((const char*)&nextStream, sizeof(nextStream));
+    stream.write(CheckpointEndTag, sizeof(CheckpointEndTag) - 1);
+}
+
+void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, const std::string& integratorName) {
+    std::string problem;
+    std::string tag, name, endTag;
+    std::uint32_t nameLength = 0, version = 0;
+    std::uint64_t storedSeed = 0, storedStream = 0;
+    const bool hasTag = readBytes(stream, tag, sizeof(CheckpointTag) - 1);
+    if (!hasTag && stream.gcount() == 0)
+        problem = "it holds no data of this integrator (it was made with another integrator, e.g. OpenMM's "
+                  "VerletIntegrator, or it is truncated)";
+    else if (!hasTag || tag != std::string(CheckpointTag, sizeof(CheckpointTag) - 1))
+        problem = "its integrator part is not openmm-flavors data (it was made with another integrator, or it is "
+                  "truncated or corrupt)";
+    else if (!readValue(stream, nameLength) || nameLength > MaxNameLength || !readBytes(stream, name, nameLength))
+        problem = "it is truncated or corrupt (the integrator's name is incomplete)";
+    else if (name != integratorName)
+        problem = "it was made with " + name;
+    else if (!readValue(stream, version))
+        problem = "it is truncated (no format version)";
+    else if (version != CheckpointVersion)
+        problem = "it has format version " + std::to_string(version) + "; this build reads version " +
+                  std::to_string(CheckpointVersion);
+    else if (!readValue(stream, storedSeed) || !readValue(stream, storedStream) ||
+             !readBytes(stream, endTag, sizeof(CheckpointEndTag) - 1))
+        problem = "it is truncated (the random streams are incomplete)";
+    else if (endTag != std::string(CheckpointEndTag, sizeof(CheckpointEndTag) - 1))
+        problem = "it is corrupt (no end tag after the random streams)";
+    if (!problem.empty()) {
+        restoreContextState(context);
+        throw OpenMMException(integratorName + ": loadCheckpoint: the checkpoint is not one of a " + integratorName +
+                              ": " + problem +
+                              ".  The Context keeps its positions, velocities, box, time, step count, parameters "
+                              "and random streams");
+    }
     setRandomSeed(storedSeed);
     nextStream = storedStream;
+    invalidateForces();
+}
+
+void FlowStepRunner::saveContextState(ContextImpl& context, bool withParameters) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    saved.positions = *data.positions;
+    saved.velocities = *data.velocities;
+    saved.boxSize = *data.periodicBoxSize;
+    for (int i = 0; i < 3; ++i)
+        saved.boxVectors[i] = data.periodicBoxVectors[i];
+    saved.time = data.time;
+    saved.stepCount = data.stepCount;
+    if (withParameters || !saved.valid)
+        saved.parameters = context.getParameters();
+    saved.valid = true;
+}
+
+void FlowStepRunner::restoreContextState(ContextImpl& context) {
+    if (!saved.valid)
+        return;
+    ReferencePlatform::PlatformData& data = platformData(context);
+    *data.positions = saved.positions;
+    *data.velocities = saved.velocities;
+    *data.periodicBoxSize = saved.boxSize;
+    for (int i = 0; i < 3; ++i)
+        data.periodicBoxVectors[i] = saved.boxVectors[i];
+    data.time = saved.time;
+    data.stepCount = saved.stepCount;
+    // setParameter() notifies the integrator, which saves the state again: iterate over a copy.
+    const std::map<std::string, double> parameters = saved.parameters;
+    for (const auto& parameter : parameters) {
+        const std::map<std::string, double>& current = context.getParameters();
+        auto found = current.find(parameter.first);
+        if (found != current.end() && found->second != parameter.second)
+            context.setParameter(parameter.first, parameter.second);
+    }
     invalidateForces();
 }

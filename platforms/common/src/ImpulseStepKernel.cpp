@@ -114,9 +114,13 @@ double ImpulseStepKernel::computeKineticEnergy(ContextImpl& context,
 }
 
 void ImpulseStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
-    runner->createCheckpoint(stream);
+    runner->createCheckpoint(stream, "StochasticImpulseIntegrator");
 }
 
-void ImpulseStepKernel::loadCheckpoint(ContextImpl& /*context*/, std::istream& stream) {
-    runner->loadCheckpoint(stream);
+void ImpulseStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+    runner->loadCheckpoint(context, stream, "StochasticImpulseIntegrator");
+}
+
+void ImpulseStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
+    runner->saveContextState(context, withParameters);
 }

@@ -26,8 +26,9 @@ if not _hasPlatform("CPU"):
     if _os.path.exists(_cpu):
         _openmm.Platform.loadPluginLibrary(_cpu)
 # Ours must come after OpenMM's own plugins.
+_pluginDir = _os.path.normpath(_os.path.join(_here, _config.PLUGIN_DIR_FROM_PACKAGE))
 for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
-    _openmm.Platform.loadPluginLibrary(_os.path.join(_here, "plugins", _name))
+    _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, _name))
 
 from .openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator  # noqa: E402
 

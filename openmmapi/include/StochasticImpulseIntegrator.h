@@ -60,6 +60,36 @@ public:
      * Yoshida4 splitting.
      */
     void setFriction(double coeff);
+    /**
+     * Get the temperature (in Kelvin) of the exact Ornstein-Uhlenbeck flow of the stiff modes (the modes of the stiff
+     * potential with angular frequency omega > 0).  Until setStiffModeTemperature() is called it is the integrator's
+     * temperature, and follows it.
+     */
+    double getStiffModeTemperature() const { return stiffModeTemperature < 0 ? temperature : stiffModeTemperature; }
+    /**
+     * Set the temperature (in Kelvin) of the stiff modes, the modes of the stiff potential with angular frequency
+     * omega > 0 (for a Drude pair: the motion of the Drude particle relative to its core).  The zero modes of the stiff
+     * components (a pair's centre of mass) and every particle outside them keep the integrator's temperature.  A
+     * friction that is diagonal in the normal-mode basis commutes with the stiffness, so each mode remains an exactly
+     * integrated damped oscillator with its own bath: a cold Drude thermostat (about 1 K) is exact here.  It must be
+     * finite and non-negative.
+     */
+    void setStiffModeTemperature(double temp);
+    /**
+     * Get the friction coefficient (in inverse picoseconds) of the stiff modes.  Until setStiffModeFriction() is
+     * called it is the integrator's friction, and follows it.
+     */
+    double getStiffModeFriction() const { return stiffModeFriction < 0 ? friction : stiffModeFriction; }
+    /**
+     * Set the friction coefficient (in inverse picoseconds) of the stiff modes (omega > 0); the zero modes and the
+     * particles outside stiff components keep the integrator's friction.  It must be finite and non-negative, and 0
+     * for the Yoshida4 splitting.
+     */
+    void setStiffModeFriction(double coeff);
+    /** Whether setStiffModeTemperature() has been called (otherwise the stiff modes follow getTemperature()). */
+    bool hasStiffModeTemperature() const { return stiffModeTemperature >= 0; }
+    /** Whether setStiffModeFriction() has been called (otherwise the stiff modes follow getFriction()). */
+    bool hasStiffModeFriction() const { return stiffModeFriction >= 0; }
     /** Get the bitmask of stiff force groups. */
     int getStiffGroups() const { return stiffGroups; }
     /**
@@ -108,6 +138,8 @@ protected:
 
 private:
     double temperature, friction;
+    // Negative: not set, the stiff modes use temperature and friction.
+    double stiffModeTemperature, stiffModeFriction;
     int stiffGroups;
     Splitting splitting;
     int randomNumberSeed;

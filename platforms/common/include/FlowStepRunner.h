@@ -40,6 +40,11 @@ public:
      * setSchedule()).
      */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    /**
+     * Sets the thermal energy kT (kJ/mol) and friction (1/ps) of the stiff modes (omega > 0) in StiffFlow sub-flows;
+     * a negative value means the one given to setSchedule().  Cheap when nothing changed.
+     */
+    void setStiffModeBath(double kT, double friction);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
     void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
@@ -78,6 +83,8 @@ private:
     std::vector<int> frictionParticles;
     Schedule schedule;
     double kT, friction;
+    // Negative: as kT and friction.
+    double stiffKT, stiffFriction;
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.

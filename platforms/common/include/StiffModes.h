@@ -88,10 +88,13 @@ public:
         bool noisy = false;
     };
     /**
-     * Computes the propagator over a step h with friction gamma and thermal energy kT; h < 0 is allowed for
-     * gamma = 0 (the inverse flow).
+     * Computes the propagator over a step h.  The zero modes (omega = 0: free particles, a component's translations)
+     * have friction gamma and thermal energy kT, the stiff modes (omega > 0) stiffGamma and stiffKT: friction that is
+     * diagonal in the mode basis commutes with Omega, so every mode stays an independent, exactly integrated damped
+     * oscillator.  h < 0 is allowed when both frictions are 0 (the inverse flow).
      */
-    void computePropagator(double h, double gamma, double kT, Propagator& propagator) const;
+    void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
+                           Propagator& propagator) const;
 
 private:
     std::vector<Component> components;

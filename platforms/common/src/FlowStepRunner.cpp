@@ -25,7 +25,8 @@ ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
 
 FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoop> loop)
     : loop(std::move(loop)), numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0),
-      hasVirtualSites(false), kT(-1.0), friction(-1.0), thermostatsPerStep(0), seed(0), nextStream(0) {
+      hasVirtualSites(false), kT(-1.0), friction(-1.0), stiffKT(-1.0), stiffFriction(-1.0), thermostatsPerStep(0),
+      seed(0), nextStream(0) {
     masses.resize(numParticles);
     inverseMasses.resize(numParticles);
     thermalSpeeds.resize(numParticles);
@@ -60,6 +61,14 @@ void FlowStepRunner::setSchedule(const Schedule& newSchedule, double newKT, doub
     schedule = newSchedule;
     kT = newKT;
     friction = newFriction;
+    prepare();
+}
+
+void FlowStepRunner::setStiffModeBath(double newKT, double newFriction) {
+    if (newKT == stiffKT && newFriction == stiffFriction)
+        return;
+    stiffKT = newKT;
+    stiffFriction = newFriction;
     prepare();
 }
 
@@ -100,7 +109,8 @@ void FlowStepRunner::prepare() {
             if (flow.kind == SubFlow::StiffFlow) {
                 p.streamOffset = thermostatsPerStep++;
                 if (stiffModes)
-                    stiffModes->computePropagator(flow.h, friction, kT, stiffFlows[passIndex]);
+                    stiffModes->computePropagator(flow.h, friction, kT, stiffFriction < 0 ? friction : stiffFriction,
+                                                  stiffKT < 0 ? kT : stiffKT, stiffFlows[passIndex]);
             }
             prepared.push_back(p);
         }

@@ -22,7 +22,15 @@ class IntegrateStochasticImpulseStepKernel;
  *
  * The stiffness matrix is measured from the stiff forces when the first step is taken, and again whenever a context
  * parameter changes or a force's updateParametersInContext() is called; call updateStiffModes() after any other
- * change to the stiff forces.  Particles of stiff components must not be constrained.
+ * change to the stiff forces.
+ *
+ * Constraints may join a stiff component to particles outside it (rigid water whose oxygen is the core of a Drude
+ * pair), with at most one constrained particle per stiff component; a constraint between two particles of one stiff
+ * component is an error.  The constrained particle carries its component through the constraint solve: it enters the
+ * solve with the total mass of its component, and the component's other particles move by the same correction, so the
+ * stiff (relative) coordinates stay exactly as the stiff flow made them.  This is the limit in which the stiff motion
+ * follows its carrier adiabatically; it neglects the share m_carrier/M_component - 1 of the constraint force that
+ * would act on the stiff modes (for SWM4-NDP water, 0.4/16 = 2.5% of the oxygen's constraint force).
  */
 class OPENMM_EXPORT_FLAVORS StochasticImpulseIntegrator : public OpenMM::Integrator {
 public:

@@ -100,7 +100,7 @@ void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
     if (owner != nullptr && &contextRef.getOwner() != owner)
         throw OpenMMException("This Integrator is already bound to a context");
     requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
-    rejectConstrainedStiffParticles(contextRef, bondedStiffParticles(contextRef, stiffGroups));
+    rejectConstraintsInsideStiffComponents(contextRef, bondedStiffComponents(contextRef, stiffGroups));
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateStochasticImpulseStepKernel::Name(), contextRef);

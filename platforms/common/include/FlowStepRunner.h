@@ -12,11 +12,13 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace OpenMM {
 class ContextImpl;
-}
+class ReferenceConstraints;
+} // namespace OpenMM
 
 namespace FlavorPlugin {
 
@@ -26,10 +28,16 @@ namespace FlavorPlugin {
  * Constraints are applied as OpenMM's VerletIntegrator applies them: positions after each drift (with the
  * velocity corrected to the constrained displacement), velocities after each kick or thermostat.  Virtual sites
  * are placed before each force evaluation and at the end of the step.
+ *
+ * A constrained particle of a stiff component (the core of a Drude pair in rigid water) carries its component through
+ * the constraint solve: it enters the solve with the inverse of its component's total mass, and every other particle
+ * of the component moves by the correction of its carrier, so the component's internal (stiff) coordinates are left
+ * exactly as the stiff flow made them.
  */
 class OPENMM_EXPORT_FLAVORS FlowStepRunner {
 public:
     FlowStepRunner(const OpenMM::System& system, std::unique_ptr<ParallelLoop> loop);
+    ~FlowStepRunner();
     /**
      * Sets the schedule of one step, the thermal energy kT (kJ/mol) and the friction (1/ps) of its thermostats.
      * Cheap when nothing changed.
@@ -69,6 +77,9 @@ private:
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
     /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
+    /** Constrains positions (reference: the positions before the move) or velocities, carrying stiff components. */
+    void constrainPositions(OpenMM::ContextImpl& context, double tolerance);
+    void constrainVelocities(OpenMM::ContextImpl& context, double tolerance);
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                       double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
 
@@ -95,6 +106,15 @@ private:
     std::vector<StiffModes::Propagator> stiffFlows;
     std::vector<ForceSlot> slots;
     std::vector<OpenMM::Vec3> previousPositions;
+    // The System's particles and constraints (and angles, which CCMA uses), from which the solver of carried
+    // constraints is built with each carrier's mass replaced by its component's.
+    std::unique_ptr<OpenMM::System> constraintSystem;
+    // When stiff components are constrained: the solver with carrier masses, its inverse masses, the (carried,
+    // carrier) particle pairs and room for each carrier's coordinates before the solve.
+    std::unique_ptr<OpenMM::ReferenceConstraints> carriedConstraints;
+    std::vector<double> carriedInverseMasses;
+    std::vector<std::pair<int, int>> carriedParticles;
+    std::vector<OpenMM::Vec3> carrierBefore;
     int thermostatsPerStep;
     std::uint64_t seed, nextStream;
     CounterRandom random;

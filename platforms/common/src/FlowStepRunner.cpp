@@ -1,5 +1,6 @@
 #include "FlowStepRunner.h"
 #include "internal/ExactModeFlow.h"
+#include "openmm/HarmonicAngleForce.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferenceConstraints.h"
@@ -41,10 +42,33 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
         }
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     }
-    if (hasConstraints)
+    if (hasConstraints) {
         previousPositions.resize(numParticles);
+        constraintSystem = std::make_unique<System>();
+        for (int i = 0; i < numParticles; ++i)
+            constraintSystem->addParticle(masses[i]);
+        for (int c = 0; c < system.getNumConstraints(); ++c) {
+            int p1, p2;
+            double distance;
+            system.getConstraintParameters(c, p1, p2, distance);
+            constraintSystem->addConstraint(p1, p2, distance);
+        }
+        for (int f = 0; f < system.getNumForces(); ++f)
+            if (const auto* angles = dynamic_cast<const HarmonicAngleForce*>(&system.getForce(f))) {
+                HarmonicAngleForce* copy = new HarmonicAngleForce();
+                for (int a = 0; a < angles->getNumAngles(); ++a) {
+                    int p1, p2, p3;
+                    double angle, k;
+                    angles->getAngleParameters(a, p1, p2, p3, angle, k);
+                    copy->addAngle(p1, p2, p3, angle, k);
+                }
+                constraintSystem->addForce(copy);
+            }
+    }
     thermostated.assign(numParticles, 1.0);
 }
+
+FlowStepRunner::~FlowStepRunner() = default;
 
 void FlowStepRunner::setFrictionParticles(const vector<int>& particles) {
     if (particles == frictionParticles)
@@ -74,6 +98,45 @@ void FlowStepRunner::setStiffModeBath(double newKT, double newFriction) {
 
 void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     stiffModes = modes;
+    carriedConstraints.reset();
+    carriedParticles.clear();
+    if (modes && hasConstraints) {
+        // The constrained particle of each stiff component (the API checks allow at most one) carries the others.
+        vector<int> componentOf(numParticles, -1);
+        for (int c = 0; c < modes->getNumComponents(); ++c)
+            if (modes->getComponent(c).stiff)
+                for (int k = 0; k < modes->getComponent(c).numParticles; ++k)
+                    componentOf[modes->getComponentParticles(c)[k]] = c;
+        vector<int> carrierOf(modes->getNumComponents(), -1);
+        for (int c = 0; c < constraintSystem->getNumConstraints(); ++c) {
+            int p1, p2;
+            double distance;
+            constraintSystem->getConstraintParameters(c, p1, p2, distance);
+            for (int p : {p1, p2})
+                if (componentOf[p] >= 0)
+                    carrierOf[componentOf[p]] = p;
+        }
+        carriedInverseMasses = inverseMasses;
+        for (int c = 0; c < modes->getNumComponents(); ++c) {
+            const int carrier = carrierOf[c];
+            if (carrier < 0)
+                continue;
+            double total = 0;
+            for (int k = 0; k < modes->getComponent(c).numParticles; ++k) {
+                const int p = modes->getComponentParticles(c)[k];
+                total += masses[p];
+                if (p != carrier)
+                    carriedParticles.emplace_back(p, carrier);
+            }
+            carriedInverseMasses[carrier] = 1.0 / total;
+            constraintSystem->setParticleMass(carrier, total);
+        }
+        if (!carriedParticles.empty())
+            carriedConstraints = std::make_unique<ReferenceConstraints>(*constraintSystem);
+        for (int i = 0; i < numParticles; ++i)
+            constraintSystem->setParticleMass(i, masses[i]);
+        carrierBefore.resize(carriedParticles.size());
+    }
     stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
     prepare();
 }
@@ -199,13 +262,13 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         if (hasConstraints) {
             // With constraints every pass holds one sub-flow (compileStepPlan).
             if (drifts) {
-                data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
+                constrainPositions(context, constraintTolerance);
                 const double inverseTime = 1.0 / driftTime;
                 for (int i = 0; i < numParticles; ++i)
                     if (inverseMasses[i] != 0.0)
                         velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
             } else {
-                data.constraints->applyToVelocities(positions, velocities, inverseMasses, constraintTolerance);
+                constrainVelocities(context, constraintTolerance);
             }
         }
     }
@@ -237,10 +300,38 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     loop->run(task, stiffModes->getNumComponents());
     invalidateForces();
     if (hasConstraints) {
-        // Only particles outside stiff components may be constrained; they moved by the free flow.
-        data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
-        data.constraints->applyToVelocities(positions, *data.velocities, inverseMasses, constraintTolerance);
+        // Constrained particles of stiff components carry their components (see the class comment).
+        constrainPositions(context, constraintTolerance);
+        constrainVelocities(context, constraintTolerance);
     }
+}
+
+void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& positions = *data.positions;
+    if (!carriedConstraints) {
+        data.constraints->apply(previousPositions, positions, inverseMasses, tolerance);
+        return;
+    }
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        carrierBefore[k] = positions[carriedParticles[k].second];
+    carriedConstraints->apply(previousPositions, positions, carriedInverseMasses, tolerance);
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        positions[carriedParticles[k].first] += positions[carriedParticles[k].second] - carrierBefore[k];
+}
+
+void FlowStepRunner::constrainVelocities(ContextImpl& context, double tolerance) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& velocities = *data.velocities;
+    if (!carriedConstraints) {
+        data.constraints->applyToVelocities(*data.positions, velocities, inverseMasses, tolerance);
+        return;
+    }
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        carrierBefore[k] = velocities[carriedParticles[k].second];
+    carriedConstraints->applyToVelocities(*data.positions, velocities, carriedInverseMasses, tolerance);
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        velocities[carriedParticles[k].first] += velocities[carriedParticles[k].second] - carrierBefore[k];
 }
 
 double FlowStepRunner::kineticEnergy(ContextImpl& context) const {

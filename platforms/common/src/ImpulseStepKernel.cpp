@@ -69,10 +69,12 @@ void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups)
     } catch (const OpenMMException& e) {
         throw OpenMMException(std::string("StochasticImpulseIntegrator: ") + e.what());
     }
-    std::vector<bool> stiff(masses.size());
-    for (size_t i = 0; i < masses.size(); ++i)
-        stiff[i] = decomposed->isStiffParticle((int)i);
-    rejectConstrainedStiffParticles(context, stiff);
+    std::vector<int> componentOf(masses.size(), -1);
+    for (int c = 0; c < decomposed->getNumComponents(); ++c)
+        if (decomposed->getComponent(c).stiff)
+            for (int k = 0; k < decomposed->getComponent(c).numParticles; ++k)
+                componentOf[decomposed->getComponentParticles(c)[k]] = decomposed->getComponentParticles(c)[0];
+    rejectConstraintsInsideStiffComponents(context, componentOf);
     modes = decomposed;
     measured = stiffness;
     runner->setStiffModes(modes);

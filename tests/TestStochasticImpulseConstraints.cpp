@@ -76,55 +76,59 @@ struct DrudeWater {
 
 } // namespace
 
-TEST_P(ImpulseConstraints, ConstrainedCoresLeaveTheDrudeMotionTheExactOscillation) {
+TEST_P(ImpulseConstraints, ConstrainedCoresLeaveTheDrudeMotionTheExactOscillationUnderStrangAndFiltered) {
     // Soft forces act on the hydrogens only and there is no friction, so every force on the Drude pair's relative
     // coordinate r = q_D - q_O is the spring's, as long as the constraint corrections of the oxygen move its Drude
     // particle alike: r(t) = r0 cos(omega t) + (u0/omega) sin(omega t) with omega = sqrt(k/mu), while the rigid
     // molecule tumbles under the tethers.  50 Strang steps of 2 fs (omega H = 2.07).
     DrudeWater water(8, true);
-    StochasticImpulseIntegrator integrator(0.0, 0.0, 0.002, StiffMask);
-    integrator.setConstraintTolerance(1e-10);
-    Context context(water.system, integrator, platform(), properties());
-    context.setPositions(water.positions);
-    vector<Vec3> v(4 * water.molecules);
-    for (int m = 0; m < water.molecules; ++m) {
-        v[4 * m] = Vec3(0.3, -0.2, 0.1 * m);
-        v[4 * m + 1] = Vec3(1.0, 0.5, -0.5);
-        v[4 * m + 2] = Vec3(-0.7, 0.2, 0.4);
-        v[4 * m + 3] = v[4 * m] + Vec3(3.0, -2.0, 1.0 * (m % 3));
-    }
-    context.setVelocities(v);
-    context.applyConstraints(1e-10);
-    context.applyVelocityConstraints(1e-10);
-    const vector<Vec3> q0 = positionsOf(context), v0 = velocitiesOf(context);
-    const double mu = (OxygenMass - DrudeMass) * DrudeMass / OxygenMass, omega = std::sqrt(DrudeK / mu);
-    const int steps = 50;
-    integrator.step(steps);
-    const vector<Vec3> q = positionsOf(context);
-    const double t = steps * 0.002;
-    double largestError = 0, largestRelative = 0, largestMotion = 0;
-    for (int m = 0; m < water.molecules; ++m) {
-        const int o = 4 * m;
-        const Vec3 r0 = q0[o + 3] - q0[o], u0 = v0[o + 3] - v0[o];
-        const Vec3 expected = r0 * std::cos(omega * t) + u0 * (std::sin(omega * t) / omega);
-        const Vec3 error = (q[o + 3] - q[o]) - expected;
-        largestError = std::max(largestError, std::sqrt(error.dot(error)));
-        largestRelative = std::max(largestRelative, std::sqrt(expected.dot(expected)));
-        const Vec3 moved = q[o] - q0[o];
-        largestMotion = std::max(largestMotion, std::sqrt(moved.dot(moved)));
-    }
-    EXPECT_LT(largestError, 1e-10 * largestRelative + 1e-14);
-    // The cores did move (the constraints acted): 50 steps at about 0.3 nm/ps.
-    EXPECT_GT(largestMotion, 0.01);
-    // And the molecules stayed rigid (SETTLE is analytic: its rounding leaves about 1e-8 of the length).
-    for (int m = 0; m < water.molecules; ++m) {
-        const int o = 4 * m;
-        EXPECT_NEAR(OH, std::sqrt((q[o + 1] - q[o]).dot(q[o + 1] - q[o])), 1e-7 * OH);
-        EXPECT_NEAR(HH, std::sqrt((q[o + 2] - q[o + 1]).dot(q[o + 2] - q[o + 1])), 1e-7 * HH);
+    for (auto splitting : {StochasticImpulseIntegrator::Strang, StochasticImpulseIntegrator::Filtered}) {
+        SCOPED_TRACE(splitting == StochasticImpulseIntegrator::Strang ? "Strang" : "Filtered");
+        StochasticImpulseIntegrator integrator(0.0, 0.0, 0.002, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setConstraintTolerance(1e-10);
+        Context context(water.system, integrator, platform(), properties());
+        context.setPositions(water.positions);
+        vector<Vec3> v(4 * water.molecules);
+        for (int m = 0; m < water.molecules; ++m) {
+            v[4 * m] = Vec3(0.3, -0.2, 0.1 * m);
+            v[4 * m + 1] = Vec3(1.0, 0.5, -0.5);
+            v[4 * m + 2] = Vec3(-0.7, 0.2, 0.4);
+            v[4 * m + 3] = v[4 * m] + Vec3(3.0, -2.0, 1.0 * (m % 3));
+        }
+        context.setVelocities(v);
+        context.applyConstraints(1e-10);
+        context.applyVelocityConstraints(1e-10);
+        const vector<Vec3> q0 = positionsOf(context), v0 = velocitiesOf(context);
+        const double mu = (OxygenMass - DrudeMass) * DrudeMass / OxygenMass, omega = std::sqrt(DrudeK / mu);
+        const int steps = 50;
+        integrator.step(steps);
+        const vector<Vec3> q = positionsOf(context);
+        const double t = steps * 0.002;
+        double largestError = 0, largestRelative = 0, largestMotion = 0;
+        for (int m = 0; m < water.molecules; ++m) {
+            const int o = 4 * m;
+            const Vec3 r0 = q0[o + 3] - q0[o], u0 = v0[o + 3] - v0[o];
+            const Vec3 expected = r0 * std::cos(omega * t) + u0 * (std::sin(omega * t) / omega);
+            const Vec3 error = (q[o + 3] - q[o]) - expected;
+            largestError = std::max(largestError, std::sqrt(error.dot(error)));
+            largestRelative = std::max(largestRelative, std::sqrt(expected.dot(expected)));
+            const Vec3 moved = q[o] - q0[o];
+            largestMotion = std::max(largestMotion, std::sqrt(moved.dot(moved)));
+        }
+        EXPECT_LT(largestError, 1e-10 * largestRelative + 1e-14);
+        // The cores did move (the constraints acted): 50 steps at about 0.3 nm/ps.
+        EXPECT_GT(largestMotion, 0.01);
+        // And the molecules stayed rigid (SETTLE is analytic: its rounding leaves about 1e-8 of the length).
+        for (int m = 0; m < water.molecules; ++m) {
+            const int o = 4 * m;
+            EXPECT_NEAR(OH, std::sqrt((q[o + 1] - q[o]).dot(q[o + 1] - q[o])), 1e-7 * OH);
+            EXPECT_NEAR(HH, std::sqrt((q[o + 2] - q[o + 1]).dot(q[o + 2] - q[o + 1])), 1e-7 * HH);
+        }
     }
 }
 
-TEST_P(ImpulseConstraints, RigidDrudeWaterKeepsItsConstraintsWithAColdDrudeBath) {
+TEST_P(ImpulseConstraints, RigidDrudeWaterKeepsItsConstraintsWithAColdDrudeBathUnderStrangAndFiltered) {
     // Every particle tethered, the Drudes pulled by a field, 300 K at 5/ps with the Drude modes at 1 K and 20/ps;
     // SETTLE for the water and, with a constrained chain whose middle atom carries a Drude particle, CCMA.  After every
     // step each constraint holds to 1e-7 of its length (tolerance 1e-9) and each constrained pair's relative velocity
@@ -146,37 +150,41 @@ TEST_P(ImpulseConstraints, RigidDrudeWaterKeepsItsConstraintsWithAColdDrudeBath)
     water.positions.push_back(Vec3(2.15, 2, 2));
     water.positions.push_back(Vec3(2.15 + 0.14 * std::cos(1.2), 2 + 0.14 * std::sin(1.2), 2));
     water.positions.push_back(Vec3(2.151, 2.001, 2));
-    StochasticImpulseIntegrator integrator(300.0, 5.0, 0.002, StiffMask);
-    integrator.setStiffModeTemperature(1.0);
-    integrator.setStiffModeFriction(20.0);
-    integrator.setConstraintTolerance(1e-9);
-    integrator.setRandomNumberSeed(17);
-    Context context(system, integrator, platform(), properties());
-    context.setPositions(water.positions);
-    context.setVelocitiesToTemperature(300.0, 3);
-    context.applyConstraints(1e-9);
-    context.applyVelocityConstraints(1e-9);
-    double worstLength = 0, worstVelocity = 0;
-    for (int step = 0; step < 200; ++step) {
-        integrator.step(1);
-        const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
-        for (int k = 0; k < system.getNumConstraints(); ++k) {
-            int i, j;
-            double length;
-            system.getConstraintParameters(k, i, j, length);
-            const Vec3 r = q[j] - q[i], u = v[j] - v[i];
-            const double distance = std::sqrt(r.dot(r));
-            worstLength = std::max(worstLength, std::abs(distance - length) / length);
-            // Speed scale sqrt(kT/m) of a hydrogen at 300 K: about 1.6 nm/ps.
-            worstVelocity = std::max(worstVelocity, std::abs(u.dot(r)) / distance / 1.6);
+    for (auto splitting : {StochasticImpulseIntegrator::Strang, StochasticImpulseIntegrator::Filtered}) {
+        SCOPED_TRACE(splitting == StochasticImpulseIntegrator::Strang ? "Strang" : "Filtered");
+        StochasticImpulseIntegrator integrator(300.0, 5.0, 0.002, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setStiffModeTemperature(1.0);
+        integrator.setStiffModeFriction(20.0);
+        integrator.setConstraintTolerance(1e-9);
+        integrator.setRandomNumberSeed(17);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions(water.positions);
+        context.setVelocitiesToTemperature(300.0, 3);
+        context.applyConstraints(1e-9);
+        context.applyVelocityConstraints(1e-9);
+        double worstLength = 0, worstVelocity = 0;
+        for (int step = 0; step < 200; ++step) {
+            integrator.step(1);
+            const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
+            for (int k = 0; k < system.getNumConstraints(); ++k) {
+                int i, j;
+                double length;
+                system.getConstraintParameters(k, i, j, length);
+                const Vec3 r = q[j] - q[i], u = v[j] - v[i];
+                const double distance = std::sqrt(r.dot(r));
+                worstLength = std::max(worstLength, std::abs(distance - length) / length);
+                // Speed scale sqrt(kT/m) of a hydrogen at 300 K: about 1.6 nm/ps.
+                worstVelocity = std::max(worstVelocity, std::abs(u.dot(r)) / distance / 1.6);
+            }
         }
-    }
-    EXPECT_LT(worstLength, 1e-7);
-    EXPECT_LT(worstVelocity, 1e-6);
-    // The Drude particles stay with their cores (a sanity bound, 0.01 nm: the field displaces them by ~1e-3 nm).
-    const vector<Vec3> q = positionsOf(context);
-    for (int m = 0; m < water.molecules; ++m) {
-        const Vec3 r = q[4 * m + 3] - q[4 * m];
-        EXPECT_LT(std::sqrt(r.dot(r)), 0.01);
+        EXPECT_LT(worstLength, 1e-7);
+        EXPECT_LT(worstVelocity, 1e-6);
+        // The Drude particles stay with their cores (a sanity bound, 0.01 nm: the field displaces them by ~1e-3 nm).
+        const vector<Vec3> q = positionsOf(context);
+        for (int m = 0; m < water.molecules; ++m) {
+            const Vec3 r = q[4 * m + 3] - q[4 * m];
+            EXPECT_LT(std::sqrt(r.dot(r)), 0.01);
+        }
     }
 }

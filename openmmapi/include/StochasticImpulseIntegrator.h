@@ -43,7 +43,28 @@ public:
         /** Half kick, stiff flow, half kick: second order, symmetric (Integrator 3). */
         Strang = 1,
         /** The fourth-order composition of three Strang steps (Remark 2.4); only with friction 0. */
-        Yoshida4 = 2
+        Yoshida4 = 2,
+        /**
+         * A trigonometric (filtered impulse) integrator in the stiff modes, without the impulse bias of Strang.  In
+         * each stiff mode (angular frequency omega > 0, friction gamma) the soft force f_n at the start of the step is
+         * held constant over the step: the step adds the exact position response g_x(H) f_n and half the exact
+         * velocity response g_v(H) f_n to the exact stiff flow, and the step closes with the other half,
+         * g_v(H) f_(n+1) / 2, at the new positions.  The zero modes and free particles are integrated exactly as by
+         * Strang.  Without friction the filters are, with xi = omega H,
+         *
+         *     x_(n+1) = cos(xi) x_n + sin(xi)/omega v_n + (H^2/2) sinc^2(xi/2) f_n
+         *     v_(n+1) = -omega sin(xi) x_n + cos(xi) v_n + (H/2) sinc(xi) (f_n + f_(n+1))
+         *
+         * (Gautschi's position filter psi = sinc^2(xi/2) with phi = 1, Hairer, Lubich and Wanner, Geometric
+         * Numerical Integration, XIII.2.2).  Why these filters: a constant soft force f then gives each stiff mode the
+         * exact flow, hence the exact mean displacement f/omega^2, with any friction, where Strang gives
+         * (f/omega^2) (xi/2) cot(xi/2); no filter has a pole (the symmetric method with this property needs
+         * tan(xi/2)/(xi/2), which has one at xi = pi); and at the resonances xi = 2 pi k the filters vanish, so a mode
+         * in resonance is not driven by the soft forces.  The price is symmetry (the method is not time-reversible).
+         * Its local error is O(H^3) (the velocity update is the trapezoidal rule of the force, the position update
+         * misses H^3 f'/6), so it is of order 2 for a fixed omega, like Strang.  Forces are evaluated once per step.
+         */
+        Filtered = 3
     };
     /**
      * Create a StochasticImpulseIntegrator.

@@ -78,9 +78,9 @@ void StochasticImpulseIntegrator::setStiffGroups(int groups) {
 }
 
 void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
-    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4)
+    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4 && newSplitting != Filtered)
         throwInvalidParameter(Owner, "splitting", std::to_string((int)newSplitting),
-                              "splitting must be LieTrotter (0), Strang (1) or Yoshida4 (2)");
+                              "splitting must be LieTrotter (0), Strang (1), Yoshida4 (2) or Filtered (3)");
     requireSplittingAllowsFriction(newSplitting, friction, "splitting");
     requireSplittingAllowsFriction(newSplitting, getStiffModeFriction(), "splitting");
     splitting = newSplitting;

@@ -20,6 +20,9 @@ CASES = {
     "lietrotter-langevin": dict(splitting=StochasticImpulseIntegrator.LieTrotter, friction=3.0, seed=77),
     "strang-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Strang, friction=3.0, seed=5,
                                              stiff_mode_bath=(1.0, 20.0)),
+    "filtered-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=3.0, seed=8,
+                                               stiff_mode_bath=(1.0, 20.0)),
+    "filtered-friction0": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=0.0),
 }
 LANGEVIN = [case for case in CASES if "langevin" in case]
 

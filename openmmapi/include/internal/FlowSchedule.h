@@ -23,11 +23,22 @@ struct SubFlow {
         /** Exact Ornstein-Uhlenbeck flow of friction and noise over h. */
         Thermostat,
         /** Exact flow of the quadratic stiff potential with friction and noise, E(h, gamma). */
-        StiffFlow
+        StiffFlow,
+        /**
+         * E(h, gamma) together with the exact response of every stiff mode (omega > 0) to the forces of groups held
+         * constant at their values where it begins: the position response and half the velocity response (the
+         * Filtered splitting).  Zero modes and free particles get a half kick before E(h), as in Strang.
+         */
+        FilteredStiffFlow,
+        /**
+         * The closing kick of the Filtered splitting by the forces of groups: half the exact velocity response of each
+         * stiff mode to a force held constant over h, and v += (h/2) F/m in the zero modes and free particles.
+         */
+        FilteredKick
     };
     Kind kind;
     double h;
-    /** The force groups of a Kick; unused otherwise. */
+    /** The force groups of a Kick, FilteredStiffFlow or FilteredKick; unused otherwise. */
     int groups;
     bool operator==(const SubFlow& other) const { return kind == other.kind && h == other.h && groups == other.groups; }
 };
@@ -69,8 +80,8 @@ struct ImpulseParameters {
 
 /**
  * Builds the schedule of one stochastic impulse step (docs/ARCHITECTURE.md): E(H) K_soft(H) (LieTrotter),
- * K_soft(H/2) E(H) K_soft(H/2) (Strang), or Strang composed as S(c H) S((1-2c) H) S(c H) with
- * c = 1/(2 - 2^(1/3)) (Yoshida4).
+ * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
+ * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered; E(H) alone without soft groups).
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 

@@ -82,6 +82,9 @@ private:
     void constrainVelocities(OpenMM::ContextImpl& context, double tolerance);
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                       double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
+    /** Adds the force response of pass passIndex to the forces of the flow's slot (FilteredKick). */
+    void runFilteredKick(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                         double constraintTolerance);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
@@ -104,6 +107,9 @@ private:
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;
+    // For each FilteredStiffFlow or FilteredKick pass, its response to the forces of its slot.
+    std::vector<StiffModes::ForceResponse> forceResponses;
+    std::unique_ptr<ForceResponseTask> forceResponseTask;
     std::vector<ForceSlot> slots;
     std::vector<OpenMM::Vec3> previousPositions;
     // The System's particles and constraints (and angles, which CCMA uses), from which the solver of carried

@@ -91,6 +91,8 @@ struct ParticlePass : public RangeTask {
                     thermostat(flow, first, last);
                     break;
                 case SubFlow::StiffFlow:
+                case SubFlow::FilteredStiffFlow:
+                case SubFlow::FilteredKick:
                     break; // never in a particle pass (compileStepPlan)
                 }
             }

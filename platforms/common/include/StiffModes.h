@@ -96,6 +96,24 @@ public:
     void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
                            Propagator& propagator) const;
 
+    /**
+     * The response of positions and velocities to a force F held by each mode: per component, for each of its D modes
+     * k the pair (rx_k, rv_k), so that in mass-weighted mode coordinates x_k += rx_k f_k and v_k += rv_k f_k with
+     * f = U^T M^-1/2 F (the C columns of an isotropic component share the pair).
+     */
+    struct ForceResponse {
+        std::vector<std::size_t> offset;
+        std::vector<double> data;
+    };
+    /**
+     * Computes the force responses of the Filtered splitting over a step h > 0 (see SubFlow::FilteredStiffFlow and
+     * FilteredKick).  The opening response (closing = false), added after the exact flow with the forces where it
+     * began: in a stiff mode (friction stiffGamma) the exact responses g_x(h) and g_v(h)/2 of the flow to a unit
+     * constant force, in a zero mode (friction gamma) the flow's image of a half kick, (h/2) (Phi_xv, Phi_vv).  The
+     * closing response: (0, g_v(h)/2) in a stiff mode, (0, h/2) in a zero mode.
+     */
+    void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, ForceResponse& response) const;
+
 private:
     std::vector<Component> components;
     std::vector<int> particleList;

@@ -138,6 +138,7 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
         carrierBefore.resize(carriedParticles.size());
     }
     stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
+    forceResponseTask = modes ? std::make_unique<ForceResponseTask>(*modes) : nullptr;
     prepare();
 }
 
@@ -156,6 +157,8 @@ void FlowStepRunner::prepare() {
         thermalSpeeds[i] = std::sqrt(kT * inverseMasses[i]);
     preparedPasses.clear();
     stiffFlows.assign(plan.passes.size(), StiffModes::Propagator());
+    forceResponses.assign(plan.passes.size(), StiffModes::ForceResponse());
+    const double modeKT = stiffKT < 0 ? kT : stiffKT, modeFriction = stiffFriction < 0 ? friction : stiffFriction;
     thermostatsPerStep = 0;
     for (size_t passIndex = 0; passIndex < plan.passes.size(); ++passIndex) {
         const FlowPass& pass = plan.passes[passIndex];
@@ -169,12 +172,14 @@ void FlowStepRunner::prepare() {
                 p.noise = ou.noise;
                 p.streamOffset = thermostatsPerStep++;
             }
-            if (flow.kind == SubFlow::StiffFlow) {
+            if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
                 p.streamOffset = thermostatsPerStep++;
                 if (stiffModes)
-                    stiffModes->computePropagator(flow.h, friction, kT, stiffFriction < 0 ? friction : stiffFriction,
-                                                  stiffKT < 0 ? kT : stiffKT, stiffFlows[passIndex]);
+                    stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex]);
             }
+            if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick))
+                stiffModes->computeForceResponse(flow.h, friction, modeFriction, flow.kind == SubFlow::FilteredKick,
+                                                 forceResponses[passIndex]);
             prepared.push_back(p);
         }
         preparedPasses.push_back(prepared);
@@ -229,6 +234,16 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         if (flows[0].kind == SubFlow::StiffFlow) {
             runStiffFlow(context, p, flows[0], constraintTolerance, kickForces, kickStep);
             kickForces = nullptr;
+            continue;
+        }
+        if (flows[0].kind == SubFlow::FilteredStiffFlow) {
+            // The forces where the flow begins; runStiffFlow adds their response after the flow.
+            ensureForces(context, flows[0].slot);
+            runStiffFlow(context, p, flows[0], constraintTolerance, nullptr, 0.0);
+            continue;
+        }
+        if (flows[0].kind == SubFlow::FilteredKick) {
+            runFilteredKick(context, p, flows[0], constraintTolerance);
             continue;
         }
         ParticlePass pass;
@@ -298,12 +313,37 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     task.inverseMasses = inverseMasses.data();
     task.kickStep = kickStep;
     loop->run(task, stiffModes->getNumComponents());
+    if (flow.kind == SubFlow::FilteredStiffFlow) {
+        // The slot still holds the forces at the positions before the flow (nothing evaluated them since).
+        ForceResponseTask& response = *forceResponseTask;
+        response.response = &forceResponses[passIndex];
+        response.forces = slots[flow.slot].forces.data();
+        response.positions = positions.data();
+        response.velocities = data.velocities->data();
+        loop->run(response, stiffModes->getNumComponents());
+    }
     invalidateForces();
     if (hasConstraints) {
         // Constrained particles of stiff components carry their components (see the class comment).
         constrainPositions(context, constraintTolerance);
         constrainVelocities(context, constraintTolerance);
     }
+}
+
+void FlowStepRunner::runFilteredKick(ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                                     double constraintTolerance) {
+    if (!stiffModes)
+        throw OpenMMException("FlowStepRunner: a FilteredKick needs setStiffModes()");
+    ensureForces(context, flow.slot);
+    ReferencePlatform::PlatformData& data = platformData(context);
+    ForceResponseTask& response = *forceResponseTask;
+    response.response = &forceResponses[passIndex];
+    response.forces = slots[flow.slot].forces.data();
+    response.positions = data.positions->data();
+    response.velocities = data.velocities->data();
+    loop->run(response, stiffModes->getNumComponents());
+    if (hasConstraints)
+        constrainVelocities(context, constraintTolerance);
 }
 
 void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance) {

@@ -97,3 +97,29 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
                 }
     }
 }
+
+void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
+                                      ForceResponse& response) const {
+    response.offset.resize(components.size());
+    size_t size = 0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        response.offset[c] = size;
+        size += 2 * (size_t)components[c].rows();
+    }
+    response.data.assign(size, 0.0);
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        double* out = &response.data[response.offset[c]];
+        for (int k = 0; k < comp.rows(); ++k) {
+            const double w = omega[comp.firstMode + comp.columns() * k];
+            const ModeFlow f = computeModeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
+            if (w > 0.0) {
+                out[2 * k] = closing ? 0.0 : f.gx;
+                out[2 * k + 1] = 0.5 * f.gv;
+            } else {
+                out[2 * k] = closing ? 0.0 : 0.5 * h * f.xv;
+                out[2 * k + 1] = closing ? 0.5 * h : 0.5 * h * f.vv;
+            }
+        }
+    }
+}

@@ -1,5 +1,5 @@
-"""The stiff modes' own bath from Python: Quantities in and out, defaults that follow the integrator, rejected values
-that leave the old ones, and XmlSerializer round trips."""
+"""The stiff modes' own bath and the Filtered splitting from Python: Quantities in and out, defaults that follow the
+integrator, rejected values that leave the old ones, and XmlSerializer round trips."""
 import math
 
 import openmm
@@ -62,3 +62,11 @@ def test_xml_round_trip_keeps_the_bath():
     plain = openmm.XmlSerializer.deserialize(
         openmm.XmlSerializer.serialize(StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})))
     assert not plain.hasStiffModeTemperature() and not plain.hasStiffModeFriction()
+
+
+def test_filtered_splitting_is_exposed_and_serialized():
+    assert StochasticImpulseIntegrator.Filtered == 3
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
+    copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
+    assert copy.getSplitting() == StochasticImpulseIntegrator.Filtered

@@ -188,3 +188,58 @@ TEST_P(ImpulseConstraints, RigidDrudeWaterKeepsItsConstraintsWithAColdDrudeBathU
         }
     }
 }
+
+TEST_P(ImpulseConstraints, RigidDrudeWaterHasTheBathTemperatureAtLargeSteps) {
+    // 100 free rigid Drude waters (no soft force), 300 K at 2/ps, the Drude modes at 1 K and 20/ps, H = 4 fs: the
+    // kinetic temperature of the 6 rigid-body degrees of freedom per molecule (pairs counted at their centre of mass)
+    // must be 300 K, and that of the Drude motion 1 K, within 5 standard errors of 20 block means plus 1% for the
+    // splitting.  A velocity left uncorrected for the constraint correction of the positions loses a fraction
+    // (rotation angle per step)^2 of the rotational energy each step: about 4% per 4 fs step at 300 K.
+    DrudeWater water(100, true);
+    System& system = water.system;
+    while (system.getNumForces() > 1)
+        system.removeForce(1);
+    const double mPair = OxygenMass, mu = (OxygenMass - DrudeMass) * DrudeMass / OxygenMass;
+    for (auto splitting : {StochasticImpulseIntegrator::Strang, StochasticImpulseIntegrator::Filtered}) {
+        SCOPED_TRACE(splitting == StochasticImpulseIntegrator::Strang ? "Strang" : "Filtered");
+        StochasticImpulseIntegrator integrator(300.0, 2.0, 0.004, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setStiffModeTemperature(1.0);
+        integrator.setStiffModeFriction(20.0);
+        integrator.setConstraintTolerance(1e-8);
+        integrator.setRandomNumberSeed(41);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions(water.positions);
+        context.applyConstraints(1e-8);
+        integrator.step(1000);
+        const int blocks = 20, samples = 10;
+        vector<double> rigid, drude;
+        for (int b = 0; b < blocks; ++b) {
+            double tr = 0, td = 0;
+            for (int s = 0; s < samples; ++s) {
+                integrator.step(20);
+                const vector<Vec3> v = velocitiesOf(context);
+                for (int m = 0; m < water.molecules; ++m) {
+                    const int o = 4 * m;
+                    const Vec3 vc = (v[o] * (OxygenMass - DrudeMass) + v[o + 3] * DrudeMass) / mPair;
+                    const Vec3 vr = v[o + 3] - v[o];
+                    const double ke =
+                        mPair * vc.dot(vc) + HydrogenMass * (v[o + 1].dot(v[o + 1]) + v[o + 2].dot(v[o + 2]));
+                    tr += ke / (6 * BOLTZ * 300.0) / (water.molecules * samples);
+                    td += mu * vr.dot(vr) / (3 * BOLTZ * 1.0) / (water.molecules * samples);
+                }
+            }
+            rigid.push_back(tr);
+            drude.push_back(td);
+        }
+        for (auto* series : {&rigid, &drude}) {
+            double mean = 0, variance = 0;
+            for (double x : *series)
+                mean += x / blocks;
+            for (double x : *series)
+                variance += (x - mean) * (x - mean) / (blocks - 1);
+            EXPECT_NEAR(1.0, mean, 5 * std::sqrt(variance / blocks) + 0.01)
+                << (series == &rigid ? "rigid-body" : "Drude") << " temperature ratio";
+        }
+    }
+}

@@ -63,6 +63,13 @@ public:
          * in resonance is not driven by the soft forces.  The price is symmetry (the method is not time-reversible).
          * Its local error is O(H^3) (the velocity update is the trapezoidal rule of the force, the position update
          * misses H^3 f'/6), so it is of order 2 for a fixed omega, like Strang.  Forces are evaluated once per step.
+         *
+         * Without symmetry the energy is not conserved in the long run: a soft force of curvature a acting on a stiff
+         * mode turns the two-step recursion into x_(n+1) - 2 cos(xi) x_n + x_(n-1) = -H^2 a (alpha x_n + beta
+         * x_(n-1)) with beta = (1 - cos xi)^2 / (2 xi^2) > 0, so without friction the amplitude grows by about
+         * H^2 a beta / 2 per step.  Give the stiff modes a friction (setStiffModeFriction) that removes more than
+         * that (gamma H / 2 > H^2 a beta / 2), as a Drude thermostat does; for friction 0, Strang is the
+         * energy-conserving choice away from its resonances.
          */
         Filtered = 3
     };

@@ -26,7 +26,8 @@ namespace FlavorPlugin {
  * Executes a Schedule on the particle data of a Reference or CPU Context.  Forces are cached per force-group
  * set and valid until positions change, so each group set is evaluated once per distinct set of positions.
  * Constraints are applied as OpenMM's VerletIntegrator applies them: positions after each drift (with the
- * velocity corrected to the constrained displacement), velocities after each kick or thermostat.  Virtual sites
+ * velocity corrected to the constrained displacement) and after each stiff flow (with the velocity change of the same
+ * correction in the free flow), velocities after each kick or thermostat.  Virtual sites
  * are placed before each force evaluation and at the end of the step.
  *
  * A constrained particle of a stiff component (the core of a Drude pair in rigid water) carries its component through
@@ -112,6 +113,8 @@ private:
     std::unique_ptr<ForceResponseTask> forceResponseTask;
     std::vector<ForceSlot> slots;
     std::vector<OpenMM::Vec3> previousPositions;
+    // The positions after a stiff flow, before their constraint correction.
+    std::vector<OpenMM::Vec3> unconstrainedPositions;
     // The System's particles and constraints (and angles, which CCMA uses), from which the solver of carried
     // constraints is built with each carrier's mass replaced by its component's.
     std::unique_ptr<OpenMM::System> constraintSystem;

@@ -44,6 +44,7 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
     }
     if (hasConstraints) {
         previousPositions.resize(numParticles);
+        unconstrainedPositions.resize(numParticles);
         constraintSystem = std::make_unique<System>();
         for (int i = 0; i < numParticles; ++i)
             constraintSystem->addParticle(masses[i]);
@@ -165,7 +166,7 @@ void FlowStepRunner::prepare() {
         vector<PreparedFlow> prepared;
         for (size_t k = 0; k < pass.flows.size(); ++k) {
             const SubFlow& flow = pass.flows[k];
-            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0};
+            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0, 0.0};
             if (flow.kind == SubFlow::Thermostat) {
                 const VelocityFlow ou = computeVelocityFlow(friction, flow.h);
                 p.decay = ou.decay;
@@ -174,6 +175,9 @@ void FlowStepRunner::prepare() {
             }
             if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
                 p.streamOffset = thermostatsPerStep++;
+                // Constrained particles are free particles or carry their component as a rigid body: zero modes.
+                const ModeFlow zeroMode = computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
+                p.constraintVelocityScale = zeroMode.vv / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
                 if (stiffModes)
                     stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex]);
             }
@@ -324,8 +328,16 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     }
     invalidateForces();
     if (hasConstraints) {
-        // Constrained particles of stiff components carry their components (see the class comment).
+        // Constrained particles of stiff components carry their components (see the class comment).  The correction
+        // of the positions is an impulse at the start of the flow (as in RATTLE), so it also changes the velocities:
+        // in a zero mode an impulse dv0 moves the position by Phi_xv dv0 and the velocity by Phi_vv dv0.  The
+        // projection after it removes what is left along the constraints.
+        unconstrainedPositions = positions;
         constrainPositions(context, constraintTolerance);
+        vector<Vec3>& velocities = *data.velocities;
+        for (int i = 0; i < numParticles; ++i)
+            if (inverseMasses[i] != 0.0)
+                velocities[i] += (positions[i] - unconstrainedPositions[i]) * flow.constraintVelocityScale;
         constrainVelocities(context, constraintTolerance);
     }
 }

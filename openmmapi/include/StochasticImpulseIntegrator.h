@@ -45,31 +45,32 @@ public:
         /** The fourth-order composition of three Strang steps (Remark 2.4); only with friction 0. */
         Yoshida4 = 2,
         /**
-         * A trigonometric (filtered impulse) integrator in the stiff modes, without the impulse bias of Strang.  In
-         * each stiff mode (angular frequency omega > 0, friction gamma) the soft force f_n at the start of the step is
-         * held constant over the step: the step adds the exact position response g_x(H) f_n and half the exact
-         * velocity response g_v(H) f_n to the exact stiff flow, and the step closes with the other half,
-         * g_v(H) f_(n+1) / 2, at the new positions.  The zero modes and free particles are integrated exactly as by
-         * Strang.  Without friction the filters are, with xi = omega H,
+         * A trigonometric (filtered impulse) integrator in the stiff modes, without the impulse bias of Strang: the
+         * Strang composition K(H/2) E(H) K(H/2) in which each half kick acts on each stiff mode (angular frequency
+         * omega > 0, friction gamma) scaled by the filter kappa, the one factor for which a constant soft force f has
+         * the exact mean displacement f/omega^2 as the fixed point of the step:
+         *
+         *     kappa H = (1 - Phi_vv) g_x / Phi_xv + g_v,
+         *
+         * with Phi the mode's exact transition over H and g_x, g_v its exact responses to a unit constant force.  The
+         * zero modes and free particles get the plain half kicks of Strang.  Without friction kappa = tan(xi/2)/(xi/2)
+         * with xi = omega H, and the step is the symmetric one-step trigonometric method
          *
          *     x_(n+1) = cos(xi) x_n + sin(xi)/omega v_n + (H^2/2) sinc^2(xi/2) f_n
-         *     v_(n+1) = -omega sin(xi) x_n + cos(xi) v_n + (H/2) sinc(xi) (f_n + f_(n+1))
+         *     v_(n+1) = -omega sin(xi) x_n + cos(xi) v_n + (H/2) (cos(xi) kappa f_n + kappa f_(n+1))
          *
-         * (Gautschi's position filter psi = sinc^2(xi/2) with phi = 1, Hairer, Lubich and Wanner, Geometric
-         * Numerical Integration, XIII.2.2).  Why these filters: a constant soft force f then gives each stiff mode the
-         * exact flow, hence the exact mean displacement f/omega^2, with any friction, where Strang gives
-         * (f/omega^2) (xi/2) cot(xi/2); no filter has a pole (the symmetric method with this property needs
-         * tan(xi/2)/(xi/2), which has one at xi = pi); and at the resonances xi = 2 pi k the filters vanish, so a mode
-         * in resonance is not driven by the soft forces.  The price is symmetry (the method is not time-reversible).
-         * Its local error is O(H^3) (the velocity update is the trapezoidal rule of the force, the position update
-         * misses H^3 f'/6), so it is of order 2 for a fixed omega, like Strang.  Forces are evaluated once per step.
-         *
-         * Without symmetry the energy is not conserved in the long run: a soft force of curvature a acting on a stiff
-         * mode turns the two-step recursion into x_(n+1) - 2 cos(xi) x_n + x_(n-1) = -H^2 a (alpha x_n + beta
-         * x_(n-1)) with beta = (1 - cos xi)^2 / (2 xi^2) > 0, so without friction the amplitude grows by about
-         * H^2 a beta / 2 per step.  Give the stiff modes a friction (setStiffModeFriction) that removes more than
-         * that (gamma H / 2 > H^2 a beta / 2), as a Drude thermostat does; for friction 0, Strang is the
-         * energy-conserving choice away from its resonances.
+         * (Hairer, Lubich and Wanner, Geometric Numerical Integration, XIII.2: the one-step form of Gautschi's
+         * two-step method, position filter psi = sinc^2(xi/2), phi = 1 so that forces are evaluated at the true
+         * positions).  Why this filter: the mean displacement of every stiff mode is exact for a constant soft force,
+         * with any friction, where Strang gives (f/omega^2) (xi/2) cot(xi/2) (0.64 of it at xi = 2); the step is
+         * symmetric, so it keeps the long-time energy behaviour of Strang; and at the resonances xi = 2 pi k the
+         * filter vanishes without friction, so a resonant mode is not driven by the soft forces.  The method cannot
+         * restore the mean where the damped mode turns by an odd multiple of pi per step: there Phi_xv = 0 and kappa
+         * has a pole (xi = pi, 3 pi, ... without friction); keep omega H away from them, as for Strang.  With friction
+         * kappa also has poles where the damped mode turns by 2 pi k, of residue ~(gamma H/2)^2: for a Drude
+         * thermostat (20/ps, H = 2 fs) kappa exceeds 1 only within 1e-5 of them.  kappa = 1 + O(xi^2), so the
+         * method is of order 2 for a fixed omega, like Strang; it is symmetric but not symplectic.  Forces are
+         * evaluated once per step.
          */
         Filtered = 3
     };

@@ -25,15 +25,12 @@ struct SubFlow {
         /** Exact flow of the quadratic stiff potential with friction and noise, E(h, gamma). */
         StiffFlow,
         /**
-         * E(h, gamma) together with the exact response of every stiff mode (omega > 0) to the forces of groups held
-         * constant at their values where it begins: the position response and half the velocity response (the
-         * Filtered splitting).  Zero modes and free particles get a half kick before E(h), as in Strang.
+         * The opening half kick of the Filtered splitting by the forces of groups, then E(h, gamma): the half kick is
+         * scaled in each stiff mode (omega > 0) by the filter kappa of StochasticImpulseIntegrator::Filtered, plain in
+         * the zero modes and free particles.  The kick is applied as the flow's image of it, after the flow.
          */
         FilteredStiffFlow,
-        /**
-         * The closing kick of the Filtered splitting by the forces of groups: half the exact velocity response of each
-         * stiff mode to a force held constant over h, and v += (h/2) F/m in the zero modes and free particles.
-         */
+        /** The closing half kick of the Filtered splitting by the forces of groups, scaled by kappa as above. */
         FilteredKick
     };
     Kind kind;

@@ -107,10 +107,10 @@ public:
     };
     /**
      * Computes the force responses of the Filtered splitting over a step h > 0 (see SubFlow::FilteredStiffFlow and
-     * FilteredKick).  The opening response (closing = false), added after the exact flow with the forces where it
-     * began: in a stiff mode (friction stiffGamma) the exact responses g_x(h) and g_v(h)/2 of the flow to a unit
-     * constant force, in a zero mode (friction gamma) the flow's image of a half kick, (h/2) (Phi_xv, Phi_vv).  The
-     * closing response: (0, g_v(h)/2) in a stiff mode, (0, h/2) in a zero mode.
+     * FilteredKick): a half kick h/2 scaled in each stiff mode (friction stiffGamma) by kappa, with
+     * kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v, and plain in the zero modes (friction gamma).  The opening response
+     * (closing = false) is the flow's image of the half kick, (Phi_xv, Phi_vv) kappa h/2, added after the flow with
+     * the forces where it began; the closing one is (0, kappa h/2).
      */
     void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, ForceResponse& response) const;
 

@@ -114,8 +114,11 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
             const double w = omega[comp.firstMode + comp.columns() * k];
             const ModeFlow f = computeModeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
             if (w > 0.0) {
-                out[2 * k] = closing ? 0.0 : f.gx;
-                out[2 * k + 1] = 0.5 * f.gv;
+                // Half kicks scaled by kappa, the one factor that makes the constant-force fixed point of
+                // K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2: kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v.
+                const double kappaHalfStep = 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
+                out[2 * k] = closing ? 0.0 : kappaHalfStep * f.xv;
+                out[2 * k + 1] = closing ? kappaHalfStep : kappaHalfStep * f.vv;
             } else {
                 out[2 * k] = closing ? 0.0 : 0.5 * h * f.xv;
                 out[2 * k + 1] = closing ? 0.5 * h : 0.5 * h * f.vv;

@@ -67,6 +67,13 @@ TEST_P(StepAllocations, StepsAllocateNoMoreThanTheirForceEvaluations) {
     StochasticImpulseIntegrator sim(300, 2.0, 0.01, StiffMask);
     const double simSteps = allocationsPerStep(sim);
     EXPECT_LE(simSteps, perEvaluation); // 1 evaluation per Strang step
+    StochasticImpulseIntegrator filtered(300, 2.0, 0.01, StiffMask);
+    filtered.setSplitting(StochasticImpulseIntegrator::Filtered);
+    filtered.setStiffModeTemperature(1.0);
+    filtered.setStiffModeFriction(20.0);
+    const double filteredSteps = allocationsPerStep(filtered);
+    EXPECT_LE(filteredSteps, perEvaluation); // 1 evaluation per Filtered step
+    RecordProperty("filteredSimAllocationsPerStep", std::to_string(filteredSteps));
     RecordProperty("verletAllocationsPerStep", std::to_string(perEvaluation));
     RecordProperty("flavorAllocationsPerStep", std::to_string(flavorSteps));
     RecordProperty("langevinFlavorAllocationsPerStep", std::to_string(langevinSteps));

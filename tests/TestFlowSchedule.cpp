@@ -97,3 +97,19 @@ TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
     StepPlan constrained = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), true);
     EXPECT_EQ(7u, constrained.passes.size());
 }
+
+TEST(FlowSchedule, FilteredIsTheFilteredStiffFlowAndItsClosingKickWithOneForceSlot) {
+    const ImpulseParameters filtered{StochasticImpulseIntegrator::Filtered, 0.002, Stiff, AllForceGroups};
+    const Schedule s = impulseSchedule(filtered);
+    EXPECT_EQ((Schedule{SubFlow{SubFlow::FilteredStiffFlow, 0.002, Soft}, SubFlow{SubFlow::FilteredKick, 0.002, Soft}}),
+              s);
+    // Both read the soft forces, each in a pass of its own: one force evaluation per step.
+    StepPlan plan = compileStepPlan(s, false);
+    ASSERT_EQ(2u, plan.passes.size());
+    EXPECT_EQ((std::vector<int>{Soft}), plan.slotGroups);
+    EXPECT_EQ(0, plan.passes[0].slots[0]);
+    EXPECT_EQ(0, plan.passes[1].slots[0]);
+    // Without soft groups only the exact stiff flow remains.
+    const ImpulseParameters stiffOnly{StochasticImpulseIntegrator::Filtered, 0.002, Stiff, Stiff};
+    EXPECT_EQ((Schedule{SubFlow{SubFlow::StiffFlow, 0.002, 0}}), impulseSchedule(stiffOnly));
+}

@@ -128,13 +128,21 @@ TEST_P(ImpulseApi, NonquadraticStiffForcesNegativeCurvatureAndConstraintsAreReje
     invertedContext.setPositions({Vec3(0.1, 0, 0)});
     expectRejected([&] { second.step(1); }, {"negative curvature", "omega^2 = -50"});
 
-    // A constraint on a particle of a stiff component, at Context creation.
+    // A constraint between two particles of one stiff component, at Context creation.
     std::unique_ptr<System> constrained(springPair(1e4, 0.0));
-    constrained->addParticle(1.0);
-    constrained->addConstraint(1, 2, 0.2);
+    constrained->addConstraint(1, 0, 0.2);
     StochasticImpulseIntegrator third(300, 1, 0.01, StiffMask);
     expectRejected([&] { Context c(*constrained, third, platform(), properties()); },
-                   {"constraint 0", "particles 1 and 2", "touches particle 1", "FlavorIntegrator"});
+                   {"constraint 0", "particles 1 and 0", "joins two particles of one stiff component"});
+    // Two particles of one stiff component, each constrained to another particle.
+    std::unique_ptr<System> twice(springPair(1e4, 0.0));
+    twice->addParticle(1.0);
+    twice->addParticle(1.0);
+    twice->addConstraint(0, 2, 0.2);
+    twice->addConstraint(3, 1, 0.2);
+    StochasticImpulseIntegrator fourth(300, 1, 0.01, StiffMask);
+    expectRejected([&] { Context c(*twice, fourth, platform(), properties()); },
+                   {"constraint 1", "particles 3 and 1", "particle 0", "at most one particle of each stiff component"});
 }
 
 TEST(ImpulseSerialization, XmlRoundTripKeepsEveryParameter) {

@@ -22,7 +22,15 @@ class IntegrateStochasticImpulseStepKernel;
  *
  * The stiffness matrix is measured from the stiff forces when the first step is taken, and again whenever a context
  * parameter changes or a force's updateParametersInContext() is called; call updateStiffModes() after any other
- * change to the stiff forces.  Particles of stiff components must not be constrained.
+ * change to the stiff forces.
+ *
+ * Constraints may join a stiff component to particles outside it (rigid water whose oxygen is the core of a Drude
+ * pair), with at most one constrained particle per stiff component; a constraint between two particles of one stiff
+ * component is an error.  The constrained particle carries its component through the constraint solve: it enters the
+ * solve with the total mass of its component, and the component's other particles move by the same correction, so the
+ * stiff (relative) coordinates stay exactly as the stiff flow made them.  This is the limit in which the stiff motion
+ * follows its carrier adiabatically; it neglects the share m_carrier/M_component - 1 of the constraint force that
+ * would act on the stiff modes (for SWM4-NDP water, 0.4/16 = 2.5% of the oxygen's constraint force).
  */
 class OPENMM_EXPORT_FLAVORS StochasticImpulseIntegrator : public OpenMM::Integrator {
 public:
@@ -35,7 +43,36 @@ public:
         /** Half kick, stiff flow, half kick: second order, symmetric (Integrator 3). */
         Strang = 1,
         /** The fourth-order composition of three Strang steps (Remark 2.4); only with friction 0. */
-        Yoshida4 = 2
+        Yoshida4 = 2,
+        /**
+         * A trigonometric (filtered impulse) integrator in the stiff modes, without the impulse bias of Strang: the
+         * Strang composition K(H/2) E(H) K(H/2) in which each half kick acts on each stiff mode (angular frequency
+         * omega > 0, friction gamma) scaled by the filter kappa, the one factor for which a constant soft force f has
+         * the exact mean displacement f/omega^2 as the fixed point of the step:
+         *
+         *     kappa H = (1 - Phi_vv) g_x / Phi_xv + g_v,
+         *
+         * with Phi the mode's exact transition over H and g_x, g_v its exact responses to a unit constant force.  The
+         * zero modes and free particles get the plain half kicks of Strang.  Without friction kappa = tan(xi/2)/(xi/2)
+         * with xi = omega H, and the step is the symmetric one-step trigonometric method
+         *
+         *     x_(n+1) = cos(xi) x_n + sin(xi)/omega v_n + (H^2/2) sinc^2(xi/2) f_n
+         *     v_(n+1) = -omega sin(xi) x_n + cos(xi) v_n + (H/2) (cos(xi) kappa f_n + kappa f_(n+1))
+         *
+         * (Hairer, Lubich and Wanner, Geometric Numerical Integration, XIII.2: the one-step form of Gautschi's
+         * two-step method, position filter psi = sinc^2(xi/2), phi = 1 so that forces are evaluated at the true
+         * positions).  Why this filter: the mean displacement of every stiff mode is exact for a constant soft force,
+         * with any friction, where Strang gives (f/omega^2) (xi/2) cot(xi/2) (0.64 of it at xi = 2); the step is
+         * symmetric, so it keeps the long-time energy behaviour of Strang; and at the resonances xi = 2 pi k the
+         * filter vanishes without friction, so a resonant mode is not driven by the soft forces.  The method cannot
+         * restore the mean where the damped mode turns by an odd multiple of pi per step: there Phi_xv = 0 and kappa
+         * has a pole (xi = pi, 3 pi, ... without friction); keep omega H away from them, as for Strang.  With friction
+         * kappa also has poles where the damped mode turns by 2 pi k, of residue ~(gamma H/2)^2: for a Drude
+         * thermostat (20/ps, H = 2 fs) kappa exceeds 1 only within 1e-5 of them.  kappa = 1 + O(xi^2), so the
+         * method is of order 2 for a fixed omega, like Strang; it is symmetric but not symplectic.  Forces are
+         * evaluated once per step.
+         */
+        Filtered = 3
     };
     /**
      * Create a StochasticImpulseIntegrator.
@@ -60,6 +97,36 @@ public:
      * Yoshida4 splitting.
      */
     void setFriction(double coeff);
+    /**
+     * Get the temperature (in Kelvin) of the exact Ornstein-Uhlenbeck flow of the stiff modes (the modes of the stiff
+     * potential with angular frequency omega > 0).  Until setStiffModeTemperature() is called it is the integrator's
+     * temperature, and follows it.
+     */
+    double getStiffModeTemperature() const { return stiffModeTemperature < 0 ? temperature : stiffModeTemperature; }
+    /**
+     * Set the temperature (in Kelvin) of the stiff modes, the modes of the stiff potential with angular frequency
+     * omega > 0 (for a Drude pair: the motion of the Drude particle relative to its core).  The zero modes of the stiff
+     * components (a pair's centre of mass) and every particle outside them keep the integrator's temperature.  A
+     * friction that is diagonal in the normal-mode basis commutes with the stiffness, so each mode remains an exactly
+     * integrated damped oscillator with its own bath: a cold Drude thermostat (about 1 K) is exact here.  It must be
+     * finite and non-negative.
+     */
+    void setStiffModeTemperature(double temp);
+    /**
+     * Get the friction coefficient (in inverse picoseconds) of the stiff modes.  Until setStiffModeFriction() is
+     * called it is the integrator's friction, and follows it.
+     */
+    double getStiffModeFriction() const { return stiffModeFriction < 0 ? friction : stiffModeFriction; }
+    /**
+     * Set the friction coefficient (in inverse picoseconds) of the stiff modes (omega > 0); the zero modes and the
+     * particles outside stiff components keep the integrator's friction.  It must be finite and non-negative, and 0
+     * for the Yoshida4 splitting.
+     */
+    void setStiffModeFriction(double coeff);
+    /** Whether setStiffModeTemperature() has been called (otherwise the stiff modes follow getTemperature()). */
+    bool hasStiffModeTemperature() const { return stiffModeTemperature >= 0; }
+    /** Whether setStiffModeFriction() has been called (otherwise the stiff modes follow getFriction()). */
+    bool hasStiffModeFriction() const { return stiffModeFriction >= 0; }
     /** Get the bitmask of stiff force groups. */
     int getStiffGroups() const { return stiffGroups; }
     /**
@@ -116,6 +183,8 @@ protected:
 
 private:
     double temperature, friction;
+    // Negative: not set, the stiff modes use temperature and friction.
+    double stiffModeTemperature, stiffModeFriction;
     int stiffGroups;
     Splitting splitting;
     int randomNumberSeed;

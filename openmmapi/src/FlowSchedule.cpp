@@ -24,7 +24,7 @@ SubFlow stiffFlow(double h) {
 }
 
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
-    if (a.kind != b.kind)
+    if (a.kind != b.kind || a.kind == SubFlow::FilteredStiffFlow || a.kind == SubFlow::FilteredKick)
         return false;
     return a.kind != SubFlow::Kick || a.groups == b.groups;
 }
@@ -92,6 +92,13 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
         s.push_back(kick(H, soft));
     } else if (p.splitting == StochasticImpulseIntegrator::Strang) {
         strang(H);
+    } else if (p.splitting == StochasticImpulseIntegrator::Filtered) {
+        if (soft == 0) {
+            s.push_back(stiffFlow(H));
+        } else {
+            s.push_back(SubFlow{SubFlow::FilteredStiffFlow, H, soft});
+            s.push_back(SubFlow{SubFlow::FilteredKick, H, soft});
+        }
     } else {
         const double c = 1.0 / (2.0 - std::cbrt(2.0));
         strang(c * H);
@@ -105,16 +112,20 @@ StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool oneFlowPer
     StepPlan plan;
     bool driftedInPass = false;
     for (const SubFlow& flow : schedule) {
-        const bool previousWasStiff =
-            !plan.passes.empty() && plan.passes.back().flows.back().kind == SubFlow::StiffFlow;
-        bool newPass = plan.passes.empty() || oneFlowPerPass || flow.kind == SubFlow::StiffFlow || previousWasStiff ||
+        // Stiff-mode work (the stiff flow and the filtered kicks) runs over components, each in a pass of its own.
+        auto overComponents = [](SubFlow::Kind kind) {
+            return kind == SubFlow::StiffFlow || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick;
+        };
+        const bool previousWasStiff = !plan.passes.empty() && overComponents(plan.passes.back().flows.back().kind);
+        bool newPass = plan.passes.empty() || oneFlowPerPass || overComponents(flow.kind) || previousWasStiff ||
                        (flow.kind == SubFlow::Kick && driftedInPass);
         if (newPass) {
             plan.passes.emplace_back();
             driftedInPass = false;
         }
         int slot = -1;
-        if (flow.kind == SubFlow::Kick) {
+        if (flow.kind == SubFlow::Kick || flow.kind == SubFlow::FilteredStiffFlow ||
+            flow.kind == SubFlow::FilteredKick) {
             auto found = std::find(plan.slotGroups.begin(), plan.slotGroups.end(), flow.groups);
             slot = (int)(found - plan.slotGroups.begin());
             if (found == plan.slotGroups.end())

@@ -4,32 +4,77 @@
 #include "openmm/System.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/internal/ForceImpl.h"
+#include <map>
 #include <string>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
+using std::string;
 using std::vector;
 
-vector<bool> FlavorPlugin::bondedStiffParticles(ContextImpl& context, int stiffGroups) {
-    vector<bool> stiff(context.getSystem().getNumParticles(), false);
-    for (ForceImpl* impl : context.getForceImpls())
-        if ((stiffGroups & (1 << impl->getOwner().getForceGroup())) != 0)
-            for (const std::pair<int, int>& bond : impl->getBondedParticles())
-                stiff[bond.first] = stiff[bond.second] = true;
-    return stiff;
+namespace {
+
+int findRoot(vector<int>& parent, int i) {
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
 }
 
-void FlavorPlugin::rejectConstrainedStiffParticles(const ContextImpl& context, const vector<bool>& stiff) {
+} // namespace
+
+vector<int> FlavorPlugin::bondedStiffComponents(ContextImpl& context, int stiffGroups) {
+    const int numParticles = context.getSystem().getNumParticles();
+    vector<int> parent(numParticles);
+    vector<bool> stiff(numParticles, false);
+    for (int i = 0; i < numParticles; ++i)
+        parent[i] = i;
+    for (ForceImpl* impl : context.getForceImpls())
+        if ((stiffGroups & (1 << impl->getOwner().getForceGroup())) != 0)
+            for (const std::pair<int, int>& bond : impl->getBondedParticles()) {
+                stiff[bond.first] = stiff[bond.second] = true;
+                parent[findRoot(parent, bond.first)] = findRoot(parent, bond.second);
+            }
+    vector<int> componentOf(numParticles, -1), lowest(numParticles, -1);
+    for (int i = 0; i < numParticles; ++i)
+        if (stiff[i]) {
+            const int root = findRoot(parent, i);
+            if (lowest[root] < 0)
+                lowest[root] = i;
+            componentOf[i] = lowest[root];
+        }
+    return componentOf;
+}
+
+void FlavorPlugin::rejectConstraintsInsideStiffComponents(const ContextImpl& context, const vector<int>& componentOf) {
     const System& system = context.getSystem();
+    // For each component, its constrained particle so far (-1: none yet).
+    std::map<int, int> constrainedParticle;
     for (int c = 0; c < system.getNumConstraints(); ++c) {
         int p1, p2;
         double distance;
         system.getConstraintParameters(c, p1, p2, distance);
-        if (stiff[p1] || stiff[p2])
-            throw OpenMMException("StochasticImpulseIntegrator: constraint " + std::to_string(c) +
-                                  " between particles " + std::to_string(p1) + " and " + std::to_string(p2) +
-                                  " touches particle " + std::to_string(stiff[p1] ? p1 : p2) +
-                                  " of a stiff component; the exact stiff flow cannot hold constraints.  Remove the "
-                                  "constraint or use FlavorIntegrator");
+        const string constraint = "constraint " + std::to_string(c) + " between particles " + std::to_string(p1) +
+                                  " and " + std::to_string(p2);
+        if (componentOf[p1] >= 0 && componentOf[p1] == componentOf[p2])
+            throw OpenMMException("StochasticImpulseIntegrator: " + constraint +
+                                  " joins two particles of one stiff component (the component of particle " +
+                                  std::to_string(componentOf[p1]) +
+                                  "); the exact stiff flow cannot hold a constraint inside a component.  Constraints "
+                                  "are allowed only between a stiff component and particles outside it: remove the "
+                                  "constraint or the stiff force between these particles");
+        for (int p : {p1, p2}) {
+            if (componentOf[p] < 0)
+                continue;
+            auto found = constrainedParticle.find(componentOf[p]);
+            if (found == constrainedParticle.end())
+                constrainedParticle[componentOf[p]] = p;
+            else if (found->second != p)
+                throw OpenMMException(
+                    "StochasticImpulseIntegrator: " + constraint + " touches particle " + std::to_string(p) +
+                    ", and particle " + std::to_string(found->second) +
+                    " of the same stiff component is constrained too; at most one particle of each stiff component "
+                    "may be constrained (it carries its component, e.g. a Drude particle with its core, through the "
+                    "constraint solve)");
+        }
     }
 }

@@ -19,7 +19,7 @@ const string Owner = "StochasticImpulseIntegrator";
 void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting splitting, double friction,
                                     const string& parameter) {
     if (splitting == StochasticImpulseIntegrator::Yoshida4 && friction != 0.0)
-        throwInvalidParameter(Owner, parameter, parameter == "friction" ? formatNumber(friction) : string("Yoshida4"),
+        throwInvalidParameter(Owner, parameter, parameter == "splitting" ? string("Yoshida4") : formatNumber(friction),
                               "the Yoshida4 splitting has a substep backwards in time and is defined only for friction "
                               "0 (friction is " +
                                   formatNumber(friction) + " 1/ps); use Strang or LieTrotter with friction");
@@ -29,8 +29,8 @@ void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting split
 
 StochasticImpulseIntegrator::StochasticImpulseIntegrator(double temperature, double frictionCoeff, double stepSize,
                                                          int stiffGroups)
-    : temperature(0.0), friction(0.0), stiffGroups(0), splitting(Strang), randomNumberSeed(0), forcesAreValid(false),
-      stiffModesValid(false), stepKernel(nullptr) {
+    : temperature(0.0), friction(0.0), stiffModeTemperature(-1.0), stiffModeFriction(-1.0), stiffGroups(0),
+      splitting(Strang), randomNumberSeed(0), forcesAreValid(false), stiffModesValid(false), stepKernel(nullptr) {
     requireNonNegative(Owner, "temperature", temperature, "K");
     requireNonNegative(Owner, "friction", frictionCoeff, "1/ps");
     requirePositive(Owner, "stepSize", stepSize, "ps");
@@ -58,6 +58,17 @@ void StochasticImpulseIntegrator::setFriction(double coeff) {
     friction = coeff;
 }
 
+void StochasticImpulseIntegrator::setStiffModeTemperature(double temp) {
+    requireNonNegative(Owner, "stiffModeTemperature", temp, "K");
+    stiffModeTemperature = temp;
+}
+
+void StochasticImpulseIntegrator::setStiffModeFriction(double coeff) {
+    requireNonNegative(Owner, "stiffModeFriction", coeff, "1/ps");
+    requireSplittingAllowsFriction(splitting, coeff, "stiffModeFriction");
+    stiffModeFriction = coeff;
+}
+
 void StochasticImpulseIntegrator::setStiffGroups(int groups) {
     requireGroupMask(Owner, "stiffGroups", groups);
     if (context != nullptr) {
@@ -75,10 +86,11 @@ void StochasticImpulseIntegrator::setIntegrationForceGroups(int groups) {
 }
 
 void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
-    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4)
+    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4 && newSplitting != Filtered)
         throwInvalidParameter(Owner, "splitting", std::to_string((int)newSplitting),
-                              "splitting must be LieTrotter (0), Strang (1) or Yoshida4 (2)");
+                              "splitting must be LieTrotter (0), Strang (1), Yoshida4 (2) or Filtered (3)");
     requireSplittingAllowsFriction(newSplitting, friction, "splitting");
+    requireSplittingAllowsFriction(newSplitting, getStiffModeFriction(), "splitting");
     splitting = newSplitting;
 }
 
@@ -97,7 +109,7 @@ void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
         throw OpenMMException("This Integrator is already bound to a context");
     requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
     requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, getIntegrationForceGroups());
-    rejectConstrainedStiffParticles(contextRef, bondedStiffParticles(contextRef, stiffGroups));
+    rejectConstraintsInsideStiffComponents(contextRef, bondedStiffComponents(contextRef, stiffGroups));
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateStochasticImpulseStepKernel::Name(), contextRef);

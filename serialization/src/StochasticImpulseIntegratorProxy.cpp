@@ -13,7 +13,7 @@ StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
 
 void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
-    node.setIntProperty("version", 1);
+    node.setIntProperty("version", 2);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
@@ -22,16 +22,25 @@ void StochasticImpulseIntegratorProxy::serialize(const void* object, Serializati
     node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
     node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
     node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
+    // Version 2: the stiff modes' own bath, written only where it was set (otherwise it follows the integrator's).
+    if (integrator.hasStiffModeTemperature())
+        node.setDoubleProperty("stiffModeTemperature", integrator.getStiffModeTemperature());
+    if (integrator.hasStiffModeFriction())
+        node.setDoubleProperty("stiffModeFriction", integrator.getStiffModeFriction());
 }
 
 void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version != 1)
+    if (version < 1 || version > 2)
         throw OpenMMException("StochasticImpulseIntegrator: unsupported serialization version " +
-                              std::to_string(version) + "; this library reads version 1");
+                              std::to_string(version) + "; this library reads versions 1 and 2");
     auto integrator = std::make_unique<StochasticImpulseIntegrator>(
         node.getDoubleProperty("temperature"), node.getDoubleProperty("friction"), node.getDoubleProperty("stepSize"),
         node.getIntProperty("stiffGroups"));
+    if (version >= 2 && node.hasProperty("stiffModeTemperature"))
+        integrator->setStiffModeTemperature(node.getDoubleProperty("stiffModeTemperature"));
+    if (version >= 2 && node.hasProperty("stiffModeFriction"))
+        integrator->setStiffModeFriction(node.getDoubleProperty("stiffModeFriction"));
     integrator->setSplitting((StochasticImpulseIntegrator::Splitting)node.getIntProperty("splitting"));
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));

@@ -18,6 +18,11 @@ CASES = {
     "yoshida4-friction0": dict(splitting=StochasticImpulseIntegrator.Yoshida4, friction=0.0),
     "strang-langevin": dict(splitting=StochasticImpulseIntegrator.Strang, friction=3.0, seed=2024),
     "lietrotter-langevin": dict(splitting=StochasticImpulseIntegrator.LieTrotter, friction=3.0, seed=77),
+    "strang-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Strang, friction=3.0, seed=5,
+                                             stiff_mode_bath=(1.0, 20.0)),
+    "filtered-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=3.0, seed=8,
+                                               stiff_mode_bath=(1.0, 20.0)),
+    "filtered-friction0": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=0.0),
 }
 LANGEVIN = [case for case in CASES if "langevin" in case]
 
@@ -26,6 +31,9 @@ def case_integrator(case, seed=None):
     options = CASES[case]
     integrator = StochasticImpulseIntegrator(300.0, options["friction"], STEP, {1})
     integrator.setSplitting(options["splitting"])
+    if "stiff_mode_bath" in options:
+        integrator.setStiffModeTemperature(options["stiff_mode_bath"][0])
+        integrator.setStiffModeFriction(options["stiff_mode_bath"][1])
     chosen = seed if seed is not None else options.get("seed")
     if chosen is not None:
         integrator.setRandomNumberSeed(chosen)

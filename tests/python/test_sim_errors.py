@@ -61,7 +61,7 @@ BAD_SETTER_CALLS = [
     ("setStepSize", 0.0, "stepSize"),
     ("setStepSize", -1 * unit.femtosecond, "stepSize"),
     ("setStiffGroups", 0, "stiffGroups"),
-    ("setSplitting", 3, "splitting"),
+    ("setSplitting", 4, "splitting"),
     ("setSplitting", -1, "splitting"),
 ]
 
@@ -178,15 +178,43 @@ def test_negative_stiff_curvature_is_refused(platform_name):
     assert context.getState().getStepCount() == 0
 
 
-@pytest.mark.parametrize("pair", [(1, 2), (2, 0)])
-def test_constraint_on_stiff_particle_refused_at_context_creation(platform_name, pair):
-    system = spring_system(0.0, extra_particles=1)
-    system.addConstraint(pair[0], pair[1], 0.1)
+def test_constraint_inside_a_stiff_component_refused_at_context_creation(platform_name):
+    system = spring_system(0.0)
+    system.addConstraint(1, 0, 0.1)
     integrator = StochasticImpulseIntegrator(300.0, 1.0, 0.01, {1})
     with pytest.raises(openmm.OpenMMException) as info:
-        make_context(system, integrator, platform_name, positions=positions(3), velocities=zero_velocities(3))
+        make_context(system, integrator, platform_name, positions=positions(2), velocities=zero_velocities(2))
     message = str(info.value)
-    assert "constraint" in message and "FlavorIntegrator" in message, message
+    assert "constraint 0 between particles 1 and 0" in message, message
+    assert "joins two particles of one stiff component" in message, message
+
+
+def test_two_constrained_particles_of_one_stiff_component_refused(platform_name):
+    system = spring_system(0.0, extra_particles=2)
+    system.addConstraint(0, 2, 0.1)
+    system.addConstraint(3, 1, 0.1)
+    integrator = StochasticImpulseIntegrator(300.0, 1.0, 0.01, {1})
+    with pytest.raises(openmm.OpenMMException) as info:
+        make_context(system, integrator, platform_name, positions=positions(4), velocities=zero_velocities(4))
+    message = str(info.value)
+    assert "constraint 1 between particles 3 and 1" in message and "particle 0" in message, message
+    assert "at most one particle of each stiff component" in message, message
+
+
+@pytest.mark.parametrize("pair", [(1, 2), (2, 0)])
+def test_constraint_from_a_stiff_particle_to_another_is_held(platform_name, pair):
+    system = spring_system(0.0, extra_particles=1)
+    system.addConstraint(pair[0], pair[1], 0.1)
+    integrator = StochasticImpulseIntegrator(300.0, 1.0, 0.002, {1})
+    integrator.setConstraintTolerance(1e-8)
+    context = make_context(system, integrator, platform_name,
+                           positions=[openmm.Vec3(0, 0, 0), openmm.Vec3(0.01, 0, 0), openmm.Vec3(0.1, 0, 0)] *
+                           unit.nanometer, velocities=zero_velocities(3))
+    context.applyConstraints(1e-8)
+    for _ in range(20):
+        integrator.step(1)
+        pos, _ = state_arrays(context)
+        assert np.linalg.norm(pos[pair[0]] - pos[pair[1]]) == pytest.approx(0.1, rel=1e-7)
 
 
 def test_constraint_away_from_stiff_particles_is_allowed(platform_name):

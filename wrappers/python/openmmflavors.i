@@ -115,6 +115,12 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setFriction %{
     coeff = _stripUnits(coeff, unit.picosecond**-1, "friction")
 %}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffModeTemperature %{
+    temp = _stripUnits(temp, unit.kelvin, "stiffModeTemperature")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffModeFriction %{
+    coeff = _stripUnits(coeff, unit.picosecond**-1, "stiffModeFriction")
+%}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffGroups %{
     groups = _groupMask(groups, "stiffGroups")
 %}
@@ -124,6 +130,12 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
     val = unit.Quantity(val, unit.kelvin)
 %}
 %pythonappend FlavorPlugin::StochasticImpulseIntegrator::getFriction %{
+    val = unit.Quantity(val, unit.picosecond**-1)
+%}
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeTemperature %{
+    val = unit.Quantity(val, unit.kelvin)
+%}
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeFriction %{
     val = unit.Quantity(val, unit.picosecond**-1)
 %}
 %pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeFrequencies %{

@@ -23,11 +23,19 @@ struct SubFlow {
         /** Exact Ornstein-Uhlenbeck flow of friction and noise over h. */
         Thermostat,
         /** Exact flow of the quadratic stiff potential with friction and noise, E(h, gamma). */
-        StiffFlow
+        StiffFlow,
+        /**
+         * The opening half kick of the Filtered splitting by the forces of groups, then E(h, gamma): the half kick is
+         * scaled in each stiff mode (omega > 0) by the filter kappa of StochasticImpulseIntegrator::Filtered, plain in
+         * the zero modes and free particles.  The kick is applied as the flow's image of it, after the flow.
+         */
+        FilteredStiffFlow,
+        /** The closing half kick of the Filtered splitting by the forces of groups, scaled by kappa as above. */
+        FilteredKick
     };
     Kind kind;
     double h;
-    /** The force groups of a Kick; unused otherwise. */
+    /** The force groups of a Kick, FilteredStiffFlow or FilteredKick; unused otherwise. */
     int groups;
     bool operator==(const SubFlow& other) const { return kind == other.kind && h == other.h && groups == other.groups; }
 };
@@ -69,8 +77,8 @@ struct ImpulseParameters {
 
 /**
  * Builds the schedule of one stochastic impulse step (docs/ARCHITECTURE.md): E(H) K_soft(H) (LieTrotter),
- * K_soft(H/2) E(H) K_soft(H/2) (Strang), or Strang composed as S(c H) S((1-2c) H) S(c H) with
- * c = 1/(2 - 2^(1/3)) (Yoshida4).
+ * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
+ * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered; E(H) alone without soft groups).
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 

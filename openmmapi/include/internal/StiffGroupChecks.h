@@ -11,14 +11,19 @@ class ContextImpl;
 namespace FlavorPlugin {
 
 /**
- * The particles that the bonded stiff forces link to others, known without positions (for checks at Context
- * creation).
+ * The connected components that the bonded stiff forces link particles into, known without positions (for checks at
+ * Context creation): for each particle, the lowest index of its component, or -1 if no stiff force links it.
  */
-OPENMM_EXPORT_FLAVORS std::vector<bool> bondedStiffParticles(OpenMM::ContextImpl& context, int stiffGroups);
+OPENMM_EXPORT_FLAVORS std::vector<int> bondedStiffComponents(OpenMM::ContextImpl& context, int stiffGroups);
 
-/** Throws if a constraint of the System touches a particle for which stiff[i] is true. */
-OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
-                                                           const std::vector<bool>& stiff);
+/**
+ * Throws unless the constraints of the System can be applied beside the exact stiff flow: every particle of a stiff
+ * component (componentOf[i] >= 0 names the component of particle i) may be constrained only to particles outside its
+ * component, and at most one particle of each component may be constrained (it carries its component through the
+ * constraint solve).
+ */
+OPENMM_EXPORT_FLAVORS void rejectConstraintsInsideStiffComponents(const OpenMM::ContextImpl& context,
+                                                                  const std::vector<int>& componentOf);
 
 } // namespace FlavorPlugin
 

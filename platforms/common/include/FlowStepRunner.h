@@ -14,11 +14,13 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace OpenMM {
 class ContextImpl;
-}
+class ReferenceConstraints;
+} // namespace OpenMM
 
 namespace FlavorPlugin {
 
@@ -26,13 +28,20 @@ namespace FlavorPlugin {
  * Executes a Schedule on the particle data of a Reference or CPU Context.  Forces are cached per force-group
  * set and valid until positions change, so each group set is evaluated once per distinct set of positions.
  * Constraints are applied as OpenMM's VerletIntegrator applies them: positions after each drift (with the
- * velocity corrected to the constrained displacement), velocities after each kick or thermostat.  Virtual sites
+ * velocity corrected to the constrained displacement) and after each stiff flow (with the velocity change of the same
+ * correction in the free flow), velocities after each kick or thermostat.  Virtual sites
  * are placed before each force evaluation and at the end of the step.  docs/ARCHITECTURE.md follows one step through
  * it.
+ *
+ * A constrained particle of a stiff component (the core of a Drude pair in rigid water) carries its component through
+ * the constraint solve: it enters the solve with the inverse of its component's total mass, and every other particle
+ * of the component moves by the correction of its carrier, so the component's internal (stiff) coordinates are left
+ * exactly as the stiff flow made them.
  */
 class OPENMM_EXPORT_FLAVORS FlowStepRunner {
 public:
     FlowStepRunner(const OpenMM::System& system, std::unique_ptr<ParallelLoop> loop);
+    ~FlowStepRunner();
     /**
      * Sets the schedule of one step, the thermal energy kT (kJ/mol) and the friction (1/ps) of its thermostats.
      * Cheap when nothing changed.
@@ -43,6 +52,11 @@ public:
      * setSchedule()).
      */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    /**
+     * Sets the thermal energy kT (kJ/mol) and friction (1/ps) of the stiff modes (omega > 0) in StiffFlow sub-flows;
+     * a negative value means the one given to setSchedule().  Cheap when nothing changed.
+     */
+    void setStiffModeBath(double kT, double friction);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
     void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
@@ -83,8 +97,14 @@ private:
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
     /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
+    /** Constrains positions (reference: the positions before the move) or velocities, carrying stiff components. */
+    void constrainPositions(OpenMM::ContextImpl& context, double tolerance);
+    void constrainVelocities(OpenMM::ContextImpl& context, double tolerance);
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                       double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
+    /** Adds the force response of pass passIndex to the forces of the flow's slot (FilteredKick). */
+    void runFilteredKick(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                         double constraintTolerance);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
@@ -97,6 +117,8 @@ private:
     std::vector<int> frictionParticles;
     Schedule schedule;
     double kT, friction;
+    // Negative: as kT and friction.
+    double stiffKT, stiffFriction;
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.
@@ -105,8 +127,22 @@ private:
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;
+    // For each FilteredStiffFlow or FilteredKick pass, its response to the forces of its slot.
+    std::vector<StiffModes::ForceResponse> forceResponses;
+    std::unique_ptr<ForceResponseTask> forceResponseTask;
     std::vector<ForceSlot> slots;
     std::vector<OpenMM::Vec3> previousPositions;
+    // The positions after a stiff flow, before their constraint correction.
+    std::vector<OpenMM::Vec3> unconstrainedPositions;
+    // The System's particles and constraints (and angles, which CCMA uses), from which the solver of carried
+    // constraints is built with each carrier's mass replaced by its component's.
+    std::unique_ptr<OpenMM::System> constraintSystem;
+    // When stiff components are constrained: the solver with carrier masses, its inverse masses, the (carried,
+    // carrier) particle pairs and room for each carrier's coordinates before the solve.
+    std::unique_ptr<OpenMM::ReferenceConstraints> carriedConstraints;
+    std::vector<double> carriedInverseMasses;
+    std::vector<std::pair<int, int>> carriedParticles;
+    std::vector<OpenMM::Vec3> carrierBefore;
     int thermostatsPerStep;
     std::uint64_t seed, nextStream;
     CounterRandom random;

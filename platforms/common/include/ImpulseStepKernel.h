@@ -37,7 +37,7 @@ private:
     std::vector<double> masses;
     bool configured;
     ImpulseParameters parameters;
-    double kT, friction;
+    double kT, friction, stiffKT, stiffFriction;
 };
 
 } // namespace FlavorPlugin

@@ -23,6 +23,11 @@ struct PreparedFlow {
     double decay, noise;
     /** Thermostat: the random stream it draws from, relative to the step's first stream. */
     int streamOffset;
+    /**
+     * StiffFlow, FilteredStiffFlow: the velocity change per unit position change that a constraint correction at the
+     * start of the flow makes in a zero mode, Phi_vv/Phi_xv (1/h without friction).
+     */
+    double constraintVelocityScale;
 };
 
 /**
@@ -91,6 +96,8 @@ struct ParticlePass : public RangeTask {
                     thermostat(flow, first, last);
                     break;
                 case SubFlow::StiffFlow:
+                case SubFlow::FilteredStiffFlow:
+                case SubFlow::FilteredKick:
                     break; // never in a particle pass (compileStepPlan)
                 }
             }

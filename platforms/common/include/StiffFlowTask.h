@@ -50,6 +50,28 @@ private:
     mutable std::vector<double> scratch;
 };
 
+/**
+ * Adds a StiffModes::ForceResponse to a force to positions and velocities, one component per index of the range:
+ * x += M^-1/2 U diag(rx) U^T M^-1/2 F and likewise v with rv.
+ */
+class ForceResponseTask : public RangeTask {
+public:
+    /** Sizes the scratch; nothing is allocated later. */
+    explicit ForceResponseTask(const StiffModes& modes);
+    void apply(int begin, int end) const override;
+
+    const StiffModes::ForceResponse* response = nullptr;
+    const OpenMM::Vec3* forces = nullptr;
+    OpenMM::Vec3* positions = nullptr;
+    OpenMM::Vec3* velocities = nullptr;
+
+private:
+    const StiffModes& modes;
+    std::vector<std::size_t> scratchOffset;
+    // Per component: the force in particle and in mode coordinates, then the two responses, D x C each.
+    mutable std::vector<double> scratch;
+};
+
 } // namespace FlavorPlugin
 
 #endif

@@ -88,10 +88,31 @@ public:
         bool noisy = false;
     };
     /**
-     * Computes the propagator over a step h with friction gamma and thermal energy kT; h < 0 is allowed for
-     * gamma = 0 (the inverse flow).
+     * Computes the propagator over a step h.  The zero modes (omega = 0: free particles, a component's translations)
+     * have friction gamma and thermal energy kT, the stiff modes (omega > 0) stiffGamma and stiffKT: friction that is
+     * diagonal in the mode basis commutes with Omega, so every mode stays an independent, exactly integrated damped
+     * oscillator.  h < 0 is allowed when both frictions are 0 (the inverse flow).
      */
-    void computePropagator(double h, double gamma, double kT, Propagator& propagator) const;
+    void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
+                           Propagator& propagator) const;
+
+    /**
+     * The response of positions and velocities to a force F held by each mode: per component, for each of its D modes
+     * k the pair (rx_k, rv_k), so that in mass-weighted mode coordinates x_k += rx_k f_k and v_k += rv_k f_k with
+     * f = U^T M^-1/2 F (the C columns of an isotropic component share the pair).
+     */
+    struct ForceResponse {
+        std::vector<std::size_t> offset;
+        std::vector<double> data;
+    };
+    /**
+     * Computes the force responses of the Filtered splitting over a step h > 0 (see SubFlow::FilteredStiffFlow and
+     * FilteredKick): a half kick h/2 scaled in each stiff mode (friction stiffGamma) by kappa, with
+     * kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v, and plain in the zero modes (friction gamma).  The opening response
+     * (closing = false) is the flow's image of the half kick, (Phi_xv, Phi_vv) kappa h/2, added after the flow with
+     * the forces where it began; the closing one is (0, kappa h/2).
+     */
+    void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, ForceResponse& response) const;
 
 private:
     std::vector<Component> components;

@@ -1,5 +1,6 @@
 #include "FlowStepRunner.h"
 #include "internal/ExactModeFlow.h"
+#include "openmm/HarmonicAngleForce.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferenceConstraints.h"
@@ -25,7 +26,8 @@ ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
 
 FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoop> loop)
     : loop(std::move(loop)), numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0),
-      hasVirtualSites(false), kT(-1.0), friction(-1.0), thermostatsPerStep(0), seed(0), nextStream(0) {
+      hasVirtualSites(false), kT(-1.0), friction(-1.0), stiffKT(-1.0), stiffFriction(-1.0), thermostatsPerStep(0),
+      seed(0), nextStream(0) {
     masses.resize(numParticles);
     inverseMasses.resize(numParticles);
     thermalSpeeds.resize(numParticles);
@@ -40,10 +42,34 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
         }
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     }
-    if (hasConstraints)
+    if (hasConstraints) {
         previousPositions.resize(numParticles);
+        unconstrainedPositions.resize(numParticles);
+        constraintSystem = std::make_unique<System>();
+        for (int i = 0; i < numParticles; ++i)
+            constraintSystem->addParticle(masses[i]);
+        for (int c = 0; c < system.getNumConstraints(); ++c) {
+            int p1, p2;
+            double distance;
+            system.getConstraintParameters(c, p1, p2, distance);
+            constraintSystem->addConstraint(p1, p2, distance);
+        }
+        for (int f = 0; f < system.getNumForces(); ++f)
+            if (const auto* angles = dynamic_cast<const HarmonicAngleForce*>(&system.getForce(f))) {
+                HarmonicAngleForce* copy = new HarmonicAngleForce();
+                for (int a = 0; a < angles->getNumAngles(); ++a) {
+                    int p1, p2, p3;
+                    double angle, k;
+                    angles->getAngleParameters(a, p1, p2, p3, angle, k);
+                    copy->addAngle(p1, p2, p3, angle, k);
+                }
+                constraintSystem->addForce(copy);
+            }
+    }
     thermostated.assign(numParticles, 1.0);
 }
+
+FlowStepRunner::~FlowStepRunner() = default;
 
 void FlowStepRunner::setFrictionParticles(const vector<int>& particles) {
     if (particles == frictionParticles)
@@ -63,9 +89,57 @@ void FlowStepRunner::setSchedule(const Schedule& newSchedule, double newKT, doub
     prepare();
 }
 
+void FlowStepRunner::setStiffModeBath(double newKT, double newFriction) {
+    if (newKT == stiffKT && newFriction == stiffFriction)
+        return;
+    stiffKT = newKT;
+    stiffFriction = newFriction;
+    prepare();
+}
+
 void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     stiffModes = modes;
+    carriedConstraints.reset();
+    carriedParticles.clear();
+    if (modes && hasConstraints) {
+        // The constrained particle of each stiff component (the API checks allow at most one) carries the others.
+        vector<int> componentOf(numParticles, -1);
+        for (int c = 0; c < modes->getNumComponents(); ++c)
+            if (modes->getComponent(c).stiff)
+                for (int k = 0; k < modes->getComponent(c).numParticles; ++k)
+                    componentOf[modes->getComponentParticles(c)[k]] = c;
+        vector<int> carrierOf(modes->getNumComponents(), -1);
+        for (int c = 0; c < constraintSystem->getNumConstraints(); ++c) {
+            int p1, p2;
+            double distance;
+            constraintSystem->getConstraintParameters(c, p1, p2, distance);
+            for (int p : {p1, p2})
+                if (componentOf[p] >= 0)
+                    carrierOf[componentOf[p]] = p;
+        }
+        carriedInverseMasses = inverseMasses;
+        for (int c = 0; c < modes->getNumComponents(); ++c) {
+            const int carrier = carrierOf[c];
+            if (carrier < 0)
+                continue;
+            double total = 0;
+            for (int k = 0; k < modes->getComponent(c).numParticles; ++k) {
+                const int p = modes->getComponentParticles(c)[k];
+                total += masses[p];
+                if (p != carrier)
+                    carriedParticles.emplace_back(p, carrier);
+            }
+            carriedInverseMasses[carrier] = 1.0 / total;
+            constraintSystem->setParticleMass(carrier, total);
+        }
+        if (!carriedParticles.empty())
+            carriedConstraints = std::make_unique<ReferenceConstraints>(*constraintSystem);
+        for (int i = 0; i < numParticles; ++i)
+            constraintSystem->setParticleMass(i, masses[i]);
+        carrierBefore.resize(carriedParticles.size());
+    }
     stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
+    forceResponseTask = modes ? std::make_unique<ForceResponseTask>(*modes) : nullptr;
     prepare();
 }
 
@@ -84,24 +158,32 @@ void FlowStepRunner::prepare() {
         thermalSpeeds[i] = std::sqrt(kT * inverseMasses[i]);
     preparedPasses.clear();
     stiffFlows.assign(plan.passes.size(), StiffModes::Propagator());
+    forceResponses.assign(plan.passes.size(), StiffModes::ForceResponse());
+    const double modeKT = stiffKT < 0 ? kT : stiffKT, modeFriction = stiffFriction < 0 ? friction : stiffFriction;
     thermostatsPerStep = 0;
     for (size_t passIndex = 0; passIndex < plan.passes.size(); ++passIndex) {
         const FlowPass& pass = plan.passes[passIndex];
         vector<PreparedFlow> prepared;
         for (size_t k = 0; k < pass.flows.size(); ++k) {
             const SubFlow& flow = pass.flows[k];
-            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0};
+            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0, 0.0};
             if (flow.kind == SubFlow::Thermostat) {
                 const VelocityFlow ou = computeVelocityFlow(friction, flow.h);
                 p.decay = ou.decay;
                 p.noise = ou.noise;
                 p.streamOffset = thermostatsPerStep++;
             }
-            if (flow.kind == SubFlow::StiffFlow) {
+            if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
                 p.streamOffset = thermostatsPerStep++;
+                // Constrained particles are free particles or carry their component as a rigid body: zero modes.
+                const ModeFlow zeroMode = computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
+                p.constraintVelocityScale = zeroMode.vv / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
                 if (stiffModes)
-                    stiffModes->computePropagator(flow.h, friction, kT, stiffFlows[passIndex]);
+                    stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex]);
             }
+            if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick))
+                stiffModes->computeForceResponse(flow.h, friction, modeFriction, flow.kind == SubFlow::FilteredKick,
+                                                 forceResponses[passIndex]);
             prepared.push_back(p);
         }
         preparedPasses.push_back(prepared);
@@ -158,6 +240,16 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
             kickForces = nullptr;
             continue;
         }
+        if (flows[0].kind == SubFlow::FilteredStiffFlow) {
+            // The forces where the flow begins; runStiffFlow adds their response after the flow.
+            ensureForces(context, flows[0].slot);
+            runStiffFlow(context, p, flows[0], constraintTolerance, nullptr, 0.0);
+            continue;
+        }
+        if (flows[0].kind == SubFlow::FilteredKick) {
+            runFilteredKick(context, p, flows[0], constraintTolerance);
+            continue;
+        }
         ParticlePass pass;
         pass.flows = flows.data();
         pass.numFlows = (int)flows.size();
@@ -189,13 +281,13 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         if (hasConstraints) {
             // With constraints every pass holds one sub-flow (compileStepPlan).
             if (drifts) {
-                data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
+                constrainPositions(context, constraintTolerance);
                 const double inverseTime = 1.0 / driftTime;
                 for (int i = 0; i < numParticles; ++i)
                     if (inverseMasses[i] != 0.0)
                         velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
             } else {
-                data.constraints->applyToVelocities(positions, velocities, inverseMasses, constraintTolerance);
+                constrainVelocities(context, constraintTolerance);
             }
         }
     }
@@ -225,12 +317,73 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
     task.inverseMasses = inverseMasses.data();
     task.kickStep = kickStep;
     loop->run(task, stiffModes->getNumComponents());
+    if (flow.kind == SubFlow::FilteredStiffFlow) {
+        // The slot still holds the forces at the positions before the flow (nothing evaluated them since).
+        ForceResponseTask& response = *forceResponseTask;
+        response.response = &forceResponses[passIndex];
+        response.forces = slots[flow.slot].forces.data();
+        response.positions = positions.data();
+        response.velocities = data.velocities->data();
+        loop->run(response, stiffModes->getNumComponents());
+    }
     invalidateForces();
     if (hasConstraints) {
-        // Only particles outside stiff components may be constrained; they moved by the free flow.
-        data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
-        data.constraints->applyToVelocities(positions, *data.velocities, inverseMasses, constraintTolerance);
+        // Constrained particles of stiff components carry their components (see the class comment).  The correction
+        // of the positions is an impulse at the start of the flow (as in RATTLE), so it also changes the velocities:
+        // in a zero mode an impulse dv0 moves the position by Phi_xv dv0 and the velocity by Phi_vv dv0.  The
+        // projection after it removes what is left along the constraints.
+        unconstrainedPositions = positions;
+        constrainPositions(context, constraintTolerance);
+        vector<Vec3>& velocities = *data.velocities;
+        for (int i = 0; i < numParticles; ++i)
+            if (inverseMasses[i] != 0.0)
+                velocities[i] += (positions[i] - unconstrainedPositions[i]) * flow.constraintVelocityScale;
+        constrainVelocities(context, constraintTolerance);
     }
+}
+
+void FlowStepRunner::runFilteredKick(ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                                     double constraintTolerance) {
+    if (!stiffModes)
+        throw OpenMMException("FlowStepRunner: a FilteredKick needs setStiffModes()");
+    ensureForces(context, flow.slot);
+    ReferencePlatform::PlatformData& data = platformData(context);
+    ForceResponseTask& response = *forceResponseTask;
+    response.response = &forceResponses[passIndex];
+    response.forces = slots[flow.slot].forces.data();
+    response.positions = data.positions->data();
+    response.velocities = data.velocities->data();
+    loop->run(response, stiffModes->getNumComponents());
+    if (hasConstraints)
+        constrainVelocities(context, constraintTolerance);
+}
+
+void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& positions = *data.positions;
+    if (!carriedConstraints) {
+        data.constraints->apply(previousPositions, positions, inverseMasses, tolerance);
+        return;
+    }
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        carrierBefore[k] = positions[carriedParticles[k].second];
+    carriedConstraints->apply(previousPositions, positions, carriedInverseMasses, tolerance);
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        positions[carriedParticles[k].first] += positions[carriedParticles[k].second] - carrierBefore[k];
+}
+
+void FlowStepRunner::constrainVelocities(ContextImpl& context, double tolerance) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& velocities = *data.velocities;
+    if (!carriedConstraints) {
+        data.constraints->applyToVelocities(*data.positions, velocities, inverseMasses, tolerance);
+        return;
+    }
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        carrierBefore[k] = velocities[carriedParticles[k].second];
+    carriedConstraints->applyToVelocities(*data.positions, velocities, carriedInverseMasses, tolerance);
+    for (size_t k = 0; k < carriedParticles.size(); ++k)
+        velocities[carriedParticles[k].first] += velocities[carriedParticles[k].second] - carrierBefore[k];
 }
 
 double FlowStepRunner::kineticEnergy(ContextImpl& context) const {

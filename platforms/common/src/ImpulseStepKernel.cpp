@@ -12,7 +12,7 @@ using namespace OpenMM;
 
 ImpulseStepKernel::ImpulseStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
     : IntegrateStochasticImpulseStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0),
-      friction(0.0) {}
+      friction(0.0), stiffKT(0.0), stiffFriction(0.0) {}
 
 void ImpulseStepKernel::initialize(const System& system, const StochasticImpulseIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
@@ -69,10 +69,12 @@ void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups)
     } catch (const OpenMMException& e) {
         throw OpenMMException(std::string("StochasticImpulseIntegrator: ") + e.what());
     }
-    std::vector<bool> stiff(masses.size());
-    for (size_t i = 0; i < masses.size(); ++i)
-        stiff[i] = decomposed->isStiffParticle((int)i);
-    rejectConstrainedStiffParticles(context, stiff);
+    std::vector<int> componentOf(masses.size(), -1);
+    for (int c = 0; c < decomposed->getNumComponents(); ++c)
+        if (decomposed->getComponent(c).stiff)
+            for (int k = 0; k < decomposed->getComponent(c).numParticles; ++k)
+                componentOf[decomposed->getComponentParticles(c)[k]] = decomposed->getComponentParticles(c)[0];
+    rejectConstraintsInsideStiffComponents(context, componentOf);
     modes = decomposed;
     measured = stiffness;
     runner->setStiffModes(modes);
@@ -83,12 +85,17 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
     ImpulseParameters current{integrator.getSplitting(), integrator.getStepSize(), integrator.getStiffGroups(),
                               integrator.getIntegrationForceGroups()};
     const double currentKT = BOLTZ * integrator.getTemperature();
-    if (!configured || !(current == parameters) || currentKT != kT || integrator.getFriction() != friction) {
+    const double currentStiffKT = BOLTZ * integrator.getStiffModeTemperature();
+    if (!configured || !(current == parameters) || currentKT != kT || integrator.getFriction() != friction ||
+        currentStiffKT != stiffKT || integrator.getStiffModeFriction() != stiffFriction) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;
         kT = currentKT;
         friction = integrator.getFriction();
+        stiffKT = currentStiffKT;
+        stiffFriction = integrator.getStiffModeFriction();
         runner->setSchedule(impulseSchedule(parameters), kT, friction);
+        runner->setStiffModeBath(stiffKT, stiffFriction);
         configured = true;
     }
     if (!stiffModesValid || !modes) {

@@ -255,3 +255,59 @@ void StiffFlowTask::applyLarge(int component, const double* m) const {
         }
     }
 }
+
+ForceResponseTask::ForceResponseTask(const StiffModes& modes) : modes(modes) {
+    scratchOffset.resize(modes.getNumComponents());
+    size_t size = 0;
+    for (int c = 0; c < modes.getNumComponents(); ++c) {
+        scratchOffset[c] = size;
+        size += 4 * 3 * (size_t)modes.getComponent(c).numParticles;
+    }
+    scratch.assign(size, 0.0);
+}
+
+void ForceResponseTask::apply(int begin, int end) const {
+    for (int c = begin; c < end; ++c) {
+        const StiffModes::Component& comp = modes.getComponent(c);
+        const int* particles = modes.getComponentParticles(c);
+        const int D = comp.rows(), C = comp.columns(), size = D * C;
+        const double* u = modes.getEigenvectors(c);
+        const double* r = &response->data[response->offset[c]];
+        double* particleForce = &scratch[scratchOffset[c]];
+        double* modeForce = particleForce + size;
+        double* dx = modeForce + size;
+        double* dv = dx + size;
+        // Row i, column col of a row-major D x C block holds coordinate d of particle p (isotropic: row p, column d;
+        // else row 3 p + d, one column), as in StiffFlowTask: in both layouts element 3 p + d.
+        for (int p = 0; p < comp.numParticles; ++p) {
+            const double scale = 1.0 / modes.getSqrtMass(particles[p]);
+            for (int d = 0; d < 3; ++d)
+                particleForce[3 * p + d] = scale * forces[particles[p]][d];
+        }
+        for (int k = 0; k < D; ++k)
+            for (int col = 0; col < C; ++col) {
+                double sum = 0;
+                for (int i = 0; i < D; ++i)
+                    sum += u[(size_t)k * D + i] * particleForce[i * C + col];
+                modeForce[k * C + col] = sum;
+            }
+        for (int i = 0; i < D; ++i)
+            for (int col = 0; col < C; ++col) {
+                double sx = 0, sv = 0;
+                for (int k = 0; k < D; ++k) {
+                    const double projected = u[(size_t)k * D + i] * modeForce[k * C + col];
+                    sx += r[2 * k] * projected;
+                    sv += r[2 * k + 1] * projected;
+                }
+                dx[i * C + col] = sx;
+                dv[i * C + col] = sv;
+            }
+        for (int p = 0; p < comp.numParticles; ++p) {
+            const double scale = 1.0 / modes.getSqrtMass(particles[p]);
+            for (int d = 0; d < 3; ++d) {
+                positions[particles[p]][d] += scale * dx[3 * p + d];
+                velocities[particles[p]][d] += scale * dv[3 * p + d];
+            }
+        }
+    }
+}

@@ -22,8 +22,12 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
 
 } // namespace
 
-void StiffModes::computePropagator(double h, double gamma, double kT, Propagator& propagator) const {
-    propagator.noisy = (gamma > 0.0 && kT > 0.0);
+void StiffModes::computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
+                                   Propagator& propagator) const {
+    bool hasStiffModes = false;
+    for (const Component& comp : components)
+        hasStiffModes = hasStiffModes || comp.stiff;
+    propagator.noisy = (gamma > 0.0 && kT > 0.0) || (hasStiffModes && stiffGamma > 0.0 && stiffKT > 0.0);
     const bool noisy = propagator.noisy;
     propagator.offset.resize(components.size());
     size_t size = 0;
@@ -35,13 +39,18 @@ void StiffModes::computePropagator(double h, double gamma, double kT, Propagator
                                                            : ModeLayout{D, C}.size(noisy);
     }
     propagator.data.assign(size, 0.0);
-    const double thermalScale = noisy ? std::sqrt(kT) : 0.0;
+    const double thermalScale = noisy ? std::sqrt(kT) : 0.0, stiffThermalScale = noisy ? std::sqrt(stiffKT) : 0.0;
     for (size_t c = 0; c < components.size(); ++c) {
         const Component& comp = components[c];
         const int D = comp.rows(), C = comp.columns();
         vector<ModeFlow> flows(D);
-        for (int k = 0; k < D; ++k)
-            flows[k] = modeFlow(omega[comp.firstMode + C * k], gamma, h);
+        // The noise factor sqrt(kT) of each mode's bath, folded into its Cholesky factor.
+        vector<double> modeThermalScale(D);
+        for (int k = 0; k < D; ++k) {
+            const double w = omega[comp.firstMode + C * k];
+            flows[k] = modeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
+            modeThermalScale[k] = w > 0.0 ? stiffThermalScale : thermalScale;
+        }
         double* out = &propagator.data[propagator.offset[c]];
         auto modeForceOf = [&](int k, int col) { return modeForce[comp.firstMode + C * k + col]; };
         if (!hasParticleSpacePropagator(D, C)) {
@@ -49,8 +58,8 @@ void StiffModes::computePropagator(double h, double gamma, double kT, Propagator
             for (int k = 0; k < D; ++k) {
                 const ModeFlow& f = flows[k];
                 double* entries = out + layout.perMode(noisy) * k;
-                const double values[] = {
-                    f.xx, f.xv, f.vx, f.vv, thermalScale * f.lxx, thermalScale * f.lvx, thermalScale * f.lvv};
+                const double scale = modeThermalScale[k];
+                const double values[] = {f.xx, f.xv, f.vx, f.vv, scale * f.lxx, scale * f.lvx, scale * f.lvv};
                 std::copy(values, values + layout.perMode(noisy), entries);
                 for (int col = 0; col < C; ++col) {
                     out[layout.gx(noisy) + k * C + col] = f.gx * modeForceOf(k, col);
@@ -66,17 +75,17 @@ void StiffModes::computePropagator(double h, double gamma, double kT, Propagator
         const double ModeFlow::*entries[] = {&ModeFlow::xx,  &ModeFlow::xv,  &ModeFlow::vx, &ModeFlow::vv,
                                              &ModeFlow::lxx, &ModeFlow::lvx, &ModeFlow::lvv};
         for (int m = Axx; m <= (noisy ? Nvv : Avv); ++m) {
+            const bool noise = (m >= Nxx);
             Eigen::VectorXd diagonal(D);
             for (int k = 0; k < D; ++k)
-                diagonal[k] = flows[k].*entries[m];
+                diagonal[k] = flows[k].*entries[m] * (noise ? modeThermalScale[k] : 1.0);
             // U f U^T acts on mass-weighted coordinates; in particle coordinates it is S^-1 U f U^T S (the noise, drawn
             // per particle coordinate, is S^-1 U L U^T xi).
             Eigen::MatrixXd product = u * diagonal.asDiagonal() * u.transpose();
-            const bool noise = (m >= Nxx);
             double* matrix = out + layout.matrix((PropagatorMatrix)m);
             for (int i = 0; i < D; ++i)
                 for (int j = 0; j < D; ++j)
-                    matrix[i * D + j] = product(i, j) / sqrtMassOfRow(i) * (noise ? thermalScale : sqrtMassOfRow(j));
+                    matrix[i * D + j] = product(i, j) / sqrtMassOfRow(i) * (noise ? 1.0 : sqrtMassOfRow(j));
         }
         // The response to the constant force, U (g_k F_k) in mass-weighted coordinates.
         double *gx = out + layout.gx(), *gv = out + layout.gv();
@@ -86,5 +95,34 @@ void StiffModes::computePropagator(double h, double gamma, double kT, Propagator
                     gx[i * C + col] += u(i, k) * flows[k].gx * modeForceOf(k, col) / sqrtMassOfRow(i);
                     gv[i * C + col] += u(i, k) * flows[k].gv * modeForceOf(k, col) / sqrtMassOfRow(i);
                 }
+    }
+}
+
+void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
+                                      ForceResponse& response) const {
+    response.offset.resize(components.size());
+    size_t size = 0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        response.offset[c] = size;
+        size += 2 * (size_t)components[c].rows();
+    }
+    response.data.assign(size, 0.0);
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        double* out = &response.data[response.offset[c]];
+        for (int k = 0; k < comp.rows(); ++k) {
+            const double w = omega[comp.firstMode + comp.columns() * k];
+            const ModeFlow f = computeModeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
+            if (w > 0.0) {
+                // Half kicks scaled by kappa, the one factor that makes the constant-force fixed point of
+                // K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2: kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v.
+                const double kappaHalfStep = 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
+                out[2 * k] = closing ? 0.0 : kappaHalfStep * f.xv;
+                out[2 * k + 1] = closing ? kappaHalfStep : kappaHalfStep * f.vv;
+            } else {
+                out[2 * k] = closing ? 0.0 : 0.5 * h * f.xv;
+                out[2 * k + 1] = closing ? 0.5 * h : 0.5 * h * f.vv;
+            }
+        }
     }
 }

@@ -1,0 +1,245 @@
+// Constraints beside stiff components: rigid water whose oxygen is the core of a Drude pair.  The constrained core
+// carries its Drude particle through the constraint solve, so the pair's relative motion is the exact stiff flow's;
+// constraints are held to tolerance.
+
+#include "PlatformTest.h"
+#include "StochasticImpulseIntegrator.h"
+#include "TestSystems.h"
+#include "openmm/Context.h"
+#include "openmm/HarmonicAngleForce.h"
+#include "openmm/reference/SimTKOpenMMRealType.h"
+#include <cmath>
+
+using namespace FlavorPlugin;
+using namespace FlavorTests;
+using namespace OpenMM;
+using std::vector;
+
+class ImpulseConstraints : public PlatformTest {};
+INSTANTIATE_ON_ALL_PLATFORMS(ImpulseConstraints);
+
+namespace {
+
+// SWM4-NDP: the oxygen keeps 15.59943 - 0.4 of its mass, the Drude spring has k = 418400 kJ/mol/nm^2 (a relative
+// frequency of 1036/ps), rigid O-H 0.09572 nm and H-H 0.15139 nm.
+constexpr double OxygenMass = 15.59943, HydrogenMass = 1.008, DrudeMass = 0.4, DrudeK = 418400.0;
+constexpr double OH = 0.09572, HH = 0.15139;
+
+/**
+ * Rigid Drude waters (O, H, H, D per molecule) on a lattice.  The soft forces are a tether on the hydrogens only
+ * (hydrogensOnly) or, otherwise, a tether on every particle and a field pulling on the Drude particles.
+ */
+struct DrudeWater {
+    System system;
+    vector<Vec3> positions;
+    int molecules;
+    DrudeWater(int molecules, bool hydrogensOnly) : molecules(molecules) {
+        HarmonicBondForce* drude = new HarmonicBondForce();
+        drude->setForceGroup(StiffGroup);
+        CustomExternalForce* tether = new CustomExternalForce("0.5*a*((x-x0)^2+2*(y-y0)^2+3*(z-z0)^2)");
+        tether->addGlobalParameter("a", 2e3);
+        for (const char* p : {"x0", "y0", "z0"})
+            tether->addPerParticleParameter(p);
+        CustomExternalForce* field = new CustomExternalForce("-e*(x+0.5*y)");
+        field->addGlobalParameter("e", 300.0);
+        const double angle = 2 * std::asin(0.5 * HH / OH);
+        for (int m = 0; m < molecules; ++m) {
+            const int o = 4 * m;
+            for (double mass : {OxygenMass - DrudeMass, HydrogenMass, HydrogenMass, DrudeMass})
+                system.addParticle(mass);
+            system.addConstraint(o, o + 1, OH);
+            system.addConstraint(o, o + 2, OH);
+            system.addConstraint(o + 1, o + 2, HH);
+            drude->addBond(o, o + 3, 0.0, DrudeK);
+            const Vec3 origin(0.4 * (m % 4), 0.4 * ((m / 4) % 4), 0.4 * (m / 16));
+            positions.push_back(origin);
+            positions.push_back(origin + Vec3(OH, 0, 0));
+            positions.push_back(origin + Vec3(OH * std::cos(angle), OH * std::sin(angle), 0));
+            positions.push_back(origin + Vec3(0.002, -0.001, 0.0015));
+            for (int i = 0; i < 4; ++i) {
+                if (hydrogensOnly && (i == 0 || i == 3))
+                    continue;
+                const Vec3 rest = positions[o + i] + Vec3(0.01 * ((m + i) % 3), -0.01, 0.005 * i);
+                tether->addParticle(o + i, {rest[0], rest[1], rest[2]});
+            }
+            if (!hydrogensOnly)
+                field->addParticle(o + 3);
+        }
+        system.addForce(drude);
+        system.addForce(tether);
+        if (!hydrogensOnly)
+            system.addForce(field);
+        else
+            delete field;
+    }
+};
+
+} // namespace
+
+TEST_P(ImpulseConstraints, ConstrainedCoresLeaveTheDrudeMotionTheExactOscillationUnderStrangAndFiltered) {
+    // Soft forces act on the hydrogens only and there is no friction, so every force on the Drude pair's relative
+    // coordinate r = q_D - q_O is the spring's, as long as the constraint corrections of the oxygen move its Drude
+    // particle alike: r(t) = r0 cos(omega t) + (u0/omega) sin(omega t) with omega = sqrt(k/mu), while the rigid
+    // molecule tumbles under the tethers.  50 Strang steps of 2 fs (omega H = 2.07).
+    DrudeWater water(8, true);
+    for (auto splitting : {StochasticImpulseIntegrator::Strang, StochasticImpulseIntegrator::Filtered}) {
+        SCOPED_TRACE(splitting == StochasticImpulseIntegrator::Strang ? "Strang" : "Filtered");
+        StochasticImpulseIntegrator integrator(0.0, 0.0, 0.002, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setConstraintTolerance(1e-10);
+        Context context(water.system, integrator, platform(), properties());
+        context.setPositions(water.positions);
+        vector<Vec3> v(4 * water.molecules);
+        for (int m = 0; m < water.molecules; ++m) {
+            v[4 * m] = Vec3(0.3, -0.2, 0.1 * m);
+            v[4 * m + 1] = Vec3(1.0, 0.5, -0.5);
+            v[4 * m + 2] = Vec3(-0.7, 0.2, 0.4);
+            v[4 * m + 3] = v[4 * m] + Vec3(3.0, -2.0, 1.0 * (m % 3));
+        }
+        context.setVelocities(v);
+        context.applyConstraints(1e-10);
+        context.applyVelocityConstraints(1e-10);
+        const vector<Vec3> q0 = positionsOf(context), v0 = velocitiesOf(context);
+        const double mu = (OxygenMass - DrudeMass) * DrudeMass / OxygenMass, omega = std::sqrt(DrudeK / mu);
+        const int steps = 50;
+        integrator.step(steps);
+        const vector<Vec3> q = positionsOf(context);
+        const double t = steps * 0.002;
+        double largestError = 0, largestRelative = 0, largestMotion = 0;
+        for (int m = 0; m < water.molecules; ++m) {
+            const int o = 4 * m;
+            const Vec3 r0 = q0[o + 3] - q0[o], u0 = v0[o + 3] - v0[o];
+            const Vec3 expected = r0 * std::cos(omega * t) + u0 * (std::sin(omega * t) / omega);
+            const Vec3 error = (q[o + 3] - q[o]) - expected;
+            largestError = std::max(largestError, std::sqrt(error.dot(error)));
+            largestRelative = std::max(largestRelative, std::sqrt(expected.dot(expected)));
+            const Vec3 moved = q[o] - q0[o];
+            largestMotion = std::max(largestMotion, std::sqrt(moved.dot(moved)));
+        }
+        EXPECT_LT(largestError, 1e-10 * largestRelative + 1e-14);
+        // The cores did move (the constraints acted): 50 steps at about 0.3 nm/ps.
+        EXPECT_GT(largestMotion, 0.01);
+        // And the molecules stayed rigid (SETTLE is analytic: its rounding leaves about 1e-8 of the length).
+        for (int m = 0; m < water.molecules; ++m) {
+            const int o = 4 * m;
+            EXPECT_NEAR(OH, std::sqrt((q[o + 1] - q[o]).dot(q[o + 1] - q[o])), 1e-7 * OH);
+            EXPECT_NEAR(HH, std::sqrt((q[o + 2] - q[o + 1]).dot(q[o + 2] - q[o + 1])), 1e-7 * HH);
+        }
+    }
+}
+
+TEST_P(ImpulseConstraints, RigidDrudeWaterKeepsItsConstraintsWithAColdDrudeBathUnderStrangAndFiltered) {
+    // Every particle tethered, the Drudes pulled by a field, 300 K at 5/ps with the Drude modes at 1 K and 20/ps;
+    // SETTLE for the water and, with a constrained chain whose middle atom carries a Drude particle, CCMA.  After every
+    // step each constraint holds to 1e-7 of its length (tolerance 1e-9) and each constrained pair's relative velocity
+    // is perpendicular to its bond to 1e-6 of the speed scale.
+    DrudeWater water(16, false);
+    System& system = water.system;
+    const int a = system.addParticle(12.0), b = system.addParticle(11.6), c = system.addParticle(14.0),
+              d = system.addParticle(0.4);
+    system.addConstraint(a, b, 0.15);
+    system.addConstraint(b, c, 0.14);
+    HarmonicAngleForce* angle = new HarmonicAngleForce();
+    angle->addAngle(a, b, c, 1.9, 300.0);
+    system.addForce(angle);
+    HarmonicBondForce* chainDrude = new HarmonicBondForce();
+    chainDrude->addBond(b, d, 0.0, DrudeK);
+    chainDrude->setForceGroup(StiffGroup);
+    system.addForce(chainDrude);
+    water.positions.push_back(Vec3(2, 2, 2));
+    water.positions.push_back(Vec3(2.15, 2, 2));
+    water.positions.push_back(Vec3(2.15 + 0.14 * std::cos(1.2), 2 + 0.14 * std::sin(1.2), 2));
+    water.positions.push_back(Vec3(2.151, 2.001, 2));
+    for (auto splitting : {StochasticImpulseIntegrator::Strang, StochasticImpulseIntegrator::Filtered}) {
+        SCOPED_TRACE(splitting == StochasticImpulseIntegrator::Strang ? "Strang" : "Filtered");
+        StochasticImpulseIntegrator integrator(300.0, 5.0, 0.002, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setStiffModeTemperature(1.0);
+        integrator.setStiffModeFriction(20.0);
+        integrator.setConstraintTolerance(1e-9);
+        integrator.setRandomNumberSeed(17);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions(water.positions);
+        context.setVelocitiesToTemperature(300.0, 3);
+        context.applyConstraints(1e-9);
+        context.applyVelocityConstraints(1e-9);
+        double worstLength = 0, worstVelocity = 0;
+        for (int step = 0; step < 200; ++step) {
+            integrator.step(1);
+            const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
+            for (int k = 0; k < system.getNumConstraints(); ++k) {
+                int i, j;
+                double length;
+                system.getConstraintParameters(k, i, j, length);
+                const Vec3 r = q[j] - q[i], u = v[j] - v[i];
+                const double distance = std::sqrt(r.dot(r));
+                worstLength = std::max(worstLength, std::abs(distance - length) / length);
+                // Speed scale sqrt(kT/m) of a hydrogen at 300 K: about 1.6 nm/ps.
+                worstVelocity = std::max(worstVelocity, std::abs(u.dot(r)) / distance / 1.6);
+            }
+        }
+        EXPECT_LT(worstLength, 1e-7);
+        EXPECT_LT(worstVelocity, 1e-6);
+        // The Drude particles stay with their cores (a sanity bound, 0.01 nm: the field displaces them by ~1e-3 nm).
+        const vector<Vec3> q = positionsOf(context);
+        for (int m = 0; m < water.molecules; ++m) {
+            const Vec3 r = q[4 * m + 3] - q[4 * m];
+            EXPECT_LT(std::sqrt(r.dot(r)), 0.01);
+        }
+    }
+}
+
+TEST_P(ImpulseConstraints, RigidDrudeWaterHasTheBathTemperatureAtLargeSteps) {
+    // 100 free rigid Drude waters (no soft force), 300 K at 2/ps, the Drude modes at 1 K and 20/ps, H = 4 fs: the
+    // kinetic temperature of the 6 rigid-body degrees of freedom per molecule (pairs counted at their centre of mass)
+    // must be 300 K, and that of the Drude motion 1 K, within 5 standard errors of 20 block means plus 1% for the
+    // splitting.  A velocity left uncorrected for the constraint correction of the positions loses a fraction
+    // (rotation angle per step)^2 of the rotational energy each step: about 4% per 4 fs step at 300 K.
+    DrudeWater water(100, true);
+    System& system = water.system;
+    while (system.getNumForces() > 1)
+        system.removeForce(1);
+    const double mPair = OxygenMass, mu = (OxygenMass - DrudeMass) * DrudeMass / OxygenMass;
+    for (auto splitting : {StochasticImpulseIntegrator::Strang, StochasticImpulseIntegrator::Filtered}) {
+        SCOPED_TRACE(splitting == StochasticImpulseIntegrator::Strang ? "Strang" : "Filtered");
+        StochasticImpulseIntegrator integrator(300.0, 2.0, 0.004, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setStiffModeTemperature(1.0);
+        integrator.setStiffModeFriction(20.0);
+        integrator.setConstraintTolerance(1e-8);
+        integrator.setRandomNumberSeed(41);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions(water.positions);
+        context.applyConstraints(1e-8);
+        integrator.step(1000);
+        const int blocks = 20, samples = 10;
+        vector<double> rigid, drude;
+        for (int b = 0; b < blocks; ++b) {
+            double tr = 0, td = 0;
+            for (int s = 0; s < samples; ++s) {
+                integrator.step(20);
+                const vector<Vec3> v = velocitiesOf(context);
+                for (int m = 0; m < water.molecules; ++m) {
+                    const int o = 4 * m;
+                    const Vec3 vc = (v[o] * (OxygenMass - DrudeMass) + v[o + 3] * DrudeMass) / mPair;
+                    const Vec3 vr = v[o + 3] - v[o];
+                    const double ke =
+                        mPair * vc.dot(vc) + HydrogenMass * (v[o + 1].dot(v[o + 1]) + v[o + 2].dot(v[o + 2]));
+                    tr += ke / (6 * BOLTZ * 300.0) / (water.molecules * samples);
+                    td += mu * vr.dot(vr) / (3 * BOLTZ * 1.0) / (water.molecules * samples);
+                }
+            }
+            rigid.push_back(tr);
+            drude.push_back(td);
+        }
+        for (auto* series : {&rigid, &drude}) {
+            double mean = 0, variance = 0;
+            for (double x : *series)
+                mean += x / blocks;
+            for (double x : *series)
+                variance += (x - mean) * (x - mean) / (blocks - 1);
+            EXPECT_NEAR(1.0, mean, 5 * std::sqrt(variance / blocks) + 0.01)
+                << (series == &rigid ? "rigid-body" : "Drude") << " temperature ratio";
+        }
+    }
+}

@@ -1,0 +1,219 @@
+// The Filtered splitting: a constant soft force gives every stiff mode its exact mean displacement (where Strang gives
+// (omega H/2) cot(omega H/2) of it), second order on a smooth problem, no resonance spike at omega H = 2 pi on the FPU
+// chain.
+
+#include "PlatformTest.h"
+#include "StochasticImpulseIntegrator.h"
+#include "TestSystems.h"
+#include "openmm/Context.h"
+#include <cmath>
+#include <memory>
+
+using namespace FlavorPlugin;
+using namespace FlavorTests;
+using namespace OpenMM;
+using std::vector;
+
+class ImpulseFiltered : public PlatformTest {};
+INSTANTIATE_ON_ALL_PLATFORMS(ImpulseFiltered);
+
+namespace {
+
+constexpr double Pi = 3.14159265358979323846;
+
+/**
+ * One particle of mass m on a stiff isotropic tether k |q|^2/2 (one stiff mode per direction, omega^2 = k/m, no zero
+ * mode), pushed by the constant soft force F.  Its exact equilibrium is q* = F/k.
+ */
+struct TetheredParticle {
+    static constexpr double Mass = 2.0;
+    const Vec3 force{30.0, -12.0, 5.0};
+    System system;
+    double k;
+    explicit TetheredParticle(double omega) : k(Mass * omega * omega) {
+        system.addParticle(Mass);
+        CustomExternalForce* tether = new CustomExternalForce("0.5*k*(x^2+y^2+z^2)");
+        tether->addGlobalParameter("k", k);
+        tether->addParticle(0);
+        tether->setForceGroup(StiffGroup);
+        CustomExternalForce* push = new CustomExternalForce("-(fx*x+fy*y+fz*z)");
+        push->addGlobalParameter("fx", force[0]);
+        push->addGlobalParameter("fy", force[1]);
+        push->addGlobalParameter("fz", force[2]);
+        push->addParticle(0);
+        system.addForce(tether);
+        system.addForce(push);
+    }
+    Vec3 equilibrium() const { return force / k; }
+};
+
+/** |q - expected| / |expected| and |v| / (omega |expected|) after steps from (q0, 0). */
+std::pair<double, double> driftFrom(const TetheredParticle& p, StochasticImpulseIntegrator& integrator,
+                                    Platform& platform, const std::map<std::string, std::string>& properties,
+                                    const Vec3& q0, const Vec3& expected, double omega, int steps) {
+    Context context(p.system, integrator, platform, properties);
+    context.setPositions({q0});
+    context.setVelocities({Vec3()});
+    integrator.step(steps);
+    const Vec3 dq = positionsOf(context)[0] - expected, v = velocitiesOf(context)[0];
+    const double scale = std::sqrt(expected.dot(expected));
+    return {std::sqrt(dq.dot(dq)) / scale, std::sqrt(v.dot(v)) / (omega * scale)};
+}
+
+} // namespace
+
+TEST_P(ImpulseFiltered, ConstantSoftForceGivesTheExactMeanDisplacement) {
+    // omega H from 0.1 to 10 with H = 0.01 ps.  Filtered: the exact equilibrium (F/k, 0) is a fixed point without
+    // friction, and with friction (gamma = omega/5, temperature 0) every start converges to a state whose position is
+    // F/k (its velocity between steps is not zero: the kicks are not the flow's); the mean of a noisy run is the same
+    // by linearity.  The method says where it cannot: its filter has a pole where the damped mode turns by an odd
+    // multiple of pi per step (omega H = pi, 3 pi here; skipped), and at omega H = 2 pi k without friction the filter
+    // vanishes and every state is a fixed point (only the friction case is checked there).  Strang's fixed point is
+    // (F/k) (omega H/2) cot(omega H/2), with zero velocity (it has none at omega H = pi k).
+    const double H = 0.01;
+    for (double xi : {0.1, 0.5, 1.0, 2.0, 3.0, Pi, 4.0, 5.0, 2 * Pi - 0.3, 2 * Pi, 7.0, 8.0, 3 * Pi, 10.0}) {
+        const double omega = xi / H;
+        TetheredParticle p(omega);
+        const Vec3 exact = p.equilibrium();
+        const bool resonant = std::abs(std::remainder(xi, 2 * Pi)) < 1e-12;
+        const bool pole = std::abs(std::remainder(xi + Pi, 2 * Pi)) < 0.05;
+        if (!resonant && !pole) {
+            StochasticImpulseIntegrator filtered(0.0, 0.0, H, StiffMask);
+            filtered.setSplitting(StochasticImpulseIntegrator::Filtered);
+            const auto drift = driftFrom(p, filtered, platform(), properties(), exact, exact, omega, 30);
+            EXPECT_LT(drift.first, 1e-10) << "Filtered, no friction, omega H = " << xi;
+            EXPECT_LT(drift.second, 1e-10) << "Filtered, no friction, omega H = " << xi;
+        }
+        if (!pole) {
+            // Friction omega/5: amplitudes decay as exp(-omega t/10), by exp(-28) after 280/xi steps.
+            StochasticImpulseIntegrator damped(0.0, 0.2 * omega, H, StiffMask);
+            damped.setSplitting(StochasticImpulseIntegrator::Filtered);
+            const int steps = (int)std::ceil(280 / xi);
+            const auto converged = driftFrom(p, damped, platform(), properties(), Vec3(), exact, omega, steps);
+            EXPECT_LT(converged.first, 1e-9) << "Filtered with friction, omega H = " << xi;
+        }
+        if (std::abs(std::remainder(xi, Pi)) > 1e-12) {
+            const double bias = 0.5 * xi / std::tan(0.5 * xi);
+            StochasticImpulseIntegrator strang(0.0, 0.0, H, StiffMask);
+            const auto strangDrift =
+                driftFrom(p, strang, platform(), properties(), exact * bias, exact * bias, omega, 30);
+            EXPECT_LT(strangDrift.first, 1e-9 / std::min(1.0, std::abs(bias))) << "Strang, omega H = " << xi;
+            EXPECT_LT(strangDrift.second, 1e-9 / std::min(1.0, std::abs(bias))) << "Strang, omega H = " << xi;
+            // The two differ: Strang's fixed point is off the exact one by 1 - bias (at least 8e-4 here).
+            EXPECT_GT(std::abs(1 - bias), 8e-4);
+        }
+    }
+}
+
+TEST_P(ImpulseFiltered, DrudePairWithFrictionReachesTheSelfConsistentDisplacement) {
+    // A core (15.2) and a Drude particle (0.4) on a spring with omega_rel = 1036/ps, a constant force F on the Drude
+    // particle only (a field on its charge): the pair's centre of mass is a zero mode (driven, at 300 K with 5/ps)
+    // and the relative coordinate's exact mean is F mu / (m_D k).  H = 2 fs (omega H = 2.07) with the relative mode
+    // at 0 K and 20/ps: after 4 ps the relative coordinate is F mu / (m_D k) to 1e-9, where Strang gives 0.6 of it.
+    const double mCore = 15.2, mDrude = 0.4, mu = mCore * mDrude / (mCore + mDrude), omega = 1036,
+                 k = mu * omega * omega;
+    const Vec3 field(20.0, -5.0, 8.0);
+    System system;
+    system.addParticle(mCore);
+    system.addParticle(mDrude);
+    HarmonicBondForce* spring = new HarmonicBondForce();
+    spring->addBond(0, 1, 0.0, k);
+    spring->setForceGroup(StiffGroup);
+    CustomExternalForce* push = new CustomExternalForce("-(fx*x+fy*y+fz*z)");
+    push->addGlobalParameter("fx", field[0]);
+    push->addGlobalParameter("fy", field[1]);
+    push->addGlobalParameter("fz", field[2]);
+    push->addParticle(1);
+    system.addForce(spring);
+    system.addForce(push);
+    const Vec3 exact = field * (mu / (mDrude * k));
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
+        StochasticImpulseIntegrator integrator(300.0, 5.0, 0.002, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setStiffModeTemperature(0.0);
+        integrator.setStiffModeFriction(20.0);
+        integrator.setRandomNumberSeed(3);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions({Vec3(), Vec3()});
+        integrator.step(2000);
+        const vector<Vec3> q = positionsOf(context);
+        const Vec3 r = q[1] - q[0];
+        const double ratio = r.dot(exact) / exact.dot(exact);
+        const Vec3 off = r - exact * ratio;
+        EXPECT_LT(std::sqrt(off.dot(off)), 1e-9 * std::sqrt(exact.dot(exact)));
+        if (splitting == StochasticImpulseIntegrator::Filtered)
+            EXPECT_NEAR(1.0, ratio, 1e-9);
+        else
+            EXPECT_NEAR(0.5 * omega * 0.002 / std::tan(0.5 * omega * 0.002), ratio, 0.01);
+    }
+}
+
+TEST_P(ImpulseFiltered, SecondOrderOnASmoothProblem) {
+    // The FPU chain with omega = 10 (omega H <= 0.125: the smooth regime), no friction, positions at t = 1 ps against
+    // Yoshida4 with H = 1/4096 (error ~1e-13).  Halving H from 1/160 to 1/320 must divide the error by 2^p with
+    // p = 2 +- 0.15.
+    std::unique_ptr<System> system(fpuSystem(3, 10.0));
+    const vector<Vec3> q0 = fpuPositions({-0.4, 0.1, 0.35}, {0.02, -0.03, 0.01});
+    const vector<Vec3> v0 = {Vec3(0.3, 0, 0),  Vec3(-0.2, 0, 0), Vec3(0.5, 0, 0),
+                             Vec3(-0.4, 0, 0), Vec3(0.1, 0, 0),  Vec3(0.25, 0, 0)};
+    auto run = [&](StochasticImpulseIntegrator::Splitting splitting, int stepsPerPs) {
+        StochasticImpulseIntegrator integrator(0.0, 0.0, 1.0 / stepsPerPs, StiffMask);
+        integrator.setSplitting(splitting);
+        Context context(*system, integrator, platform(), properties());
+        context.setPositions(q0);
+        context.setVelocities(v0);
+        integrator.step(stepsPerPs);
+        return positionsOf(context);
+    };
+    const vector<Vec3> reference = run(StochasticImpulseIntegrator::Yoshida4, 4096);
+    auto error = [&](int stepsPerPs) {
+        const vector<Vec3> q = run(StochasticImpulseIntegrator::Filtered, stepsPerPs);
+        double worst = 0;
+        for (size_t i = 0; i < q.size(); ++i)
+            worst = std::max(worst, std::abs(q[i][0] - reference[i][0]));
+        return worst;
+    };
+    const double coarse = error(160), fine = error(320);
+    const double order = std::log2(coarse / fine);
+    EXPECT_NEAR(2.0, order, 0.15) << "errors " << coarse << " and " << fine;
+    EXPECT_GT(fine, 1e-9); // far above the reference's own error
+}
+
+TEST_P(ImpulseFiltered, NoResonanceSpikeOnTheFpuChainAtOmegaHTwoPi) {
+    // The FPU chain (omega = 50), no friction, 20 ps: the largest total-energy error over the run at omega H within
+    // 0.3 of 2 pi.  Strang resonates there (errors of several kJ/mol, far above its 0.6 at omega H = 5 and 7.5);
+    // Filtered's filters vanish at 2 pi: its error there must stay below its own error at omega H = 5 and 7.5.
+    std::unique_ptr<System> system(fpuSystem(3, 50.0));
+    const vector<Vec3> q0 = fpuPositions({-0.4, 0.1, 0.35}, {0.02, -0.03, 0.01});
+    const vector<Vec3> v0 = {Vec3(0.3, 0, 0),  Vec3(-0.2, 0, 0), Vec3(0.5, 0, 0),
+                             Vec3(-0.4, 0, 0), Vec3(0.1, 0, 0),  Vec3(0.25, 0, 0)};
+    auto energyError = [&](StochasticImpulseIntegrator::Splitting splitting, double xi) {
+        const double H = xi / 50.0;
+        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
+        integrator.setSplitting(splitting);
+        Context context(*system, integrator, platform(), properties());
+        context.setPositions(q0);
+        context.setVelocities(v0);
+        auto energy = [&] {
+            State s = context.getState(State::Energy);
+            return s.getPotentialEnergy() + s.getKineticEnergy();
+        };
+        const double e0 = energy();
+        double worst = 0;
+        for (int step = 0; step < (int)(20.0 / H); ++step) {
+            integrator.step(1);
+            worst = std::max(worst, std::abs(energy() - e0));
+        }
+        return worst;
+    };
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
+        const double away = std::max(energyError(splitting, 5.0), energyError(splitting, 7.5));
+        double nearResonance = 0;
+        for (double xi : {2 * Pi - 0.3, 2 * Pi - 0.1, 2 * Pi, 2 * Pi + 0.1, 2 * Pi + 0.3})
+            nearResonance = std::max(nearResonance, energyError(splitting, xi));
+        if (splitting == StochasticImpulseIntegrator::Filtered)
+            EXPECT_LT(nearResonance, away) << "near 2 pi " << nearResonance << ", away " << away;
+        else
+            EXPECT_GT(nearResonance, 5 * away) << "near 2 pi " << nearResonance << ", away " << away;
+    }
+}

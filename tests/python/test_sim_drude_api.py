@@ -1,0 +1,72 @@
+"""The stiff modes' own bath and the Filtered splitting from Python: Quantities in and out, defaults that follow the
+integrator, rejected values that leave the old ones, and XmlSerializer round trips."""
+import math
+
+import openmm
+import openmm.unit as unit
+import pytest
+
+from openmmflavors import StochasticImpulseIntegrator
+
+PER_PS = unit.picosecond**-1
+
+
+def test_defaults_follow_the_integrator():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    assert integrator.getStiffModeTemperature() == 300.0 * unit.kelvin
+    assert integrator.getStiffModeFriction() == 5.0 * PER_PS
+    assert not integrator.hasStiffModeTemperature() and not integrator.hasStiffModeFriction()
+    integrator.setTemperature(280.0)
+    integrator.setFriction(2.0)
+    assert integrator.getStiffModeTemperature() == 280.0 * unit.kelvin
+    assert integrator.getStiffModeFriction() == 2.0 * PER_PS
+
+
+def test_setters_take_quantities_and_getters_return_them():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setStiffModeTemperature(1.0 * unit.kelvin)
+    integrator.setStiffModeFriction(0.02 / unit.femtosecond)
+    temperature, friction = integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()
+    assert unit.is_quantity(temperature) and temperature.value_in_unit(unit.kelvin) == 1.0
+    assert unit.is_quantity(friction) and friction.value_in_unit(PER_PS) == pytest.approx(20.0, rel=1e-15)
+    integrator.setStiffModeFriction(7.0)
+    assert integrator.getStiffModeFriction().value_in_unit(PER_PS) == 7.0
+    with pytest.raises(TypeError, match="stiffModeTemperature"):
+        integrator.setStiffModeTemperature(1.0 * unit.picosecond)
+
+
+@pytest.mark.parametrize("setter, value, parameter, text", [
+    ("setStiffModeTemperature", -2.0, "stiffModeTemperature", "-2"),
+    ("setStiffModeTemperature", math.nan, "stiffModeTemperature", "nan"),
+    ("setStiffModeFriction", -1.0, "stiffModeFriction", "-1"),
+    ("setStiffModeFriction", math.inf, "stiffModeFriction", "inf"),
+])
+def test_bad_values_are_rejected_and_the_old_ones_kept(setter, value, parameter, text):
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setStiffModeTemperature(1.0)
+    integrator.setStiffModeFriction(20.0)
+    with pytest.raises(openmm.OpenMMException, match=f"{parameter} = {text}"):
+        getattr(integrator, setter)(value)
+    assert integrator.getStiffModeTemperature() == 1.0 * unit.kelvin
+    assert integrator.getStiffModeFriction() == 20.0 * PER_PS
+
+
+def test_xml_round_trip_keeps_the_bath():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setStiffModeTemperature(1.0)
+    integrator.setStiffModeFriction(20.0)
+    copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
+    assert isinstance(copy, StochasticImpulseIntegrator)
+    assert copy.getStiffModeTemperature() == 1.0 * unit.kelvin
+    assert copy.getStiffModeFriction() == 20.0 * PER_PS
+    plain = openmm.XmlSerializer.deserialize(
+        openmm.XmlSerializer.serialize(StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})))
+    assert not plain.hasStiffModeTemperature() and not plain.hasStiffModeFriction()
+
+
+def test_filtered_splitting_is_exposed_and_serialized():
+    assert StochasticImpulseIntegrator.Filtered == 3
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
+    copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
+    assert copy.getSplitting() == StochasticImpulseIntegrator.Filtered

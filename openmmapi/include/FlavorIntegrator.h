@@ -41,6 +41,30 @@ public:
         Verlet = 1
     };
     /**
+     * What the stiff degrees of freedom do while the stiff forces are off (for mesostep - microstep in each
+     * mesostep).
+     */
+    enum Averaging {
+        /**
+         * The stiff forces are switched off and every coordinate keeps moving (the nonintrusive FLAVOR, the
+         * default).  It integrates the stiff forces weighted by microStep/mesoStep.
+         */
+        Nonintrusive = 0,
+        /**
+         * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is one soft kick
+         * over the mesostep, a microstep of the fast Hamiltonian (kinetic energy and stiff potential), and a drift
+         * for the rest of the mesostep along the directions where the stiff potential is flat, the rates of the
+         * frozen coordinates stored and restored.  The stiff group must be quadratic: the frozen coordinates are
+         * the nonzero modes of its stiffness matrix.
+         */
+        Artificial = 1,
+        /**
+         * As Artificial, but the soft impulse's component along the frozen coordinates is weighted by
+         * microStep/mesoStep: the frozen coordinates feel the soft forces only for the time they move.
+         */
+        ArtificialProjected = 2
+    };
+    /**
      * Create a FlavorIntegrator.
      *
      * @param mesoStep     the mesostep delta, which is the step size (in picoseconds)
@@ -86,6 +110,26 @@ public:
      * Set the scheme used for each mesostep.
      */
     void setScheme(Scheme scheme);
+    /**
+     * Get what the stiff degrees of freedom do while the stiff forces are off.
+     */
+    Averaging getAveraging() const { return averaging; }
+    /**
+     * Set what the stiff degrees of freedom do while the stiff forces are off: Nonintrusive (the default),
+     * Artificial or ArtificialProjected.
+     */
+    void setAveraging(Averaging averaging);
+    /**
+     * Get whether the artificial FLAVOR's microstep of the fast Hamiltonian is the exact flow of the quadratic stiff
+     * potential (true) or a symplectic step with the stiff forces (false, the default).
+     */
+    bool getExactFastFlow() const { return exactFastFlow; }
+    /**
+     * Set whether the artificial FLAVOR's microstep of the fast Hamiltonian is the exact flow of the quadratic stiff
+     * potential.  It applies only to the Artificial and ArtificialProjected averagings; the stiff group must be
+     * quadratic (measured when the first step is taken).
+     */
+    void setExactFastFlow(bool exact);
     /**
      * Get the temperature of the heat bath (in Kelvin).
      */
@@ -154,11 +198,13 @@ private:
     double microStep;
     int stiffGroups;
     Scheme scheme;
+    Averaging averaging;
+    bool exactFastFlow;
     double temperature, friction;
     bool stiffFriction;
     std::vector<int> frictionParticles;
     int randomNumberSeed;
-    bool forcesAreValid;
+    bool forcesAreValid, stiffModesValid;
     OpenMM::Kernel kernel;
     // The kernel's implementation, looked up once (Kernel::getAs() costs a dynamic_cast per call).
     IntegrateFlavorStepKernel* stepKernel;

@@ -19,8 +19,9 @@ const string Owner = "FlavorIntegrator";
 } // namespace
 
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
-    : microStep(0.0), stiffGroups(0), scheme(Verlet), temperature(0.0), friction(0.0), stiffFriction(false),
-      randomNumberSeed(0), forcesAreValid(false), stepKernel(nullptr) {
+    : microStep(0.0), stiffGroups(0), scheme(Verlet), averaging(Nonintrusive), exactFastFlow(false), temperature(0.0),
+      friction(0.0), stiffFriction(false), randomNumberSeed(0), forcesAreValid(false), stiffModesValid(false),
+      stepKernel(nullptr) {
     requirePositive(Owner, "mesoStep", mesoStep, "ps");
     requirePositive(Owner, "microStep", microStep, "ps");
     if (microStep > mesoStep)
@@ -58,6 +59,7 @@ void FlavorIntegrator::setStiffGroups(int groups) {
     if (context != nullptr)
         requireForceInGroups(Owner, context->getSystem(), groups);
     stiffGroups = groups;
+    stiffModesValid = false;
 }
 
 void FlavorIntegrator::setScheme(Scheme newScheme) {
@@ -65,6 +67,18 @@ void FlavorIntegrator::setScheme(Scheme newScheme) {
         throwInvalidParameter(Owner, "scheme", std::to_string((int)newScheme),
                               "scheme must be FlavorIntegrator::SymplecticEuler (0) or FlavorIntegrator::Verlet (1)");
     scheme = newScheme;
+}
+
+void FlavorIntegrator::setAveraging(Averaging newAveraging) {
+    if (newAveraging != Nonintrusive && newAveraging != Artificial && newAveraging != ArtificialProjected)
+        throwInvalidParameter(Owner, "averaging", std::to_string((int)newAveraging),
+                              "averaging must be FlavorIntegrator::Nonintrusive (0), FlavorIntegrator::Artificial (1) "
+                              "or FlavorIntegrator::ArtificialProjected (2)");
+    averaging = newAveraging;
+}
+
+void FlavorIntegrator::setExactFastFlow(bool exact) {
+    exactFastFlow = exact;
 }
 
 void FlavorIntegrator::setTemperature(double temp) {
@@ -111,6 +125,7 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     stepKernel = &kernel.getAs<IntegrateFlavorStepKernel>();
     stepKernel->initialize(contextRef.getSystem(), *this);
     forcesAreValid = false;
+    stiffModesValid = false;
 }
 
 void FlavorIntegrator::cleanup() {
@@ -124,6 +139,9 @@ vector<string> FlavorIntegrator::getKernelNames() {
 
 void FlavorIntegrator::stateChanged(State::DataType changed) {
     forcesAreValid = false;
+    // Parameters: a context parameter changed.  Energy: a force's updateParametersInContext() (or a checkpoint).
+    if (changed == State::Parameters || changed == State::Energy)
+        stiffModesValid = false;
 }
 
 double FlavorIntegrator::computeKineticEnergy() {
@@ -136,7 +154,7 @@ void FlavorIntegrator::step(int steps) {
     for (int i = 0; i < steps; ++i) {
         if (context->updateContextState())
             forcesAreValid = false;
-        stepKernel->execute(*context, *this, forcesAreValid);
+        stepKernel->execute(*context, *this, forcesAreValid, stiffModesValid);
     }
 }
 
@@ -147,4 +165,5 @@ void FlavorIntegrator::createCheckpoint(std::ostream& stream) const {
 void FlavorIntegrator::loadCheckpoint(std::istream& stream) {
     stepKernel->loadCheckpoint(*context, stream);
     forcesAreValid = false;
+    stiffModesValid = false;
 }

@@ -2,6 +2,7 @@
 #define OPENMM_FLAVORS_STIFF_GROUP_CHECKS_H_
 
 #include "windowsExportFlavors.h"
+#include <string>
 #include <vector>
 
 namespace OpenMM {
@@ -16,9 +17,14 @@ namespace FlavorPlugin {
  */
 OPENMM_EXPORT_FLAVORS std::vector<bool> bondedStiffParticles(OpenMM::ContextImpl& context, int stiffGroups);
 
-/** Throws if a constraint of the System touches a particle for which stiff[i] is true. */
+/**
+ * Throws if a constraint of the System touches a particle for which stiff[i] is true; the message names the owner
+ * (the integrator) and suggests the alternative.
+ */
 OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
-                                                           const std::vector<bool>& stiff);
+                                                           const std::vector<bool>& stiff,
+                                                           const std::string& owner = "StochasticImpulseIntegrator",
+                                                           const std::string& alternative = "use FlavorIntegrator");
 
 } // namespace FlavorPlugin
 

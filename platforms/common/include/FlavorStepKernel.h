@@ -3,6 +3,7 @@
 
 #include "FlavorKernels.h"
 #include "FlowStepRunner.h"
+#include "StiffProbe.h"
 #include "internal/windowsExportFlavors.h"
 #include <memory>
 
@@ -16,7 +17,8 @@ class OPENMM_EXPORT_FLAVORS FlavorStepKernel : public IntegrateFlavorStepKernel 
 public:
     FlavorStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParallelLoop> loop);
     void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) override;
-    void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) override;
+    void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                 bool& stiffModesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
@@ -24,6 +26,7 @@ public:
 private:
     std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
+    std::unique_ptr<StiffModesMeasurement> measurement;
     bool configured;
     FlavorParameters parameters;
     double kT;

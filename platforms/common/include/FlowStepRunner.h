@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 #define OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 
+#include "FrozenFlowTask.h"
 #include "ParticleFlows.h"
 #include "StiffFlowTask.h"
 #include "StiffModes.h"
@@ -36,8 +37,8 @@ public:
      */
     void setSchedule(const Schedule& schedule, double kT, double friction);
     /**
-     * Sets the decomposed stiff potential whose exact flow StiffFlow sub-flows apply (friction and kT as given to
-     * setSchedule()).
+     * Sets the decomposed stiff potential whose exact flow StiffFlow (friction and kT as given to setSchedule()) and
+     * HarmonicFlow sub-flows apply, and whose zero modes FrozenDrift and FrozenKick move along.
      */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
@@ -66,6 +67,8 @@ private:
     /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                       double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
+    /** Runs a FrozenDrift or FrozenKick pass. */
+    void runFrozenFlow(OpenMM::ContextImpl& context, const PreparedFlow& flow, double constraintTolerance);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
@@ -84,6 +87,7 @@ private:
     std::vector<bool> kickFusedIntoNext;
     std::shared_ptr<const StiffModes> stiffModes;
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
+    std::unique_ptr<FrozenFlowTask> frozenFlowTask;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;
     std::vector<ForceSlot> slots;

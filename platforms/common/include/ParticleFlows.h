@@ -91,6 +91,9 @@ struct ParticlePass : public RangeTask {
                     thermostat(flow, first, last);
                     break;
                 case SubFlow::StiffFlow:
+                case SubFlow::HarmonicFlow:
+                case SubFlow::FrozenDrift:
+                case SubFlow::FrozenKick:
                     break; // never in a particle pass (compileStepPlan)
                 }
             }

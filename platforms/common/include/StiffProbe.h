@@ -3,7 +3,10 @@
 
 #include "StiffModes.h"
 #include "internal/windowsExportFlavors.h"
+#include "openmm/System.h"
 #include "openmm/Vec3.h"
+#include <memory>
+#include <string>
 #include <vector>
 
 namespace OpenMM {
@@ -28,8 +31,32 @@ struct ProbedStiffness {
  * particle is probed on its own.  Throws an OpenMMException if the forces are not linear in the positions or K is
  * not symmetric.  The Context's positions are left as they were.
  */
-OPENMM_EXPORT_FLAVORS ProbedStiffness probeStiffness(OpenMM::ContextImpl& context, int stiffGroups,
-                                                     const std::vector<double>& masses);
+OPENMM_EXPORT_FLAVORS ProbedStiffness
+probeStiffness(OpenMM::ContextImpl& context, int stiffGroups, const std::vector<double>& masses,
+               const std::string& owner = "StochasticImpulseIntegrator",
+               const std::string& alternative = "use FlavorIntegrator for nonlinear stiff forces");
+
+/**
+ * The measured stiff potential of a Context, decomposed into modes, kept while new measurements describe the same
+ * potential.  Errors name the owner (the integrator) and suggest the alternative.
+ */
+class OPENMM_EXPORT_FLAVORS StiffModesMeasurement {
+public:
+    StiffModesMeasurement(const OpenMM::System& system, std::string owner, std::string alternative);
+    /**
+     * Measures the stiff force groups at the current positions.  Returns whether the modes changed.  Throws if the
+     * potential is not quadratic or a System constraint touches a particle of a stiff component.
+     */
+    bool measure(OpenMM::ContextImpl& context, int stiffGroups);
+    /** The current modes (null before the first measurement). */
+    const std::shared_ptr<const StiffModes>& getModes() const { return modes; }
+
+private:
+    std::string owner, alternative;
+    std::vector<double> masses;
+    ProbedStiffness measured;
+    std::shared_ptr<const StiffModes> modes;
+};
 
 } // namespace FlavorPlugin
 

@@ -11,10 +11,16 @@ FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, s
 void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
     runner->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
+    measurement = std::make_unique<StiffModesMeasurement>(
+        system, "FlavorIntegrator",
+        "use the Nonintrusive averaging (FlavorIntegrator::setAveraging) for nonlinear stiff forces");
 }
 
-void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) {
+void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                               bool& stiffModesValid) {
     FlavorParameters current{integrator.getScheme(),
+                             integrator.getAveraging(),
+                             integrator.getExactFastFlow(),
                              integrator.getMesoStep(),
                              integrator.getMicroStep(),
                              integrator.getStiffGroups(),
@@ -28,6 +34,13 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         kT = currentKT;
         runner->setSchedule(flavorSchedule(parameters), kT, parameters.friction);
         configured = true;
+    }
+    // The artificial averagings freeze the nonzero modes of the stiff potential, measured where the first step starts
+    // and again after anything that may change it.
+    if (parameters.averaging != FlavorIntegrator::Nonintrusive && (!stiffModesValid || !measurement->getModes())) {
+        if (measurement->measure(context, parameters.stiffGroups))
+            runner->setStiffModes(measurement->getModes());
+        stiffModesValid = true;
     }
     runner->setFrictionParticles(integrator.getFrictionParticles());
     runner->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);

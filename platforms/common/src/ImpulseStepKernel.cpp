@@ -17,65 +17,13 @@ ImpulseStepKernel::ImpulseStepKernel(std::string name, const Platform& platform,
 void ImpulseStepKernel::initialize(const System& system, const StochasticImpulseIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
     runner->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
-    masses.resize(system.getNumParticles());
-    for (int i = 0; i < system.getNumParticles(); ++i)
-        masses[i] = system.getParticleMass(i);
+    measurement = std::make_unique<StiffModesMeasurement>(system, "StochasticImpulseIntegrator",
+                                                          "use FlavorIntegrator for nonlinear stiff forces");
 }
-
-namespace {
-
-/**
- * Whether two measurements describe the same potential up to the rounding of the probes.  Keeping the old modes
- * then keeps trajectories reproducible (a checkpoint restored elsewhere measures again): eigenvectors of degenerate
- * modes could otherwise rotate with the rounding, and the noise with them.
- */
-bool samePotential(const ProbedStiffness& a, const ProbedStiffness& b) {
-    if (a.blocks.size() != b.blocks.size() || a.constantForce.size() != b.constantForce.size())
-        return false;
-    double scale = 0;
-    for (const StiffnessBlock& block : a.blocks)
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c)
-                scale = std::max(scale, std::abs(block.k[r][c]));
-    for (size_t n = 0; n < a.blocks.size(); ++n) {
-        if (a.blocks[n].i != b.blocks[n].i || a.blocks[n].j != b.blocks[n].j)
-            return false;
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c)
-                if (std::abs(a.blocks[n].k[r][c] - b.blocks[n].k[r][c]) > 1e-10 * scale)
-                    return false;
-    }
-    // b = F(q) + K q is measured with the rounding of forces of size ~K |q|: compare on that scale (|q| ~ 1 nm).
-    double forceScale = scale;
-    for (const Vec3& f : a.constantForce)
-        forceScale = std::max(forceScale, std::sqrt(f.dot(f)));
-    for (size_t i = 0; i < a.constantForce.size(); ++i) {
-        Vec3 d = a.constantForce[i] - b.constantForce[i];
-        if (std::sqrt(d.dot(d)) > 1e-10 * forceScale)
-            return false;
-    }
-    return true;
-}
-
-} // namespace
 
 void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups) {
-    ProbedStiffness stiffness = probeStiffness(context, stiffGroups, masses);
-    if (modes && samePotential(stiffness, measured))
-        return;
-    std::shared_ptr<const StiffModes> decomposed;
-    try {
-        decomposed = std::make_shared<const StiffModes>(masses, stiffness.blocks, stiffness.constantForce);
-    } catch (const OpenMMException& e) {
-        throw OpenMMException(std::string("StochasticImpulseIntegrator: ") + e.what());
-    }
-    std::vector<bool> stiff(masses.size());
-    for (size_t i = 0; i < masses.size(); ++i)
-        stiff[i] = decomposed->isStiffParticle((int)i);
-    rejectConstrainedStiffParticles(context, stiff);
-    modes = decomposed;
-    measured = stiffness;
-    runner->setStiffModes(modes);
+    if (measurement->measure(context, stiffGroups))
+        runner->setStiffModes(measurement->getModes());
 }
 
 void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
@@ -91,7 +39,7 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
         runner->setSchedule(impulseSchedule(parameters), kT, friction);
         configured = true;
     }
-    if (!stiffModesValid || !modes) {
+    if (!stiffModesValid || !measurement->getModes()) {
         measureStiffModes(context, parameters.stiffGroups);
         stiffModesValid = true;
     }
@@ -101,11 +49,11 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
 std::vector<double> ImpulseStepKernel::getStiffModeFrequencies(ContextImpl& context,
                                                                const StochasticImpulseIntegrator& integrator,
                                                                bool& stiffModesValid) {
-    if (!stiffModesValid || !modes) {
+    if (!stiffModesValid || !measurement->getModes()) {
         measureStiffModes(context, integrator.getStiffGroups());
         stiffModesValid = true;
     }
-    return modes->getStiffFrequencies();
+    return measurement->getModes()->getStiffFrequencies();
 }
 
 double ImpulseStepKernel::computeKineticEnergy(ContextImpl& context, const StochasticImpulseIntegrator& integrator) {

@@ -61,7 +61,8 @@ def configured_integrator():
 def parameters(integrator):
     return (integrator.getMesoStep(), integrator.getStepSize(), integrator.getMicroStep(),
             integrator.getStiffGroups(), integrator.getScheme(), integrator.getTemperature(),
-            integrator.getFriction(), integrator.getStiffFriction(), integrator.getRandomNumberSeed())
+            integrator.getFriction(), integrator.getStiffFriction(), integrator.getRandomNumberSeed(),
+            integrator.getAveraging(), integrator.getExactFastFlow())
 
 
 BAD_SETTER_CALLS = [
@@ -94,6 +95,7 @@ BAD_SETTER_CALLS = [
     ("setStiffGroups", {-1}, ValueError, "stiffGroups", "-1", "0..31"),
     ("setStiffGroups", 1 << 40, ValueError, "stiffGroups", str(1 << 40), "0..31"),
     ("setScheme", 5, openmm.OpenMMException, "scheme", "5", "Verlet"),
+    ("setAveraging", 3, openmm.OpenMMException, "averaging", "3", "ArtificialProjected (2)"),
 ]
 
 

@@ -38,6 +38,8 @@ def non_default_integrator():
     integrator.setRandomNumberSeed(918273)
     integrator.setConstraintTolerance(3.5e-7)
     integrator.setIntegrationForceGroups({0, 1, 3, 31})
+    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
+    integrator.setExactFastFlow(True)
     return integrator
 
 
@@ -54,6 +56,8 @@ def all_parameters(integrator):
         "randomSeed": integrator.getRandomNumberSeed(),
         "constraintTolerance": integrator.getConstraintTolerance(),
         "integrationForceGroups": integrator.getIntegrationForceGroups(),
+        "averaging": integrator.getAveraging(),
+        "exactFastFlow": integrator.getExactFastFlow(),
     }
 
 
@@ -100,9 +104,24 @@ def test_serialized_xml_names_the_integrator():
 
 def test_xml_with_unknown_version_is_rejected():
     text = openmm.XmlSerializer.serialize(non_default_integrator())
-    assert 'version="1"' in text
+    assert 'version="2"' in text
     with pytest.raises(openmm.OpenMMException, match="version"):
-        openmm.XmlSerializer.deserialize(text.replace('version="1"', 'version="99"'))
+        openmm.XmlSerializer.deserialize(text.replace('version="2"', 'version="99"'))
+
+
+def test_version_1_xml_loads_as_the_nonintrusive_flavor():
+    # Version 1 had no averaging: written here as that version wrote it, every other parameter kept.
+    text = openmm.XmlSerializer.serialize(non_default_integrator())
+    old = (text.replace('version="2"', 'version="1"').replace(' averaging="2"', '')
+           .replace(' exactFastFlow="1"', ''))
+    assert "averaging" not in old and "exactFastFlow" not in old
+    integrator = openmm.XmlSerializer.deserialize(old)
+    assert isinstance(integrator, FlavorIntegrator)
+    assert integrator.getAveraging() == FlavorIntegrator.Nonintrusive
+    assert not integrator.getExactFastFlow()
+    expected = all_parameters(non_default_integrator())
+    expected.update(averaging=FlavorIntegrator.Nonintrusive, exactFastFlow=False)
+    assert all_parameters(integrator) == expected
 
 
 def test_xml_with_invalid_parameter_is_rejected():

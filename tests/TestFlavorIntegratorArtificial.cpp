@@ -5,9 +5,12 @@
 #include "PlatformTest.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/CustomBondForce.h"
 #include "openmm/CustomExternalForce.h"
+#include "openmm/HarmonicAngleForce.h"
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/OpenMMException.h"
+#include "openmm/VerletIntegrator.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include <algorithm>
 #include <array>
@@ -457,14 +460,14 @@ TEST_P(FlavorArtificial, LangevinArtificialFlavorSamplesTheStiffCoordinatesWithT
     }
 }
 
-TEST_P(FlavorArtificial, ANonQuadraticStiffGroupIsRejectedAndTheContextStaysUsable) {
+TEST_P(FlavorArtificial, AStiffForceWithoutKnownFrozenCoordinatesIsRejectedAndTheContextStaysUsable) {
     std::unique_ptr<System> system(new System());
     system->addParticle(1.0);
     system->addParticle(1.0);
-    HarmonicBondForce* bond = new HarmonicBondForce();
-    bond->addBond(0, 1, 0.1, 1e4);
-    bond->setForceGroup(StiffGroup);
-    system->addForce(bond);
+    CustomExternalForce* quartic = new CustomExternalForce("1e4*x^4");
+    quartic->addParticle(1);
+    quartic->setForceGroup(StiffGroup);
+    system->addForce(quartic);
     CustomExternalForce* soft = new CustomExternalForce("x^2");
     soft->addParticle(0);
     soft->setForceGroup(SoftGroup);
@@ -475,16 +478,201 @@ TEST_P(FlavorArtificial, ANonQuadraticStiffGroupIsRejectedAndTheContextStaysUsab
     context.setPositions({Vec3(0, 0, 0), Vec3(0.12, 0.01, 0)});
     try {
         integrator.step(1);
-        FAIL() << "a nonlinear stiff group was accepted";
+        FAIL() << "a stiff force without frozen coordinates was accepted";
     } catch (const OpenMMException& e) {
         const std::string message = e.what();
-        EXPECT_NE(std::string::npos, message.find("FlavorIntegrator")) << message;
-        EXPECT_NE(std::string::npos, message.find("not quadratic")) << message;
-        EXPECT_NE(std::string::npos, message.find("Nonintrusive")) << message;
+        for (const char* part :
+             {"FlavorIntegrator", "force 0 (CustomExternalForce", "addFrozenDistance", "Nonintrusive"})
+            EXPECT_NE(std::string::npos, message.find(part)) << message;
     }
+    // The exact fast flow needs a quadratic stiff group.
+    integrator.setExactFastFlow(true);
+    integrator.addFrozenDistance(0, 1);
+    try {
+        integrator.step(1);
+        FAIL() << "the exact fast flow of a nonlinear stiff group was accepted";
+    } catch (const OpenMMException& e) {
+        EXPECT_NE(std::string::npos, std::string(e.what()).find("setExactFastFlow")) << e.what();
+    }
+    integrator.setExactFastFlow(false);
     integrator.setAveraging(FlavorIntegrator::Nonintrusive);
     integrator.step(5);
     EXPECT_EQ(5, context.getStepCount());
+}
+
+namespace {
+
+/**
+ * A flexible three-site molecule (0 = O, 1 and 2 = H: two HarmonicBondForce bonds and a HarmonicAngleForce angle,
+ * all stiff) and a rigid pair (3, 4: a System constraint) tied to it by a soft CustomBondForce; a soft tether on
+ * every particle.
+ */
+System* bondedMolecule() {
+    System* system = new System();
+    for (double mass : {16.0, 1.0, 1.0, 12.0, 12.0})
+        system->addParticle(mass);
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    bonds->addBond(0, 1, 0.1, 4e5);
+    bonds->addBond(0, 2, 0.1, 4e5);
+    bonds->setForceGroup(StiffGroup);
+    HarmonicAngleForce* angle = new HarmonicAngleForce();
+    angle->addAngle(1, 0, 2, 1.82, 400);
+    angle->setForceGroup(StiffGroup);
+    CustomBondForce* link = new CustomBondForce("50*(r-0.3)^2");
+    link->addBond(0, 3);
+    link->setForceGroup(SoftGroup);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
+    for (int i = 0; i < 5; ++i)
+        tether->addParticle(i);
+    tether->setForceGroup(SoftGroup);
+    system->addConstraint(3, 4, 0.15);
+    system->addForce(bonds);
+    system->addForce(angle);
+    system->addForce(link);
+    system->addForce(tether);
+    return system;
+}
+
+vector<Vec3> moleculePositions() {
+    return {Vec3(0, 0, 0), Vec3(0.101, 0.002, 0), Vec3(-0.0245, 0.0968, 0.003), Vec3(0.3, 0.01, 0),
+            Vec3(0.45, 0.01, 0)};
+}
+
+vector<Vec3> moleculeVelocities() {
+    return {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0), Vec3(0.2, 0.1, 0), Vec3(0.2, 0.1, 0)};
+}
+
+double rate(const vector<Vec3>& q, const vector<Vec3>& v, int i, int j) {
+    Vec3 r = q[i] - q[j];
+    return r.dot(v[i] - v[j]) / std::sqrt(r.dot(r));
+}
+
+double distance(const vector<Vec3>& q, int i, int j) {
+    Vec3 r = q[i] - q[j];
+    return std::sqrt(r.dot(r));
+}
+
+} // namespace
+
+TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStoredRates) {
+    // Soft forces off: a SymplecticEuler step is D(tau) K_stiff(tau), computed here, then the frozen drift over
+    // delta - tau, which must keep the O-H, O-H and H-H (1-3) distances at their values after the microstep, give
+    // them back their rates, keep the System constraint, and move the molecule's centre of mass freely.
+    const double delta = 0.01, tau = 1e-4, tolerance = 1e-10;
+    std::unique_ptr<System> system(bondedMolecule());
+    const vector<Vec3> q0 = moleculePositions(), v0 = moleculeVelocities();
+    vector<Vec3> q1(5), v1(5);
+    for (int i = 0; i < 5; ++i)
+        q1[i] = q0[i] + v0[i] * tau;
+    {
+        VerletIntegrator probe(0.001);
+        Context forces(*system, probe, platform(), properties());
+        forces.setPositions(q1);
+        vector<Vec3> f = forces.getState(State::Forces, false, StiffMask).getForces();
+        for (int i = 0; i < 5; ++i)
+            v1[i] = v0[i] + f[i] * (tau / system->getParticleMass(i));
+    }
+    FlavorIntegrator integrator(delta, tau, StiffMask);
+    integrator.setScheme(FlavorIntegrator::SymplecticEuler);
+    integrator.setAveraging(FlavorIntegrator::Artificial);
+    integrator.setIntegrationForceGroups(StiffMask);
+    integrator.setConstraintTolerance(tolerance);
+    Context context(*system, integrator, platform(), properties());
+    context.setPositions(q0);
+    context.setVelocities(v0);
+    integrator.step(1);
+    const vector<Vec3> q2 = positionsOf(context), v2 = velocitiesOf(context);
+    for (auto pair : {std::make_pair(0, 1), std::make_pair(0, 2), std::make_pair(1, 2)}) {
+        EXPECT_NEAR(distance(q1, pair.first, pair.second), distance(q2, pair.first, pair.second), 1e-9)
+            << pair.first << "-" << pair.second;
+        EXPECT_NEAR(rate(q1, v1, pair.first, pair.second), rate(q2, v2, pair.first, pair.second), 1e-7)
+            << pair.first << "-" << pair.second;
+    }
+    EXPECT_NEAR(0.15, distance(q2, 3, 4), 1e-9);
+    // The molecule really moved and turned: the frozen drift is not a no-op.
+    EXPECT_GT(std::abs(q2[1][0] - q1[1][0]), 1e-3);
+    Vec3 momentum1, momentum2, centre1, centre2;
+    double mass = 0;
+    for (int i = 0; i < 3; ++i) {
+        const double m = system->getParticleMass(i);
+        momentum1 += v1[i] * m;
+        momentum2 += v2[i] * m;
+        centre1 += q1[i] * m;
+        centre2 += q2[i] * m;
+        mass += m;
+    }
+    for (int d = 0; d < 3; ++d) {
+        EXPECT_NEAR(momentum1[d], momentum2[d], 1e-9);
+        EXPECT_NEAR(centre1[d] / mass + (delta - tau) * momentum1[d] / mass, centre2[d] / mass, 1e-11);
+    }
+}
+
+TEST_P(FlavorArtificial, BondedFreezingSamplesTheTrueBondVariance) {
+    // Independent diatomics (unit masses, bond k (r - r0)^2 / 2 stiff, a soft tether on the first atom), Langevin
+    // artificial FLAVOR: the bond stretch keeps <k (r - r0)^2> = kT (up to O(kT/(k r0^2)) = 6e-4) for delta/tau = 4
+    // and 25, within 4 standard errors over the independent molecules.
+    const int molecules = 150;
+    const double k = 4e5, r0 = 0.1, temperature = 300, kT = BOLTZ * temperature, tau = 1e-4;
+    std::unique_ptr<System> system(new System());
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    bonds->setForceGroup(StiffGroup);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
+    tether->setForceGroup(SoftGroup);
+    for (int m = 0; m < molecules; ++m) {
+        system->addParticle(1.0);
+        system->addParticle(1.0);
+        bonds->addBond(2 * m, 2 * m + 1, r0, k);
+        tether->addParticle(2 * m);
+    }
+    system->addForce(bonds);
+    system->addForce(tether);
+    std::mt19937 generator(7);
+    std::normal_distribution<double> normal;
+    for (auto averaging : {FlavorIntegrator::Artificial, FlavorIntegrator::ArtificialProjected})
+        for (double ratio : {4.0, 25.0}) {
+            FlavorIntegrator integrator(ratio * tau, tau, StiffMask);
+            integrator.setAveraging(averaging);
+            integrator.setTemperature(temperature);
+            integrator.setFriction(20.0);
+            integrator.setRandomNumberSeed(5);
+            Context context(*system, integrator, platform(), properties());
+            vector<Vec3> q(2 * molecules), v(2 * molecules);
+            const double sigmaR = std::sqrt(kT / k), sigmaV = std::sqrt(kT);
+            for (int m = 0; m < molecules; ++m) {
+                Vec3 centre(0.1 * normal(generator), 0.1 * normal(generator), 0.1 * normal(generator));
+                Vec3 axis(normal(generator), normal(generator), normal(generator));
+                axis *= 1.0 / std::sqrt(axis.dot(axis));
+                const double length = r0 + sigmaR * normal(generator);
+                q[2 * m] = centre - axis * (length / 2);
+                q[2 * m + 1] = centre + axis * (length / 2);
+                for (int i : {2 * m, 2 * m + 1})
+                    v[i] = Vec3(sigmaV * normal(generator), sigmaV * normal(generator), sigmaV * normal(generator));
+            }
+            context.setPositions(q);
+            context.setVelocities(v);
+            integrator.step(500);
+            const int samples = 150, interval = 20;
+            vector<double> average(molecules, 0.0);
+            for (int s = 0; s < samples; ++s) {
+                integrator.step(interval);
+                vector<Vec3> x = positionsOf(context);
+                for (int m = 0; m < molecules; ++m) {
+                    const double stretch = distance(x, 2 * m, 2 * m + 1) - r0;
+                    average[m] += k * stretch * stretch / samples;
+                }
+            }
+            double mean = 0, variance = 0;
+            for (double a : average)
+                mean += a / molecules;
+            for (double a : average)
+                variance += (a - mean) * (a - mean) / (molecules - 1);
+            const double standardError = std::sqrt(variance / molecules);
+            std::cout << "[ measured ] bonded, averaging " << averaging << " delta/tau " << ratio
+                      << ": k<(r-r0)^2>/kT = " << mean / kT << " +- " << standardError / kT << std::endl;
+            EXPECT_LE(std::abs(mean - kT), 4 * standardError)
+                << "averaging " << averaging << " delta/tau " << ratio << ": " << mean / kT << " kT";
+            EXPECT_LT(4 * standardError, 0.25 * kT);
+        }
 }
 
 TEST_P(FlavorArtificial, CheckpointsContinueIdentically) {

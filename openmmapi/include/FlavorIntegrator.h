@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace FlavorPlugin {
@@ -53,9 +54,11 @@ public:
         /**
          * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is one soft kick
          * over the mesostep, a microstep of the fast Hamiltonian (kinetic energy and stiff potential), and a drift
-         * for the rest of the mesostep along the directions where the stiff potential is flat, the rates of the
-         * frozen coordinates stored and restored.  The stiff group must be quadratic: the frozen coordinates are
-         * the nonzero modes of its stiffness matrix.
+         * for the rest of the mesostep with the stiff degrees of freedom frozen, the rates of the frozen coordinates
+         * stored and restored.  What freezes: for a quadratic stiff group, the nonzero modes of its stiffness
+         * matrix (an exact projection); otherwise the distances that the stiff bonded forces act on (each bond of a
+         * HarmonicBondForce or CustomBondForce, the 1-3 distance of each angle of a HarmonicAngleForce) and those
+         * added with addFrozenDistance(), held with the constraint solver next to the System's own constraints.
          */
         Artificial = 1,
         /**
@@ -131,6 +134,24 @@ public:
      */
     void setExactFastFlow(bool exact);
     /**
+     * Freeze the distance between two particles during the artificial FLAVOR's frozen drift, in addition to the
+     * distances the stiff bonded forces determine.  Needed when a stiff force of another type (e.g. a
+     * CustomCompoundBondForce) is not quadratic.
+     *
+     * @param particle1  the index of the first particle
+     * @param particle2  the index of the second particle (different from particle1)
+     * @return the index of the frozen distance that was added
+     */
+    int addFrozenDistance(int particle1, int particle2);
+    /**
+     * Get the number of distances added with addFrozenDistance().
+     */
+    int getNumFrozenDistances() const { return (int)frozenDistances.size(); }
+    /**
+     * Get the particles of a distance added with addFrozenDistance().
+     */
+    void getFrozenDistance(int index, int& particle1, int& particle2) const;
+    /**
      * Get the temperature of the heat bath (in Kelvin).
      */
     double getTemperature() const { return temperature; }
@@ -203,6 +224,7 @@ private:
     double temperature, friction;
     bool stiffFriction;
     std::vector<int> frictionParticles;
+    std::vector<std::pair<int, int>> frozenDistances;
     int randomNumberSeed;
     bool forcesAreValid, stiffModesValid;
     OpenMM::Kernel kernel;

@@ -81,6 +81,33 @@ void FlavorIntegrator::setExactFastFlow(bool exact) {
     exactFastFlow = exact;
 }
 
+int FlavorIntegrator::addFrozenDistance(int particle1, int particle2) {
+    const int numParticles = context == nullptr ? -1 : context->getSystem().getNumParticles();
+    for (int p : {particle1, particle2})
+        if (p < 0 || (numParticles >= 0 && p >= numParticles))
+            throwInvalidParameter(Owner, "frozen distance particle", std::to_string(p),
+                                  "particle indices must be >= 0" +
+                                      (numParticles >= 0
+                                           ? " and < " + std::to_string(numParticles) + " (the number of particles)"
+                                           : string()));
+    if (particle1 == particle2)
+        throwInvalidParameter(Owner, "frozen distance particles",
+                              std::to_string(particle1) + ", " + std::to_string(particle2),
+                              "the two particles of a frozen distance must differ");
+    frozenDistances.emplace_back(particle1, particle2);
+    stiffModesValid = false;
+    return (int)frozenDistances.size() - 1;
+}
+
+void FlavorIntegrator::getFrozenDistance(int index, int& particle1, int& particle2) const {
+    if (index < 0 || index >= (int)frozenDistances.size())
+        throwInvalidParameter(Owner, "index", std::to_string(index),
+                              "index must be >= 0 and < " + std::to_string(frozenDistances.size()) +
+                                  " (the number of frozen distances)");
+    particle1 = frozenDistances[index].first;
+    particle2 = frozenDistances[index].second;
+}
+
 void FlavorIntegrator::setTemperature(double temp) {
     requireNonNegative(Owner, "temperature", temp, "K");
     temperature = temp;
@@ -119,6 +146,13 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
         throw OpenMMException("This Integrator is already bound to a context");
     requireForceInGroups(Owner, contextRef.getSystem(), stiffGroups);
     requireParticleIndices(frictionParticles, contextRef.getSystem().getNumParticles());
+    for (const std::pair<int, int>& pair : frozenDistances)
+        for (int p : {pair.first, pair.second})
+            if (p >= contextRef.getSystem().getNumParticles())
+                throwInvalidParameter(Owner, "frozen distance particle", std::to_string(p),
+                                      "particle indices must be < " +
+                                          std::to_string(contextRef.getSystem().getNumParticles()) +
+                                          " (the number of particles)");
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);

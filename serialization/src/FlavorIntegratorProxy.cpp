@@ -29,6 +29,12 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
     SerializationNode& particles = node.createChildNode("FrictionParticles");
     for (int p : integrator.getFrictionParticles())
         particles.createChildNode("Particle").setIntProperty("index", p);
+    SerializationNode& frozen = node.createChildNode("FrozenDistances");
+    for (int i = 0; i < integrator.getNumFrozenDistances(); ++i) {
+        int p1, p2;
+        integrator.getFrozenDistance(i, p1, p2);
+        frozen.createChildNode("Distance").setIntProperty("p1", p1).setIntProperty("p2", p2);
+    }
 }
 
 void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
@@ -54,5 +60,8 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     for (const SerializationNode& particle : node.getChildNode("FrictionParticles").getChildren())
         particles.push_back(particle.getIntProperty("index"));
     integrator->setFrictionParticles(particles);
+    if (version >= 2)
+        for (const SerializationNode& distance : node.getChildNode("FrozenDistances").getChildren())
+            integrator->addFrozenDistance(distance.getIntProperty("p1"), distance.getIntProperty("p2"));
     return integrator.release();
 }

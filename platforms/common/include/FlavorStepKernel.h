@@ -24,9 +24,16 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
 
 private:
+    /**
+     * Decides what the artificial averagings freeze: the nonzero modes of a quadratic stiff group, or the distances
+     * of the stiff bonded forces and those added with FlavorIntegrator::addFrozenDistance().
+     */
+    void determineFrozenCoordinates(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator);
     std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
     std::unique_ptr<StiffModesMeasurement> measurement;
+    std::shared_ptr<FrozenDistances> frozenDistances;
+    std::vector<std::pair<int, int>> frozenPairs;
     bool configured;
     FlavorParameters parameters;
     double kT;

@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 #define OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 
+#include "FrozenDistances.h"
 #include "FrozenFlowTask.h"
 #include "ParticleFlows.h"
 #include "StiffFlowTask.h"
@@ -41,6 +42,11 @@ public:
      * HarmonicFlow sub-flows apply, and whose zero modes FrozenDrift and FrozenKick move along.
      */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    /**
+     * Sets the frozen distances along which FrozenDrift and FrozenKick hold stiff bonded forces (instead of the
+     * zero modes of a quadratic stiff potential); null returns to the modes.
+     */
+    void setFrozenDistances(std::shared_ptr<FrozenDistances> distances);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
     void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
@@ -88,6 +94,7 @@ private:
     std::shared_ptr<const StiffModes> stiffModes;
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
     std::unique_ptr<FrozenFlowTask> frozenFlowTask;
+    std::shared_ptr<FrozenDistances> frozenDistances;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;
     std::vector<ForceSlot> slots;

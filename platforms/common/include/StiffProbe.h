@@ -3,6 +3,7 @@
 
 #include "StiffModes.h"
 #include "internal/windowsExportFlavors.h"
+#include "openmm/OpenMMException.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
 #include <memory>
@@ -14,6 +15,12 @@ class ContextImpl;
 }
 
 namespace FlavorPlugin {
+
+/** Thrown by probeStiffness() when the stiff forces are not quadratic in the positions. */
+class OPENMM_EXPORT_FLAVORS NotQuadraticException : public OpenMM::OpenMMException {
+public:
+    explicit NotQuadraticException(const std::string& message) : OpenMM::OpenMMException(message) {}
+};
 
 /** The stiffness matrix K (nonzero blocks, i <= j) and constant force b of a quadratic stiff potential. */
 struct ProbedStiffness {
@@ -29,7 +36,7 @@ struct ProbedStiffness {
  * bonded stiff forces (ForceImpl::getBondedParticles) are probed together, one particle of every linked group at a
  * time, so the cost grows with the largest group, not with the number of groups; if that misses a coupling, every
  * particle is probed on its own.  Throws an OpenMMException if the forces are not linear in the positions or K is
- * not symmetric.  The Context's positions are left as they were.
+ * not symmetric (a NotQuadraticException).  The Context's positions are left as they were.
  */
 OPENMM_EXPORT_FLAVORS ProbedStiffness
 probeStiffness(OpenMM::ContextImpl& context, int stiffGroups, const std::vector<double>& masses,

@@ -70,6 +70,10 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     prepare();
 }
 
+void FlowStepRunner::setFrozenDistances(std::shared_ptr<FrozenDistances> distances) {
+    frozenDistances = distances;
+}
+
 void FlowStepRunner::prepare() {
     plan = compileStepPlan(schedule, hasConstraints);
     if (plan.slotGroups.size() > (size_t)MaxForceSlots)
@@ -242,6 +246,19 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
 }
 
 void FlowStepRunner::runFrozenFlow(ContextImpl& context, const PreparedFlow& flow, double constraintTolerance) {
+    if (frozenDistances) {
+        // The System's constraints are part of the frozen distances' solver.
+        ReferencePlatform::PlatformData& data = platformData(context);
+        if (flow.kind == SubFlow::FrozenDrift) {
+            frozenDistances->drift(*data.positions, *data.velocities, inverseMasses, flow.h, constraintTolerance);
+            invalidateForces();
+        } else {
+            ensureForces(context, flow.slot);
+            frozenDistances->kick(*data.positions, *data.velocities, slots[flow.slot].forces, inverseMasses, flow.h,
+                                  constraintTolerance);
+        }
+        return;
+    }
     if (!stiffModes)
         throw OpenMMException("FlowStepRunner: a FrozenDrift or FrozenKick needs setStiffModes()");
     ReferencePlatform::PlatformData& data = platformData(context);

@@ -239,14 +239,14 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
                "CustomBondForce \"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); ") +
         alternative;
     if (asymmetric.first >= 0)
-        throw OpenMMException(Owner +
-                              ": the stiff force groups are not quadratic in the positions: the measured "
-                              "stiffness between particles " +
-                              std::to_string(asymmetric.first) + " and " + std::to_string(asymmetric.second) +
-                              " is not symmetric (relative asymmetry " + formatNumber(asymmetry) + ", at most " +
-                              formatNumber(LinearityTolerance) + " allowed).  " + quadraticExamples);
+        throw NotQuadraticException(Owner +
+                                    ": the stiff force groups are not quadratic in the positions: the measured "
+                                    "stiffness between particles " +
+                                    std::to_string(asymmetric.first) + " and " + std::to_string(asymmetric.second) +
+                                    " is not symmetric (relative asymmetry " + formatNumber(asymmetry) + ", at most " +
+                                    formatNumber(LinearityTolerance) + " allowed).  " + quadraticExamples);
     if (!(result.linearityDeviation <= LinearityTolerance))
-        throw OpenMMException(
+        throw NotQuadraticException(
             Owner + ": the stiff force groups are not quadratic in the positions: at a random displacement of up to " +
             formatNumber(VerificationDisplacement) + " nm their forces differ from the linear prediction -K dq by " +
             formatNumber(result.linearityDeviation) + " (relative; at most " + formatNumber(LinearityTolerance) +

@@ -26,37 +26,42 @@ OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>> bondedFrozenPairs(const O
                                                                          std::vector<std::string>& unsupported);
 
 /**
- * The frozen drift and kick of the artificial FLAVOR for stiff bonded forces: the frozen distances are held with
- * OpenMM's CCMA constraint solver as temporary constraints next to the System's own (which stay on throughout).
+ * The frozen drift and kick of the artificial FLAVOR for stiff bonded forces: the frozen distances are held as
+ * temporary constraints next to the System's own (which stay on throughout), with SHAKE for positions and RATTLE's
+ * velocity step, solved by Gauss-Seidel sweeps to the integrator's constraint tolerance.
  *
  *     drift(h):  store the rates of the frozen distances; remove the velocity components along every constraint
  *                (mass-orthogonal projection onto the constraint manifold's tangent space); drift with the frozen
- *                distances held at their current lengths and the System's at theirs; project the velocities again
- *                (RATTLE); restore the stored rates along the new constraint directions.
+ *                distances held at their current lengths and the System's at theirs; then give every constraint its
+ *                rate along the new directions: the stored one for the frozen distances, 0 for the System's.
  *     kick(h):   v += h P M^-1 F, with P the same projection (the soft impulse's component along the frozen
- *                distances dropped).
+ *                distances and the System's constraints dropped).
  *
  * All buffers are sized at construction; the steps do not allocate.
  */
 class OPENMM_EXPORT_FLAVORS FrozenDistances {
 public:
     FrozenDistances(const OpenMM::System& system, const std::vector<std::pair<int, int>>& frozenPairs);
-    ~FrozenDistances();
     int getNumFrozen() const { return numFrozen; }
     void drift(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
-               std::vector<double>& inverseMasses, double h, double tolerance);
-    void kick(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
-              const std::vector<OpenMM::Vec3>& forces, std::vector<double>& inverseMasses, double h, double tolerance);
+               const std::vector<double>& inverseMasses, double h, double tolerance);
+    void kick(const std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
+              const std::vector<OpenMM::Vec3>& forces, const std::vector<double>& inverseMasses, double h,
+              double tolerance);
 
 private:
-    class Solver;
-    /** Sets v so that every constraint's rate is its target (0 for the System's), to the tolerance. */
-    void restoreRates(const std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
-                      const std::vector<double>& inverseMasses, double tolerance);
+    static constexpr int MaxSweeps = 1000;
+    /** SHAKE: moves positions along the constraint directions at previousPositions until every length holds. */
+    void constrainPositions(std::vector<OpenMM::Vec3>& positions, const std::vector<double>& inverseMasses,
+                            double tolerance);
+    /** Sets the velocities so that every constraint's rate is its target. */
+    void constrainVelocities(const std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
+                             const std::vector<double>& inverseMasses, const std::vector<double>& targets,
+                             double tolerance);
+    // The System's constraints, then the frozen distances.
     int numSystem, numFrozen;
     std::vector<std::pair<int, int>> pairs;
-    std::unique_ptr<Solver> solver;
-    std::vector<double> targetRates;
+    std::vector<double> lengths, targetRates, zeroRates;
     std::vector<OpenMM::Vec3> previousPositions, scratch;
 };
 

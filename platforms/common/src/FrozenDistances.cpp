@@ -4,7 +4,6 @@
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
-#include "openmm/reference/ReferenceCCMAAlgorithm.h"
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -69,25 +68,14 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
     return result;
 }
 
-/** OpenMM's CCMA solver whose constraint lengths can be set before each use. */
-class FrozenDistances::Solver : public ReferenceCCMAAlgorithm {
-public:
-    Solver(int numAtoms, const vector<pair<int, int>>& pairs, const vector<double>& distances, vector<double>& masses,
-           vector<AngleInfo>& angles)
-        : ReferenceCCMAAlgorithm(numAtoms, (int)pairs.size(), pairs, distances, masses, angles, 0.02) {}
-    void setDistance(int index, double distance) { _distance[index] = distance; }
-};
-
 FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs) {
-    const int n = system.getNumParticles();
     std::set<pair<int, int>> constrained;
-    vector<double> distances;
     for (int c = 0; c < system.getNumConstraints(); ++c) {
         int p1, p2;
         double distance;
         system.getConstraintParameters(c, p1, p2, distance);
         pairs.emplace_back(p1, p2);
-        distances.push_back(distance);
+        lengths.push_back(distance);
         constrained.insert(ordered(p1, p2));
     }
     numSystem = (int)pairs.size();
@@ -99,72 +87,86 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
                                   "frozen.  Move the force acting on it to a soft group");
         if (constrained.count(ordered(p.first, p.second)) == 0) {
             pairs.push_back(p);
-            distances.push_back(0.1); // set from the positions before each use
+            lengths.push_back(0.0); // set from the positions before each drift
         }
     }
     numFrozen = (int)pairs.size() - numSystem;
-    vector<double> masses(n);
-    for (int i = 0; i < n; ++i)
-        masses[i] = system.getParticleMass(i);
-    // The angles shape CCMA's coupling matrix (its preconditioner), as in OpenMM's own constraint set-up.
-    vector<ReferenceCCMAAlgorithm::AngleInfo> angles;
-    for (int f = 0; f < system.getNumForces(); ++f)
-        if (const HarmonicAngleForce* force = dynamic_cast<const HarmonicAngleForce*>(&system.getForce(f)))
-            for (int a = 0; a < force->getNumAngles(); ++a) {
-                int p1, p2, p3;
-                double angle, k;
-                force->getAngleParameters(a, p1, p2, p3, angle, k);
-                angles.emplace_back(p1, p2, p3, angle);
-            }
-    solver = std::make_unique<Solver>(n, pairs, distances, masses, angles);
     targetRates.assign(pairs.size(), 0.0);
-    previousPositions.resize(n);
-    scratch.resize(n);
+    zeroRates.assign(pairs.size(), 0.0);
+    previousPositions.resize(system.getNumParticles());
+    scratch.resize(system.getNumParticles());
 }
 
-FrozenDistances::~FrozenDistances() = default;
-
-void FrozenDistances::drift(vector<Vec3>& positions, vector<Vec3>& velocities, vector<double>& inverseMasses, double h,
-                            double tolerance) {
+void FrozenDistances::drift(vector<Vec3>& positions, vector<Vec3>& velocities, const vector<double>& inverseMasses,
+                            double h, double tolerance) {
     const int n = (int)positions.size();
     // Store the rates of the frozen distances and hold them at their current lengths.
     for (int c = numSystem; c < (int)pairs.size(); ++c) {
         const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
-        const double length = std::sqrt(r.dot(r));
-        solver->setDistance(c, length);
-        targetRates[c] = r.dot(velocities[pairs[c].first] - velocities[pairs[c].second]) / length;
+        lengths[c] = std::sqrt(r.dot(r));
+        targetRates[c] = r.dot(velocities[pairs[c].first] - velocities[pairs[c].second]) / lengths[c];
     }
-    solver->applyToVelocities(positions, velocities, inverseMasses, tolerance);
+    constrainVelocities(positions, velocities, inverseMasses, zeroRates, tolerance);
     previousPositions = positions;
     for (int i = 0; i < n; ++i)
         if (inverseMasses[i] != 0.0)
             positions[i] += velocities[i] * h;
-    solver->apply(previousPositions, positions, inverseMasses, tolerance);
+    constrainPositions(positions, inverseMasses, tolerance);
     const double inverseTime = 1.0 / h;
     for (int i = 0; i < n; ++i)
         if (inverseMasses[i] != 0.0)
             velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
-    solver->applyToVelocities(positions, velocities, inverseMasses, tolerance);
-    restoreRates(positions, velocities, inverseMasses, tolerance);
+    // Back onto the tangent space at the new positions (RATTLE), then the stored rates along the new directions:
+    // one solve with the targets does both.
+    constrainVelocities(positions, velocities, inverseMasses, targetRates, tolerance);
 }
 
-void FrozenDistances::kick(vector<Vec3>& positions, vector<Vec3>& velocities, const vector<Vec3>& forces,
-                           vector<double>& inverseMasses, double h, double tolerance) {
+void FrozenDistances::kick(const vector<Vec3>& positions, vector<Vec3>& velocities, const vector<Vec3>& forces,
+                           const vector<double>& inverseMasses, double h, double tolerance) {
     const int n = (int)positions.size();
     for (int i = 0; i < n; ++i)
         scratch[i] = forces[i] * (h * inverseMasses[i]);
-    solver->applyToVelocities(positions, scratch, inverseMasses, tolerance);
+    constrainVelocities(positions, scratch, inverseMasses, zeroRates, tolerance);
     for (int i = 0; i < n; ++i)
         velocities[i] += scratch[i];
 }
 
-void FrozenDistances::restoreRates(const vector<Vec3>& positions, vector<Vec3>& velocities,
-                                   const vector<double>& inverseMasses, double tolerance) {
-    // RATTLE's velocity iteration with nonzero targets: v_i += w_i d u, v_j -= w_j d u along each constraint's unit
-    // vector u, which solves (J M^-1 J^T) lambda = target - J v by Gauss-Seidel sweeps.
-    const int maxSweeps = 500;
-    for (int sweep = 0; sweep < maxSweeps; ++sweep) {
-        double largest = 0.0;
+void FrozenDistances::constrainPositions(vector<Vec3>& positions, const vector<double>& inverseMasses,
+                                         double tolerance) {
+    // SHAKE: Gauss-Seidel sweeps, each constraint corrected along its direction before the drift.
+    for (int sweep = 0; sweep < MaxSweeps; ++sweep) {
+        bool converged = true;
+        for (size_t c = 0; c < pairs.size(); ++c) {
+            const int i = pairs[c].first, j = pairs[c].second;
+            const double wi = inverseMasses[i], wj = inverseMasses[j];
+            if (wi + wj == 0.0)
+                continue;
+            const Vec3 r = positions[i] - positions[j];
+            const Vec3 reference = previousPositions[i] - previousPositions[j];
+            const double target = lengths[c] * lengths[c];
+            const double difference = target - r.dot(r);
+            if (std::abs(difference) <= 2 * tolerance * target)
+                continue;
+            converged = false;
+            const double g = difference / (2 * (wi + wj) * r.dot(reference));
+            positions[i] += reference * (wi * g);
+            positions[j] -= reference * (wj * g);
+        }
+        if (converged)
+            return;
+    }
+    throw OpenMMException("FlavorIntegrator: the frozen distances could not be held to the constraint tolerance " +
+                          std::to_string(tolerance) + " in " + std::to_string(MaxSweeps) +
+                          " iterations; the simulation is unstable (reduce the mesostep)");
+}
+
+void FrozenDistances::constrainVelocities(const vector<Vec3>& positions, vector<Vec3>& velocities,
+                                          const vector<double>& inverseMasses, const vector<double>& targets,
+                                          double tolerance) {
+    // RATTLE's velocity step with targets: v_i += w_i d u, v_j -= w_j d u along each constraint's unit vector u, which
+    // solves (J M^-1 J^T) lambda = targets - J v by Gauss-Seidel sweeps.
+    for (int sweep = 0; sweep < MaxSweeps; ++sweep) {
+        bool converged = true;
         for (size_t c = 0; c < pairs.size(); ++c) {
             const int i = pairs[c].first, j = pairs[c].second;
             const double wi = inverseMasses[i], wj = inverseMasses[j];
@@ -173,15 +175,16 @@ void FrozenDistances::restoreRates(const vector<Vec3>& positions, vector<Vec3>& 
             Vec3 u = positions[i] - positions[j];
             u *= 1.0 / std::sqrt(u.dot(u));
             const Vec3 relative = velocities[i] - velocities[j];
-            const double error = targetRates[c] - u.dot(relative);
-            const double scale = std::sqrt(relative.dot(relative)) + std::abs(targetRates[c]);
-            if (scale > 0.0)
-                largest = std::max(largest, std::abs(error) / scale);
+            const double error = targets[c] - u.dot(relative);
+            const double scale = std::sqrt(relative.dot(relative)) + std::abs(targets[c]);
+            if (std::abs(error) <= tolerance * scale)
+                continue;
+            converged = false;
             const double d = error / (wi + wj);
             velocities[i] += u * (wi * d);
             velocities[j] -= u * (wj * d);
         }
-        if (largest <= tolerance)
+        if (converged)
             return;
     }
 }

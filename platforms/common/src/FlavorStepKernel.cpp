@@ -45,6 +45,9 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         determineFrozenCoordinates(context, integrator);
         stiffModesValid = true;
     }
+    if (parameters.averaging != FlavorIntegrator::Nonintrusive && parameters.exactFastFlow && frozenDistances)
+        throw OpenMMException("FlavorIntegrator: the stiff force groups are not quadratic (their distances are frozen "
+                              "with constraints), so they have no exact fast flow; call setExactFastFlow(false)");
     runner->setFrictionParticles(integrator.getFrictionParticles());
     runner->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
 }

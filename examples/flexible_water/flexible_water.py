@@ -212,12 +212,23 @@ def plot(records, path):
     ax.set_ylabel("g_OO(r)")
     ax.legend(fontsize=6)
     ax = axes[7]
-    ax.axis("off")
-    lines = ["unstable (blew up):"] + [r["name"] for r in records if not r["stable"]]
-    ax.text(0, 1, "\n".join(lines) if len(lines) > 1 else "every peer stable", va="top", fontsize=8)
+    values = [r["oh_sd"] for r in stable]
+    errors = [r["oh_sd_error"] for r in stable]
+    ax.errorbar(values, y, xerr=errors, fmt="o", capsize=3)
+    if reference["stable"]:
+        ax.axvline(reference["oh_sd"], color="gray", ls="--", lw=1, label="reference (LangevinMiddle 0.25 fs)")
+        ax.legend(fontsize=7, loc="best")
+    ax.set_yticks(y)
+    ax.set_yticklabels([])
+    ax.set_xlabel("O–H spread, standard deviation (nm)")
+    ax.invert_yaxis()
+    unstable = [r["name"] for r in records if not r["stable"]]
+    fig.text(0.01, 0.005, "Rigid water: its kinetic temperatures count 3 degrees of freedom per atom, but SETTLE "
+             "removes 3 per molecule, so they are not comparable.  " +
+             ("Unstable (blew up): " + ", ".join(unstable) if unstable else "Every peer stayed stable."), fontsize=9)
     fig.suptitle("Flexible TIP3P water (1,503 atoms, PME, 300 K): FLAVOR averagings against OpenMM's Langevin "
                  "integrators, block-average error bars")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.02, 1, 1))
     fig.savefig(path, dpi=90)
     plt.close(fig)
 
@@ -231,7 +242,14 @@ def main():
     parser.add_argument("--production", type=float, default=3.0, help="ps per peer")
     parser.add_argument("--start", type=float, default=3.0, help="ps of common equilibration before the peers")
     parser.add_argument("--molecules", type=int, default=501)
+    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = parser.parse_args()
+    if args.replot:
+        with open(args.replot) as f:
+            data = json.load(f)
+        os.makedirs(args.out, exist_ok=True)
+        plot(data["peers"], os.path.join(args.out, "flexible_water.png"))
+        return
     if args.quick:
         args.equilibration, args.production, args.start = 0.005, 0.02, 0.1
     flavor_settings = [("Nonintrusive", 2.0, 0.5, False), ("Artificial", 2.0, 0.5, False),

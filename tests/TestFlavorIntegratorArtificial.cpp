@@ -619,6 +619,213 @@ TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStored
     }
 }
 
+namespace {
+
+typedef std::array<std::array<double, 3>, 3> Matrix3;
+
+/** Solves a x = b for a 3 x 3 matrix by Cramer's rule. */
+std::array<double, 3> solve3(const Matrix3& a, const std::array<double, 3>& b) {
+    auto det = [](const Matrix3& m) {
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+               m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    };
+    const double d = det(a);
+    std::array<double, 3> x;
+    for (int k = 0; k < 3; ++k) {
+        Matrix3 m = a;
+        for (int r = 0; r < 3; ++r)
+            m[r][k] = b[r];
+        x[k] = det(m) / d;
+    }
+    return x;
+}
+
+/**
+ * The frozen stage for the three distances of a triangle of particles, written independently of the library: dense
+ * 3 x 3 solves for the velocity constraints and Newton's method for the positions (SHAKE's equations).
+ */
+struct Triangle {
+    const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+    std::array<double, 3> w; // inverse masses
+    Vec3 direction(const vector<Vec3>& q, int c) const { return q[pairs[c][0]] - q[pairs[c][1]]; }
+    /** v += M^-1 J^T lambda with J v = targets afterwards (J: the unit directions of the distances at q). */
+    void setRates(const vector<Vec3>& q, vector<Vec3>& v, const std::array<double, 3>& targets) const {
+        Vec3 u[3];
+        for (int c = 0; c < 3; ++c) {
+            u[c] = direction(q, c);
+            u[c] *= 1.0 / std::sqrt(u[c].dot(u[c]));
+        }
+        Matrix3 a{};
+        std::array<double, 3> b;
+        for (int c = 0; c < 3; ++c) {
+            const int i = pairs[c][0], j = pairs[c][1];
+            b[c] = targets[c] - u[c].dot(v[i] - v[j]);
+            for (int k = 0; k < 3; ++k) {
+                const int ik = pairs[k][0], jk = pairs[k][1];
+                // d(u_c . (v_i - v_j)) / d lambda_k with v_p += w_p s_kp u_k.
+                double coefficient = 0;
+                coefficient += (ik == i ? w[i] : 0) - (jk == i ? w[i] : 0);
+                coefficient -= (ik == j ? w[j] : 0) - (jk == j ? w[j] : 0);
+                a[c][k] = coefficient * u[c].dot(u[k]);
+            }
+        }
+        std::array<double, 3> lambda = solve3(a, b);
+        for (int k = 0; k < 3; ++k) {
+            v[pairs[k][0]] += u[k] * (w[pairs[k][0]] * lambda[k]);
+            v[pairs[k][1]] -= u[k] * (w[pairs[k][1]] * lambda[k]);
+        }
+    }
+    void drift(vector<Vec3>& q, vector<Vec3>& v, double h) const {
+        std::array<double, 3> lengths, rates, zero = {0, 0, 0};
+        for (int c = 0; c < 3; ++c) {
+            Vec3 r = direction(q, c);
+            lengths[c] = std::sqrt(r.dot(r));
+            rates[c] = r.dot(v[pairs[c][0]] - v[pairs[c][1]]) / lengths[c];
+        }
+        setRates(q, v, zero);
+        // q_new = q + h v + M^-1 sum_k mu_k s_k r_k (r_k at q); Newton on |q_new_i - q_new_j|^2 = length^2.
+        const vector<Vec3> q0 = q;
+        Vec3 r[3];
+        for (int k = 0; k < 3; ++k)
+            r[k] = direction(q0, k);
+        std::array<double, 3> mu = {0, 0, 0};
+        vector<Vec3> trial(3);
+        for (int iteration = 0; iteration < 50; ++iteration) {
+            for (int p = 0; p < 3; ++p)
+                trial[p] = q0[p] + v[p] * h;
+            for (int k = 0; k < 3; ++k) {
+                trial[pairs[k][0]] += r[k] * (w[pairs[k][0]] * mu[k]);
+                trial[pairs[k][1]] -= r[k] * (w[pairs[k][1]] * mu[k]);
+            }
+            Matrix3 jacobian{};
+            std::array<double, 3> g;
+            for (int c = 0; c < 3; ++c) {
+                const int i = pairs[c][0], j = pairs[c][1];
+                const Vec3 e = trial[i] - trial[j];
+                g[c] = lengths[c] * lengths[c] - e.dot(e);
+                for (int k = 0; k < 3; ++k) {
+                    const int ik = pairs[k][0], jk = pairs[k][1];
+                    double coefficient = 0;
+                    coefficient += (ik == i ? w[i] : 0) - (jk == i ? w[i] : 0);
+                    coefficient -= (ik == j ? w[j] : 0) - (jk == j ? w[j] : 0);
+                    jacobian[c][k] = 2 * coefficient * e.dot(r[k]);
+                }
+            }
+            std::array<double, 3> step = solve3(jacobian, g);
+            for (int k = 0; k < 3; ++k)
+                mu[k] += step[k];
+        }
+        q = trial;
+        for (int p = 0; p < 3; ++p)
+            v[p] = (q[p] - q0[p]) * (1.0 / h);
+        setRates(q, v, rates);
+    }
+    /** v += h P M^-1 F: the kick with its components along the three distances removed. */
+    void projectedKick(const vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>& f, double h) const {
+        vector<Vec3> dv(3);
+        for (int p = 0; p < 3; ++p)
+            dv[p] = f[p] * (h * w[p]);
+        setRates(q, dv, {0, 0, 0});
+        for (int p = 0; p < 3; ++p)
+            v[p] += dv[p];
+    }
+};
+
+} // namespace
+
+TEST_P(FlavorArtificial, BothCompositionsMatchAnIndependentImplementationOnABondedMolecule) {
+    // A flexible three-site molecule (eqs. (6.9)-(6.12) in spirit: two stiff bonds and a stiff angle, whose frozen
+    // coordinates are the three distances of the triangle) under a nonlinear soft potential.  Forces come from an
+    // OpenMM Context (any correct force oracle will do); the composition and the frozen stage are written above.
+    const double delta = 2e-3, tau = 2e-4;
+    const int steps = 40;
+    std::unique_ptr<System> system(new System());
+    for (double mass : {16.0, 1.0, 1.0})
+        system->addParticle(mass);
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    bonds->addBond(0, 1, 0.1, 4e5);
+    bonds->addBond(0, 2, 0.1, 4e5);
+    bonds->setForceGroup(StiffGroup);
+    HarmonicAngleForce* angle = new HarmonicAngleForce();
+    angle->addAngle(1, 0, 2, 1.82, 400);
+    angle->setForceGroup(StiffGroup);
+    CustomExternalForce* soft = new CustomExternalForce("20*x^2 + 30*y^4 + 5*z^2 + 40*x*y");
+    for (int i = 0; i < 3; ++i)
+        soft->addParticle(i);
+    soft->setForceGroup(SoftGroup);
+    system->addForce(bonds);
+    system->addForce(angle);
+    system->addForce(soft);
+    const vector<Vec3> q0 = {Vec3(0.05, -0.02, 0.01), Vec3(0.152, -0.018, 0.012), Vec3(0.0245, 0.077, 0.013)};
+    const vector<Vec3> v0 = {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0)};
+    VerletIntegrator oracleIntegrator(1e-3);
+    Context oracle(*system, oracleIntegrator, Platform::getPlatformByName("Reference"));
+    auto forces = [&](const vector<Vec3>& q, int groups) {
+        oracle.setPositions(q);
+        return oracle.getState(State::Forces, false, groups).getForces();
+    };
+    Triangle triangle;
+    for (int p = 0; p < 3; ++p)
+        triangle.w[p] = 1.0 / system->getParticleMass(p);
+    for (auto scheme : {FlavorIntegrator::SymplecticEuler, FlavorIntegrator::Verlet})
+        for (bool projected : {false, true}) {
+            vector<Vec3> q = q0, v = v0;
+            auto kick = [&](int groups, double h) {
+                vector<Vec3> f = forces(q, groups);
+                for (int p = 0; p < 3; ++p)
+                    v[p] += f[p] * (h * triangle.w[p]);
+            };
+            auto softKick = [&](double h) {
+                if (!projected) {
+                    kick(1 << SoftGroup, h);
+                    return;
+                }
+                vector<Vec3> f = forces(q, 1 << SoftGroup);
+                for (int p = 0; p < 3; ++p)
+                    v[p] += f[p] * (h * (tau / delta) * triangle.w[p]);
+                triangle.projectedKick(q, v, f, h - h * (tau / delta));
+            };
+            auto drift = [&](double h) {
+                for (int p = 0; p < 3; ++p)
+                    q[p] += v[p] * h;
+            };
+            for (int s = 0; s < steps; ++s) {
+                if (scheme == FlavorIntegrator::SymplecticEuler) {
+                    softKick(delta);
+                    drift(tau);
+                    kick(StiffMask, tau);
+                    triangle.drift(q, v, delta - tau);
+                } else {
+                    softKick(delta / 2);
+                    triangle.drift(q, v, (delta - tau) / 2);
+                    kick(StiffMask, tau / 2);
+                    drift(tau);
+                    kick(StiffMask, tau / 2);
+                    triangle.drift(q, v, (delta - tau) / 2);
+                    softKick(delta / 2);
+                }
+            }
+            FlavorIntegrator integrator(delta, tau, StiffMask);
+            integrator.setScheme(scheme);
+            integrator.setAveraging(projected ? FlavorIntegrator::ArtificialProjected : FlavorIntegrator::Artificial);
+            integrator.setConstraintTolerance(1e-13);
+            Context context(*system, integrator, platform(), properties());
+            context.setPositions(q0);
+            context.setVelocities(v0);
+            integrator.step(steps);
+            const vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
+            double positionError = 0, velocityError = 0, displacement = 0;
+            for (int p = 0; p < 3; ++p) {
+                positionError = std::max(positionError, std::sqrt((q1[p] - q[p]).dot(q1[p] - q[p])));
+                velocityError = std::max(velocityError, std::sqrt((v1[p] - v[p]).dot(v1[p] - v[p])));
+                displacement = std::max(displacement, std::sqrt((q[p] - q0[p]).dot(q[p] - q0[p])));
+            }
+            EXPECT_LE(positionError, 1e-10) << "scheme " << scheme << " projected " << projected;
+            EXPECT_LE(velocityError, 1e-7) << "scheme " << scheme << " projected " << projected;
+            EXPECT_GT(displacement, 1e-2); // the molecule really moved
+        }
+}
+
 TEST_P(FlavorArtificial, BondedFreezingSamplesTheTrueBondVariance) {
     // Independent diatomics (unit masses, bond k (r - r0)^2 / 2 stiff, a soft tether on the first atom), Langevin
     // artificial FLAVOR: the bond stretch keeps <k (r - r0)^2> = kT (up to O(kT/(k r0^2)) = 6e-4) for delta/tau = 4

@@ -250,12 +250,13 @@ void FlowStepRunner::runFrozenFlow(ContextImpl& context, const PreparedFlow& flo
         // The System's constraints are part of the frozen distances' solver.
         ReferencePlatform::PlatformData& data = platformData(context);
         if (flow.kind == SubFlow::FrozenDrift) {
-            frozenDistances->drift(*data.positions, *data.velocities, inverseMasses, flow.h, constraintTolerance);
+            frozenDistances->drift(*data.positions, *data.velocities, inverseMasses, flow.h, constraintTolerance,
+                                   *loop);
             invalidateForces();
         } else {
             ensureForces(context, flow.slot);
             frozenDistances->kick(*data.positions, *data.velocities, slots[flow.slot].forces, inverseMasses, flow.h,
-                                  constraintTolerance);
+                                  constraintTolerance, *loop);
         }
         return;
     }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <utility>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -68,17 +69,33 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
     return result;
 }
 
-FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs) {
+namespace {
+
+int findRoot(vector<int>& parent, int i) {
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+} // namespace
+
+FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs)
+    : positions(nullptr), velocities(nullptr), forces(nullptr), inverseMasses(nullptr), h(0.0), tolerance(0.0),
+      kicking(false) {
+    const int n = system.getNumParticles();
+    vector<pair<int, int>> all;
+    vector<double> allLengths;
+    vector<bool> allFrozen;
     std::set<pair<int, int>> constrained;
     for (int c = 0; c < system.getNumConstraints(); ++c) {
         int p1, p2;
         double distance;
         system.getConstraintParameters(c, p1, p2, distance);
-        pairs.emplace_back(p1, p2);
-        lengths.push_back(distance);
+        all.emplace_back(p1, p2);
+        allLengths.push_back(distance);
+        allFrozen.push_back(false);
         constrained.insert(ordered(p1, p2));
     }
-    numSystem = (int)pairs.size();
     for (const pair<int, int>& p : frozenPairs) {
         if (system.getParticleMass(p.first) == 0.0 || system.getParticleMass(p.second) == 0.0)
             throw OpenMMException("FlavorIntegrator: the frozen distance between particles " + std::to_string(p.first) +
@@ -86,61 +103,152 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
                                   " involves a massless particle; massless particles do not move and cannot be "
                                   "frozen.  Move the force acting on it to a soft group");
         if (constrained.count(ordered(p.first, p.second)) == 0) {
-            pairs.push_back(p);
-            lengths.push_back(0.0); // set from the positions before each drift
+            all.push_back(p);
+            allLengths.push_back(0.0); // set from the positions before each drift
+            allFrozen.push_back(true);
         }
     }
-    numFrozen = (int)pairs.size() - numSystem;
+    numFrozen = 0;
+    for (bool f : allFrozen)
+        numFrozen += f ? 1 : 0;
+    // Clusters: the connected components of the constraint graph over particles with mass.  Each is solved on its
+    // own, so clusters run in parallel; a particle without constraints is a cluster of its own.
+    vector<int> parent(n);
+    for (int i = 0; i < n; ++i)
+        parent[i] = i;
+    for (const pair<int, int>& p : all)
+        parent[findRoot(parent, p.first)] = findRoot(parent, p.second);
+    vector<int> clusterOf(n, -1);
+    int numClusters = 0;
+    for (int i = 0; i < n; ++i) {
+        if (system.getParticleMass(i) == 0.0)
+            continue;
+        const int root = findRoot(parent, i);
+        if (clusterOf[root] < 0)
+            clusterOf[root] = numClusters++;
+        clusterOf[i] = clusterOf[root];
+    }
+    vector<vector<int>> clusterParticles(numClusters), clusterConstraints(numClusters);
+    // Massless particles never move (as in OpenMM's integrators): they belong to no cluster's particle list.
+    for (int i = 0; i < n; ++i)
+        if (clusterOf[i] >= 0 && system.getParticleMass(i) != 0.0)
+            clusterParticles[clusterOf[i]].push_back(i);
+    for (size_t c = 0; c < all.size(); ++c) {
+        const int cluster = clusterOf[findRoot(parent, all[c].first)];
+        if (cluster >= 0)
+            clusterConstraints[cluster].push_back((int)c);
+    }
+    particleStart.push_back(0);
+    constraintStart.push_back(0);
+    for (int k = 0; k < numClusters; ++k) {
+        particles.insert(particles.end(), clusterParticles[k].begin(), clusterParticles[k].end());
+        for (int c : clusterConstraints[k]) {
+            pairs.push_back(all[c]);
+            lengths.push_back(allLengths[c]);
+            frozen.push_back(allFrozen[c] ? 1 : 0);
+        }
+        particleStart.push_back((int)particles.size());
+        constraintStart.push_back((int)pairs.size());
+    }
     targetRates.assign(pairs.size(), 0.0);
-    zeroRates.assign(pairs.size(), 0.0);
-    previousPositions.resize(system.getNumParticles());
-    scratch.resize(system.getNumParticles());
+    previousPositions.resize(n);
+    scratch.resize(n);
+    failed.assign(numClusters, 0);
 }
 
-void FrozenDistances::drift(vector<Vec3>& positions, vector<Vec3>& velocities, const vector<double>& inverseMasses,
-                            double h, double tolerance) {
-    const int n = (int)positions.size();
+void FrozenDistances::drift(vector<Vec3>& q, vector<Vec3>& v, const vector<double>& w, double step, double tol,
+                            ParallelLoop& loop) {
+    positions = q.data();
+    velocities = v.data();
+    inverseMasses = w.data();
+    h = step;
+    tolerance = tol;
+    kicking = false;
+    loop.run(*this, getNumClusters());
+    checkConvergence();
+}
+
+void FrozenDistances::kick(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>& f, const vector<double>& w,
+                           double step, double tol, ParallelLoop& loop) {
+    positions = q.data();
+    velocities = v.data();
+    forces = f.data();
+    inverseMasses = w.data();
+    h = step;
+    tolerance = tol;
+    kicking = true;
+    loop.run(*this, getNumClusters());
+}
+
+void FrozenDistances::checkConvergence() {
+    for (size_t k = 0; k < failed.size(); ++k)
+        if (failed[k]) {
+            std::fill(failed.begin(), failed.end(), 0);
+            throw OpenMMException("FlavorIntegrator: the frozen distances could not be held to the constraint "
+                                  "tolerance " +
+                                  std::to_string(tolerance) + " in " + std::to_string(MaxSweeps) +
+                                  " iterations; the simulation is unstable (reduce the mesostep)");
+        }
+}
+
+void FrozenDistances::apply(int begin, int end) const {
+    for (int k = begin; k < end; ++k) {
+        if (kicking)
+            kickCluster(k);
+        else
+            driftCluster(k);
+    }
+}
+
+void FrozenDistances::driftCluster(int k) const {
+    const int firstConstraint = constraintStart[k], lastConstraint = constraintStart[k + 1];
     // Store the rates of the frozen distances and hold them at their current lengths.
-    for (int c = numSystem; c < (int)pairs.size(); ++c) {
+    for (int c = firstConstraint; c < lastConstraint; ++c) {
+        if (!frozen[c])
+            continue;
         const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
         lengths[c] = std::sqrt(r.dot(r));
         targetRates[c] = r.dot(velocities[pairs[c].first] - velocities[pairs[c].second]) / lengths[c];
     }
-    constrainVelocities(positions, velocities, inverseMasses, zeroRates, tolerance);
-    previousPositions = positions;
-    for (int i = 0; i < n; ++i)
-        if (inverseMasses[i] != 0.0)
-            positions[i] += velocities[i] * h;
-    constrainPositions(positions, inverseMasses, tolerance);
+    constrainVelocities(k, velocities, false);
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+        const int i = particles[n];
+        previousPositions[i] = positions[i];
+        positions[i] += velocities[i] * h;
+    }
+    if (lastConstraint == firstConstraint)
+        return;
+    if (!constrainPositions(k))
+        failed[k] = 1;
     const double inverseTime = 1.0 / h;
-    for (int i = 0; i < n; ++i)
-        if (inverseMasses[i] != 0.0)
-            velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+        const int i = particles[n];
+        velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
+    }
     // Back onto the tangent space at the new positions (RATTLE), then the stored rates along the new directions:
     // one solve with the targets does both.
-    constrainVelocities(positions, velocities, inverseMasses, targetRates, tolerance);
+    constrainVelocities(k, velocities, true);
 }
 
-void FrozenDistances::kick(const vector<Vec3>& positions, vector<Vec3>& velocities, const vector<Vec3>& forces,
-                           const vector<double>& inverseMasses, double h, double tolerance) {
-    const int n = (int)positions.size();
-    for (int i = 0; i < n; ++i)
+void FrozenDistances::kickCluster(int k) const {
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+        const int i = particles[n];
         scratch[i] = forces[i] * (h * inverseMasses[i]);
-    constrainVelocities(positions, scratch, inverseMasses, zeroRates, tolerance);
-    for (int i = 0; i < n; ++i)
+    }
+    constrainVelocities(k, scratch.data(), false);
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+        const int i = particles[n];
         velocities[i] += scratch[i];
+    }
 }
 
-void FrozenDistances::constrainPositions(vector<Vec3>& positions, const vector<double>& inverseMasses,
-                                         double tolerance) {
+bool FrozenDistances::constrainPositions(int k) const {
     // SHAKE: Gauss-Seidel sweeps, each constraint corrected along its direction before the drift.
     for (int sweep = 0; sweep < MaxSweeps; ++sweep) {
         bool converged = true;
-        for (size_t c = 0; c < pairs.size(); ++c) {
+        for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
             const int i = pairs[c].first, j = pairs[c].second;
             const double wi = inverseMasses[i], wj = inverseMasses[j];
-            if (wi + wj == 0.0)
-                continue;
             const Vec3 r = positions[i] - positions[j];
             const Vec3 reference = previousPositions[i] - previousPositions[j];
             const double target = lengths[c] * lengths[c];
@@ -153,36 +261,32 @@ void FrozenDistances::constrainPositions(vector<Vec3>& positions, const vector<d
             positions[j] -= reference * (wj * g);
         }
         if (converged)
-            return;
+            return true;
     }
-    throw OpenMMException("FlavorIntegrator: the frozen distances could not be held to the constraint tolerance " +
-                          std::to_string(tolerance) + " in " + std::to_string(MaxSweeps) +
-                          " iterations; the simulation is unstable (reduce the mesostep)");
+    return false;
 }
 
-void FrozenDistances::constrainVelocities(const vector<Vec3>& positions, vector<Vec3>& velocities,
-                                          const vector<double>& inverseMasses, const vector<double>& targets,
-                                          double tolerance) {
-    // RATTLE's velocity step with targets: v_i += w_i d u, v_j -= w_j d u along each constraint's unit vector u, which
-    // solves (J M^-1 J^T) lambda = targets - J v by Gauss-Seidel sweeps.
+void FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets) const {
+    // RATTLE's velocity step with targets (the stored rates of the frozen distances, 0 for the System's constraints,
+    // or 0 for all): v_i += w_i d u, v_j -= w_j d u along each constraint's unit vector u, which solves
+    // (J M^-1 J^T) lambda = targets - J v by Gauss-Seidel sweeps.
     for (int sweep = 0; sweep < MaxSweeps; ++sweep) {
         bool converged = true;
-        for (size_t c = 0; c < pairs.size(); ++c) {
+        for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
             const int i = pairs[c].first, j = pairs[c].second;
             const double wi = inverseMasses[i], wj = inverseMasses[j];
-            if (wi + wj == 0.0)
-                continue;
             Vec3 u = positions[i] - positions[j];
             u *= 1.0 / std::sqrt(u.dot(u));
-            const Vec3 relative = velocities[i] - velocities[j];
-            const double error = targets[c] - u.dot(relative);
-            const double scale = std::sqrt(relative.dot(relative)) + std::abs(targets[c]);
+            const Vec3 relative = v[i] - v[j];
+            const double target = withTargets ? targetRates[c] : 0.0;
+            const double error = target - u.dot(relative);
+            const double scale = std::sqrt(relative.dot(relative)) + std::abs(target);
             if (std::abs(error) <= tolerance * scale)
                 continue;
             converged = false;
             const double d = error / (wi + wj);
-            velocities[i] += u * (wi * d);
-            velocities[j] -= u * (wj * d);
+            v[i] += u * (wi * d);
+            v[j] -= u * (wj * d);
         }
         if (converged)
             return;

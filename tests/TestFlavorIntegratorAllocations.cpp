@@ -8,6 +8,7 @@
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/HarmonicBondForce.h"
 #include "openmm/VerletIntegrator.h"
 #include <atomic>
 #include <cstdlib>
@@ -41,10 +42,23 @@ using namespace OpenMM;
 class StepAllocations : public PlatformTest {
 protected:
     /** Allocations per step, averaged over 50 steps after 5 warm-up steps. */
-    double allocationsPerStep(Integrator& integrator) {
+    double allocationsPerStep(Integrator& integrator, bool bonded = false) {
+        // The FPU chains' stiff springs have rest length 0 (quadratic); bonded moves every rest length to 0.1, so
+        // the artificial FLAVOR freezes them with the constraint solver.
         std::unique_ptr<System> system(fpuSystem(3, 50.0, 400));
+        std::vector<Vec3> positions = fpuPositions({1, 0.2, 0}, {0.02, 0, 0.01}, 400);
+        if (bonded) {
+            HarmonicBondForce& bonds = dynamic_cast<HarmonicBondForce&>(system->getForce(0));
+            for (int b = 0; b < bonds.getNumBonds(); ++b) {
+                int p1, p2;
+                double length, k;
+                bonds.getBondParameters(b, p1, p2, length, k);
+                bonds.setBondParameters(b, p1, p2, 0.1, k);
+                positions[p2] = positions[p1] + Vec3(0.1, 0.01, 0.003);
+            }
+        }
         Context context(*system, integrator, platform(), properties());
-        context.setPositions(fpuPositions({1, 0.2, 0}, {0.02, 0, 0.01}, 400));
+        context.setPositions(positions);
         integrator.step(5);
         long before = allocationCount;
         integrator.step(50);
@@ -74,6 +88,30 @@ TEST_P(StepAllocations, StepsAllocateNoMoreThanTheirForceEvaluations) {
     const double filteredSteps = allocationsPerStep(filtered);
     EXPECT_LE(filteredSteps, perEvaluation); // 1 evaluation per Filtered step
     RecordProperty("filteredSimAllocationsPerStep", std::to_string(filteredSteps));
+    // Artificial Verlet FLAVOR: one soft and two stiff evaluations per step (the frozen drift moves the positions
+    // between the last stiff kick of a step and the first of the next); with the exact fast flow only the soft one.
+    // Their allocations are measured with VerletIntegrators that integrate only the soft or only the stiff group.
+    VerletIntegrator softVerlet(1e-3), stiffVerlet(1e-3);
+    softVerlet.setIntegrationForceGroups(~StiffMask);
+    stiffVerlet.setIntegrationForceGroups(StiffMask);
+    const double perSoftEvaluation = allocationsPerStep(softVerlet);
+    const double perStiffEvaluation = allocationsPerStep(stiffVerlet);
+    FlavorIntegrator artificial(0.01, 0.001, StiffMask);
+    artificial.setAveraging(FlavorIntegrator::Artificial);
+    const double artificialSteps = allocationsPerStep(artificial);
+    EXPECT_LE(artificialSteps, perSoftEvaluation + 2 * perStiffEvaluation);
+    FlavorIntegrator exact(0.01, 0.001, StiffMask);
+    exact.setAveraging(FlavorIntegrator::ArtificialProjected);
+    exact.setExactFastFlow(true);
+    exact.setFriction(2.0);
+    exact.setTemperature(300);
+    EXPECT_LE(allocationsPerStep(exact), perSoftEvaluation);
+    FlavorIntegrator bonded(0.01, 0.001, StiffMask);
+    bonded.setAveraging(FlavorIntegrator::ArtificialProjected);
+    const double bondedSteps = allocationsPerStep(bonded, true);
+    EXPECT_LE(bondedSteps, perSoftEvaluation + 2 * perStiffEvaluation);
+    RecordProperty("artificialAllocationsPerStep", std::to_string(artificialSteps));
+    RecordProperty("bondedArtificialAllocationsPerStep", std::to_string(bondedSteps));
     RecordProperty("verletAllocationsPerStep", std::to_string(perEvaluation));
     RecordProperty("flavorAllocationsPerStep", std::to_string(flavorSteps));
     RecordProperty("langevinFlavorAllocationsPerStep", std::to_string(langevinSteps));

@@ -50,6 +50,8 @@ TEST(FlavorIntegratorInput, RejectedSettersLeaveTheOldValue) {
     expectRejected([&] { integrator.setFriction(-1); }, {"friction", "-1", ">= 0", "1/ps"});
     expectRejected([&] { integrator.setStiffGroups(0); }, {"stiffGroups", "0"});
     expectRejected([&] { integrator.setScheme((FlavorIntegrator::Scheme)7); }, {"scheme", "7"});
+    expectRejected([&] { integrator.setAveraging((FlavorIntegrator::Averaging)3); },
+                   {"averaging", "3", "Nonintrusive (0)", "ArtificialProjected (2)"});
     expectRejected([&] { integrator.setFrictionParticles({0, -2}); }, {"frictionParticles", "-2", ">= 0"});
     EXPECT_TRUE(integrator.getFrictionParticles().empty());
     EXPECT_EQ(0.01, integrator.getMesoStep());
@@ -58,6 +60,8 @@ TEST(FlavorIntegratorInput, RejectedSettersLeaveTheOldValue) {
     EXPECT_EQ(0.0, integrator.getFriction());
     EXPECT_EQ(2, integrator.getStiffGroups());
     EXPECT_EQ(FlavorIntegrator::Verlet, integrator.getScheme());
+    EXPECT_EQ(FlavorIntegrator::Nonintrusive, integrator.getAveraging());
+    EXPECT_FALSE(integrator.getExactFastFlow());
 }
 
 TEST_P(FlavorApi, ASystemWithoutStiffForcesIsRejectedAndTheContextStaysUsable) {
@@ -90,6 +94,8 @@ TEST(FlavorIntegratorSerialization, XmlRoundTripKeepsEveryParameter) {
     integrator.setConstraintTolerance(3e-7);
     integrator.setIntegrationForceGroups(0x0F0F);
     integrator.setFrictionParticles({4, 0, 7});
+    integrator.setAveraging(FlavorIntegrator::Artificial);
+    integrator.setExactFastFlow(true);
     std::stringstream buffer;
     XmlSerializer::serialize<Integrator>(&integrator, "Integrator", buffer);
     std::unique_ptr<Integrator> copy(XmlSerializer::deserialize<Integrator>(buffer));
@@ -106,6 +112,8 @@ TEST(FlavorIntegratorSerialization, XmlRoundTripKeepsEveryParameter) {
     EXPECT_EQ(3e-7, flavor->getConstraintTolerance());
     EXPECT_EQ(0x0F0F, flavor->getIntegrationForceGroups());
     EXPECT_EQ((vector<int>{4, 0, 7}), flavor->getFrictionParticles());
+    EXPECT_EQ(FlavorIntegrator::Artificial, flavor->getAveraging());
+    EXPECT_TRUE(flavor->getExactFastFlow());
 }
 
 TEST_P(FlavorApi, CheckpointsContinueIdentically) {

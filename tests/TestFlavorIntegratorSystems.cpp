@@ -49,6 +49,40 @@ TEST_P(FlavorSystems, ForceEvaluationsPerStepAreTheMinimum) {
     }
 }
 
+TEST_P(FlavorSystems, ArtificialFlavorEvaluatesTheSoftForcesOncePerStep) {
+    // The soft kicks that end a step and begin the next act at the same positions.  The stiff kicks around the
+    // microstep's drift need two stiff evaluations (Verlet) or one (SymplecticEuler, eq. (2.13)); the exact fast
+    // flow needs none.
+    std::unique_ptr<System> system(fpuSystem(3, 50.0));
+    CountingForce* soft = new CountingForce();
+    CountingForce* stiff = new CountingForce();
+    stiff->setForceGroup(StiffGroup);
+    system->addForce(soft);
+    system->addForce(stiff);
+    struct Expected {
+        FlavorIntegrator::Scheme scheme;
+        FlavorIntegrator::Averaging averaging;
+        bool exact;
+        int soft, stiff;
+    };
+    for (Expected e : {Expected{FlavorIntegrator::SymplecticEuler, FlavorIntegrator::Artificial, false, 1, 1},
+                       Expected{FlavorIntegrator::Verlet, FlavorIntegrator::Artificial, false, 1, 2},
+                       Expected{FlavorIntegrator::Verlet, FlavorIntegrator::ArtificialProjected, false, 1, 2},
+                       Expected{FlavorIntegrator::Verlet, FlavorIntegrator::ArtificialProjected, true, 1, 0}}) {
+        FlavorIntegrator integrator(0.01, 0.001, StiffMask);
+        integrator.setScheme(e.scheme);
+        integrator.setAveraging(e.averaging);
+        integrator.setExactFastFlow(e.exact);
+        Context context(*system, integrator, platform(), properties());
+        context.setPositions(fpuPositions({1, 0, 0}, {0.02, 0, 0}));
+        integrator.step(1);
+        const int soft0 = soft->getCount(), stiff0 = stiff->getCount();
+        integrator.step(100);
+        EXPECT_EQ(100 * e.soft, soft->getCount() - soft0) << "scheme " << e.scheme << " averaging " << e.averaging;
+        EXPECT_EQ(100 * e.stiff, stiff->getCount() - stiff0) << "scheme " << e.scheme << " averaging " << e.averaging;
+    }
+}
+
 TEST_P(FlavorSystems, AForceOutsideTheStiffGroupsActsAsSoft) {
     // The soft walls moved to group 5 (neither group 0 nor stiff): the trajectory must be identical.
     std::unique_ptr<System> reference(fpuSystem(3, 50.0)), moved(fpuSystem(3, 50.0));

@@ -10,7 +10,8 @@ const int Soft = ~Stiff;
 
 FlavorParameters parameters(FlavorIntegrator::Scheme scheme, double delta, double tau, double friction = 0.0,
                             bool stiffFriction = false) {
-    return FlavorParameters{scheme, delta, tau, Stiff, AllForceGroups, friction, stiffFriction};
+    return FlavorParameters{
+        scheme, FlavorIntegrator::Nonintrusive, false, delta, tau, Stiff, AllForceGroups, friction, stiffFriction};
 }
 
 SubFlow kick(double h, int groups) {
@@ -21,6 +22,23 @@ SubFlow drift(double h) {
 }
 SubFlow thermostat(double h) {
     return SubFlow{SubFlow::Thermostat, h, 0};
+}
+SubFlow frozenDrift(double h) {
+    return SubFlow{SubFlow::FrozenDrift, h, 0};
+}
+SubFlow frozenKick(double h, int groups) {
+    return SubFlow{SubFlow::FrozenKick, h, groups};
+}
+SubFlow harmonicFlow(double h) {
+    return SubFlow{SubFlow::HarmonicFlow, h, 0};
+}
+
+FlavorParameters artificial(FlavorIntegrator::Scheme scheme, double delta, double tau, bool projected = false,
+                            bool exact = false, double friction = 0.0, bool stiffFriction = false) {
+    FlavorParameters p = parameters(scheme, delta, tau, friction, stiffFriction);
+    p.averaging = projected ? FlavorIntegrator::ArtificialProjected : FlavorIntegrator::Artificial;
+    p.exactFastFlow = exact;
+    return p;
 }
 
 double totalTime(const Schedule& s, SubFlow::Kind kind, int requiredGroups = 0) {
@@ -112,4 +130,74 @@ TEST(FlowSchedule, FilteredIsTheFilteredStiffFlowAndItsClosingKickWithOneForceSl
     // Without soft groups only the exact stiff flow remains.
     const ImpulseParameters stiffOnly{StochasticImpulseIntegrator::Filtered, 0.002, Stiff, Stiff};
     EXPECT_EQ((Schedule{SubFlow{SubFlow::StiffFlow, 0.002, 0}}), impulseSchedule(stiffOnly));
+}
+
+TEST(FlowSchedule, ArtificialSymplecticEulerIsEquation2_11) {
+    // Theta = theta^tr(delta-tau) o theta^eps(tau) o theta^V(delta), applied right to left; theta^eps is (2.13).
+    const double delta = 0.01, tau = 0.001;
+    Schedule s = flavorSchedule(artificial(FlavorIntegrator::SymplecticEuler, delta, tau));
+    EXPECT_EQ((Schedule{kick(delta, Soft), drift(tau), kick(tau, Stiff), frozenDrift(delta - tau)}), s);
+    Schedule exact = flavorSchedule(artificial(FlavorIntegrator::SymplecticEuler, delta, tau, false, true));
+    EXPECT_EQ((Schedule{kick(delta, Soft), harmonicFlow(tau), frozenDrift(delta - tau)}), exact);
+    Schedule projected = flavorSchedule(artificial(FlavorIntegrator::SymplecticEuler, delta, tau, true));
+    EXPECT_EQ((Schedule{kick(delta * (tau / delta), Soft), frozenKick(delta - delta * (tau / delta), Soft), drift(tau),
+                        kick(tau, Stiff), frozenDrift(delta - tau)}),
+              projected);
+}
+
+TEST(FlowSchedule, ArtificialVerletIsTheSymmetricComposition) {
+    const double delta = 0.01, tau = 0.001, half = (delta - tau) / 2;
+    Schedule s = flavorSchedule(artificial(FlavorIntegrator::Verlet, delta, tau));
+    EXPECT_EQ((Schedule{kick(delta / 2, Soft), frozenDrift(half), kick(tau / 2, Stiff), drift(tau),
+                        kick(tau / 2, Stiff), frozenDrift(half), kick(delta / 2, Soft)}),
+              s);
+    Schedule exact = flavorSchedule(artificial(FlavorIntegrator::Verlet, delta, tau, false, true));
+    EXPECT_EQ((Schedule{kick(delta / 2, Soft), frozenDrift(half), harmonicFlow(tau), frozenDrift(half),
+                        kick(delta / 2, Soft)}),
+              exact);
+    // Projected: the soft kicks' components along the frozen coordinates last tau/2 instead of delta/2.
+    Schedule projected = flavorSchedule(artificial(FlavorIntegrator::Verlet, delta, tau, true));
+    for (const Schedule& schedule : {s, projected}) {
+        EXPECT_DOUBLE_EQ(delta, totalTime(schedule, SubFlow::Kick, Soft) + totalTime(schedule, SubFlow::FrozenKick));
+        EXPECT_DOUBLE_EQ(tau, totalTime(schedule, SubFlow::Kick, Stiff));
+        EXPECT_DOUBLE_EQ(tau, totalTime(schedule, SubFlow::Drift));
+        EXPECT_DOUBLE_EQ(delta - tau, totalTime(schedule, SubFlow::FrozenDrift));
+    }
+    EXPECT_DOUBLE_EQ(tau, totalTime(projected, SubFlow::Kick, Soft));
+}
+
+TEST(FlowSchedule, ArtificialVerletWithEqualStepsIsTheNonintrusiveSchedule) {
+    // No frozen drift is left and the soft and stiff kicks over delta/2 merge: velocity Verlet either way.
+    for (bool projected : {false, true})
+        EXPECT_EQ(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.01)),
+                  flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.01, projected)));
+    EXPECT_EQ((Schedule{kick(0.01, Soft), drift(0.01), kick(0.01, Stiff)}),
+              flavorSchedule(artificial(FlavorIntegrator::SymplecticEuler, 0.01, 0.01)));
+}
+
+TEST(FlowSchedule, ArtificialLangevinPlacesTheThermostatsAsTheNonintrusiveSchemes) {
+    const double delta = 0.01, tau = 0.002;
+    EXPECT_EQ((Schedule{thermostat(tau), kick(delta, Soft), drift(tau), kick(tau, Stiff), thermostat(delta - tau),
+                        frozenDrift(delta - tau)}),
+              flavorSchedule(artificial(FlavorIntegrator::SymplecticEuler, delta, tau, false, false, 1.0, false)));
+    EXPECT_EQ((Schedule{thermostat(tau), kick(delta, Soft), drift(tau), kick(tau, Stiff), frozenDrift(delta - tau)}),
+              flavorSchedule(artificial(FlavorIntegrator::SymplecticEuler, delta, tau, false, false, 1.0, true)));
+    for (bool stiff : {false, true}) {
+        Schedule s = flavorSchedule(artificial(FlavorIntegrator::Verlet, delta, tau, false, true, 1.0, stiff));
+        const double edge = stiff ? tau / 2 : delta / 2;
+        EXPECT_EQ(thermostat(edge), s.front());
+        EXPECT_EQ(thermostat(edge), s.back());
+        EXPECT_DOUBLE_EQ(2 * edge, totalTime(s, SubFlow::Thermostat));
+    }
+}
+
+TEST(FlowSchedule, FrozenFlowsArePassesOfTheirOwn) {
+    StepPlan plan = compileStepPlan(flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.001, true)), false);
+    for (const FlowPass& pass : plan.passes)
+        for (const SubFlow& flow : pass.flows)
+            if (isModeFlow(flow.kind)) {
+                EXPECT_EQ(1u, pass.flows.size());
+            }
+    // The soft kick and its frozen part read the same forces.
+    EXPECT_EQ((std::vector<int>{Soft, Stiff}), plan.slotGroups);
 }

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace FlavorPlugin {
@@ -39,6 +40,32 @@ public:
         SymplecticEuler = 0,
         /** The symmetric (Strang) composition: symplectic and time-reversible. */
         Verlet = 1
+    };
+    /**
+     * What the stiff degrees of freedom do while the stiff forces are off (for mesostep - microstep in each
+     * mesostep).
+     */
+    enum Averaging {
+        /**
+         * The stiff forces are switched off and every coordinate keeps moving (the nonintrusive FLAVOR, the
+         * default).  It integrates the stiff forces weighted by microStep/mesoStep.
+         */
+        Nonintrusive = 0,
+        /**
+         * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is one soft kick
+         * over the mesostep, a microstep of the fast Hamiltonian (kinetic energy and stiff potential), and a drift
+         * for the rest of the mesostep with the stiff degrees of freedom frozen, the rates of the frozen coordinates
+         * stored and restored.  What freezes: for a quadratic stiff group, the nonzero modes of its stiffness
+         * matrix (an exact projection); otherwise the distances that the stiff bonded forces act on (each bond of a
+         * HarmonicBondForce or CustomBondForce, the 1-3 distance of each angle of a HarmonicAngleForce) and those
+         * added with addFrozenDistance(), held with the constraint solver next to the System's own constraints.
+         */
+        Artificial = 1,
+        /**
+         * As Artificial, but the soft impulse's component along the frozen coordinates is weighted by
+         * microStep/mesoStep: the frozen coordinates feel the soft forces only for the time they move.
+         */
+        ArtificialProjected = 2
     };
     /**
      * Create a FlavorIntegrator.
@@ -94,6 +121,44 @@ public:
      * Set the scheme used for each mesostep.
      */
     void setScheme(Scheme scheme);
+    /**
+     * Get what the stiff degrees of freedom do while the stiff forces are off.
+     */
+    Averaging getAveraging() const { return averaging; }
+    /**
+     * Set what the stiff degrees of freedom do while the stiff forces are off: Nonintrusive (the default),
+     * Artificial or ArtificialProjected.
+     */
+    void setAveraging(Averaging averaging);
+    /**
+     * Get whether the artificial FLAVOR's microstep of the fast Hamiltonian is the exact flow of the quadratic stiff
+     * potential (true) or a symplectic step with the stiff forces (false, the default).
+     */
+    bool getExactFastFlow() const { return exactFastFlow; }
+    /**
+     * Set whether the artificial FLAVOR's microstep of the fast Hamiltonian is the exact flow of the quadratic stiff
+     * potential.  It applies only to the Artificial and ArtificialProjected averagings; the stiff group must be
+     * quadratic (measured when the first step is taken).
+     */
+    void setExactFastFlow(bool exact);
+    /**
+     * Freeze the distance between two particles during the artificial FLAVOR's frozen drift, in addition to the
+     * distances the stiff bonded forces determine.  Needed when a stiff force of another type (e.g. a
+     * CustomCompoundBondForce) is not quadratic.
+     *
+     * @param particle1  the index of the first particle
+     * @param particle2  the index of the second particle (different from particle1)
+     * @return the index of the frozen distance that was added
+     */
+    int addFrozenDistance(int particle1, int particle2);
+    /**
+     * Get the number of distances added with addFrozenDistance().
+     */
+    int getNumFrozenDistances() const { return (int)frozenDistances.size(); }
+    /**
+     * Get the particles of a distance added with addFrozenDistance().
+     */
+    void getFrozenDistance(int index, int& particle1, int& particle2) const;
     /**
      * Get the temperature of the heat bath (in Kelvin).
      */
@@ -162,11 +227,14 @@ private:
     double microStep;
     int stiffGroups;
     Scheme scheme;
+    Averaging averaging;
+    bool exactFastFlow;
     double temperature, friction;
     bool stiffFriction;
     std::vector<int> frictionParticles;
+    std::vector<std::pair<int, int>> frozenDistances;
     int randomNumberSeed;
-    bool forcesAreValid;
+    bool forcesAreValid, stiffModesValid;
     OpenMM::Kernel kernel;
     // The kernel's implementation, looked up once (Kernel::getAs() costs a dynamic_cast per call).
     IntegrateFlavorStepKernel* stepKernel;

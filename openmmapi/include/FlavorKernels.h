@@ -32,8 +32,11 @@ public:
      * @param context      the context in which to execute this kernel
      * @param integrator   the FlavorIntegrator this kernel is being used for
      * @param forcesValid  whether forces cached by an earlier step are still valid; true on return
+     * @param stiffModesValid  whether the measured stiff potential (used by the artificial averagings) is still
+     *                     valid; true on return
      */
-    virtual void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) = 0;
+    virtual void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                         bool& stiffModesValid) = 0;
     /**
      * Compute the kinetic energy.
      */

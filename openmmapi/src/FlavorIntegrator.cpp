@@ -39,8 +39,9 @@ void requireSoftForce(const System& system, const string& parameter, int stiffGr
 } // namespace
 
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
-    : microStep(0.0), stiffGroups(0), scheme(Verlet), temperature(0.0), friction(0.0), stiffFriction(false),
-      randomNumberSeed(0), forcesAreValid(false), stepKernel(nullptr) {
+    : microStep(0.0), stiffGroups(0), scheme(Verlet), averaging(Nonintrusive), exactFastFlow(false), temperature(0.0),
+      friction(0.0), stiffFriction(false), randomNumberSeed(0), forcesAreValid(false), stiffModesValid(false),
+      stepKernel(nullptr) {
     requirePositive(Owner, "mesoStep", mesoStep, "ps");
     requirePositive(Owner, "microStep", microStep, "ps");
     if (microStep > mesoStep)
@@ -81,6 +82,7 @@ void FlavorIntegrator::setStiffGroups(int groups) {
         requireSoftForce(context->getSystem(), "stiffGroups", groups, getIntegrationForceGroups());
     }
     stiffGroups = groups;
+    stiffModesValid = false;
 }
 
 void FlavorIntegrator::setIntegrationForceGroups(int groups) {
@@ -96,6 +98,45 @@ void FlavorIntegrator::setScheme(Scheme newScheme) {
         throwInvalidParameter(Owner, "scheme", std::to_string((int)newScheme),
                               "scheme must be FlavorIntegrator::SymplecticEuler (0) or FlavorIntegrator::Verlet (1)");
     scheme = newScheme;
+}
+
+void FlavorIntegrator::setAveraging(Averaging newAveraging) {
+    if (newAveraging != Nonintrusive && newAveraging != Artificial && newAveraging != ArtificialProjected)
+        throwInvalidParameter(Owner, "averaging", std::to_string((int)newAveraging),
+                              "averaging must be FlavorIntegrator::Nonintrusive (0), FlavorIntegrator::Artificial (1) "
+                              "or FlavorIntegrator::ArtificialProjected (2)");
+    averaging = newAveraging;
+}
+
+void FlavorIntegrator::setExactFastFlow(bool exact) {
+    exactFastFlow = exact;
+}
+
+int FlavorIntegrator::addFrozenDistance(int particle1, int particle2) {
+    const int numParticles = context == nullptr ? -1 : context->getSystem().getNumParticles();
+    for (int p : {particle1, particle2})
+        if (p < 0 || (numParticles >= 0 && p >= numParticles))
+            throwInvalidParameter(Owner, "frozen distance particle", std::to_string(p),
+                                  "particle indices must be >= 0" +
+                                      (numParticles >= 0
+                                           ? " and < " + std::to_string(numParticles) + " (the number of particles)"
+                                           : string()));
+    if (particle1 == particle2)
+        throwInvalidParameter(Owner, "frozen distance particles",
+                              std::to_string(particle1) + ", " + std::to_string(particle2),
+                              "the two particles of a frozen distance must differ");
+    frozenDistances.emplace_back(particle1, particle2);
+    stiffModesValid = false;
+    return (int)frozenDistances.size() - 1;
+}
+
+void FlavorIntegrator::getFrozenDistance(int index, int& particle1, int& particle2) const {
+    if (index < 0 || index >= (int)frozenDistances.size())
+        throwInvalidParameter(Owner, "index", std::to_string(index),
+                              "index must be >= 0 and < " + std::to_string(frozenDistances.size()) +
+                                  " (the number of frozen distances)");
+    particle1 = frozenDistances[index].first;
+    particle2 = frozenDistances[index].second;
 }
 
 void FlavorIntegrator::setTemperature(double temp) {
@@ -145,6 +186,13 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, getIntegrationForceGroups());
     requireSoftForce(contextRef.getSystem(), "stiffGroups", stiffGroups, getIntegrationForceGroups());
     requireParticleIndices(frictionParticles, contextRef.getSystem().getNumParticles());
+    for (const std::pair<int, int>& pair : frozenDistances)
+        for (int p : {pair.first, pair.second})
+            if (p >= contextRef.getSystem().getNumParticles())
+                throwInvalidParameter(Owner, "frozen distance particle", std::to_string(p),
+                                      "particle indices must be < " +
+                                          std::to_string(contextRef.getSystem().getNumParticles()) +
+                                          " (the number of particles)");
     context = &contextRef;
     owner = &contextRef.getOwner();
     kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);
@@ -152,6 +200,7 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     stepKernel->initialize(contextRef.getSystem(), *this);
     stepKernel->saveContextState(contextRef, true);
     forcesAreValid = false;
+    stiffModesValid = false;
 }
 
 void FlavorIntegrator::cleanup() {
@@ -165,6 +214,9 @@ vector<string> FlavorIntegrator::getKernelNames() {
 
 void FlavorIntegrator::stateChanged(State::DataType changed) {
     forcesAreValid = false;
+    // Parameters: a context parameter changed.  Energy: a force's updateParametersInContext() (or a checkpoint).
+    if (changed == State::Parameters || changed == State::Energy)
+        stiffModesValid = false;
     if (stepKernel != nullptr && changed != State::Energy)
         stepKernel->saveContextState(*context, changed == State::Parameters);
 }
@@ -179,7 +231,7 @@ void FlavorIntegrator::step(int steps) {
     for (int i = 0; i < steps; ++i) {
         if (context->updateContextState())
             forcesAreValid = false;
-        stepKernel->execute(*context, *this, forcesAreValid);
+        stepKernel->execute(*context, *this, forcesAreValid, stiffModesValid);
     }
     if (steps > 0)
         stepKernel->saveContextState(*context, false);
@@ -192,4 +244,5 @@ void FlavorIntegrator::createCheckpoint(std::ostream& stream) const {
 void FlavorIntegrator::loadCheckpoint(std::istream& stream) {
     stepKernel->loadCheckpoint(*context, stream);
     forcesAreValid = false;
+    stiffModesValid = false;
 }

@@ -23,13 +23,86 @@ SubFlow stiffFlow(double h) {
     return SubFlow{SubFlow::StiffFlow, h, 0};
 }
 
+SubFlow harmonicFlow(double h) {
+    return SubFlow{SubFlow::HarmonicFlow, h, 0};
+}
+
+SubFlow frozenDrift(double h) {
+    return SubFlow{SubFlow::FrozenDrift, h, 0};
+}
+
+SubFlow frozenKick(double h, int groups) {
+    return SubFlow{SubFlow::FrozenKick, h, groups};
+}
+
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
     if (a.kind != b.kind || a.kind == SubFlow::FilteredStiffFlow || a.kind == SubFlow::FilteredKick)
         return false;
-    return a.kind != SubFlow::Kick || a.groups == b.groups;
+    return (a.kind != SubFlow::Kick && a.kind != SubFlow::FrozenKick) || a.groups == b.groups;
+}
+
+bool disjointKicksOverOneStep(const SubFlow& a, const SubFlow& b) {
+    return a.kind == SubFlow::Kick && b.kind == SubFlow::Kick && a.h == b.h && (a.groups & b.groups) == 0;
+}
+
+/** The artificial FLAVOR (eq. (2.11) and its symmetric composition); see flavorSchedule(). */
+Schedule artificialSchedule(const FlavorParameters& p) {
+    const double delta = p.mesoStep, tau = p.microStep, rest = delta - tau;
+    const int soft = p.integrationGroups & ~p.stiffGroups;
+    const int stiff = p.integrationGroups & p.stiffGroups;
+    const bool friction = p.friction > 0.0;
+    const bool projected = p.averaging == FlavorIntegrator::ArtificialProjected;
+    Schedule s;
+    // The soft impulse over h; projected, its component along the frozen coordinates weighted by tau/delta.
+    auto softKick = [&](double h) {
+        if (projected) {
+            s.push_back(kick(h * (tau / delta), soft));
+            s.push_back(frozenKick(h - h * (tau / delta), soft));
+        } else {
+            s.push_back(kick(h, soft));
+        }
+    };
+    if (p.scheme == FlavorIntegrator::SymplecticEuler) {
+        if (friction)
+            s.push_back(thermostat(tau));
+        softKick(delta);
+        if (p.exactFastFlow) {
+            s.push_back(harmonicFlow(tau));
+        } else {
+            // Eq. (2.13): q += tau v, then v -= tau M^-1 grad U at the new positions.
+            s.push_back(drift(tau));
+            s.push_back(kick(tau, stiff));
+        }
+        if (friction && !p.stiffFriction)
+            s.push_back(thermostat(rest));
+        s.push_back(frozenDrift(rest));
+    } else {
+        const double edge = p.stiffFriction ? tau / 2 : delta / 2;
+        if (friction)
+            s.push_back(thermostat(edge));
+        softKick(delta / 2);
+        s.push_back(frozenDrift(rest / 2));
+        if (p.exactFastFlow) {
+            s.push_back(harmonicFlow(tau));
+        } else {
+            s.push_back(kick(tau / 2, stiff));
+            s.push_back(drift(tau));
+            s.push_back(kick(tau / 2, stiff));
+        }
+        s.push_back(frozenDrift(rest / 2));
+        softKick(delta / 2);
+        if (friction)
+            s.push_back(thermostat(edge));
+    }
+    return simplifySchedule(s);
 }
 
 } // namespace
+
+bool FlavorPlugin::isModeFlow(SubFlow::Kind kind) {
+    return kind == SubFlow::StiffFlow || kind == SubFlow::HarmonicFlow || kind == SubFlow::FrozenDrift ||
+           kind == SubFlow::FrozenKick || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick;
+}
 
 Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
     Schedule result;
@@ -38,6 +111,8 @@ Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
             continue;
         if (!result.empty() && composesExactly(result.back(), flow))
             result.back().h += flow.h;
+        else if (!result.empty() && disjointKicksOverOneStep(result.back(), flow))
+            result.back().groups |= flow.groups;
         else
             result.push_back(flow);
     }
@@ -45,6 +120,8 @@ Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
 }
 
 Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
+    if (p.averaging != FlavorIntegrator::Nonintrusive)
+        return artificialSchedule(p);
     const double tau = p.microStep, rest = p.mesoStep - p.microStep;
     const int all = p.integrationGroups;
     const int soft = p.integrationGroups & ~p.stiffGroups;
@@ -112,19 +189,15 @@ StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool oneFlowPer
     StepPlan plan;
     bool driftedInPass = false;
     for (const SubFlow& flow : schedule) {
-        // Stiff-mode work (the stiff flow and the filtered kicks) runs over components, each in a pass of its own.
-        auto overComponents = [](SubFlow::Kind kind) {
-            return kind == SubFlow::StiffFlow || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick;
-        };
-        const bool previousWasStiff = !plan.passes.empty() && overComponents(plan.passes.back().flows.back().kind);
-        bool newPass = plan.passes.empty() || oneFlowPerPass || overComponents(flow.kind) || previousWasStiff ||
+        const bool previousWasStiff = !plan.passes.empty() && isModeFlow(plan.passes.back().flows.back().kind);
+        bool newPass = plan.passes.empty() || oneFlowPerPass || isModeFlow(flow.kind) || previousWasStiff ||
                        (flow.kind == SubFlow::Kick && driftedInPass);
         if (newPass) {
             plan.passes.emplace_back();
             driftedInPass = false;
         }
         int slot = -1;
-        if (flow.kind == SubFlow::Kick || flow.kind == SubFlow::FilteredStiffFlow ||
+        if (flow.kind == SubFlow::Kick || flow.kind == SubFlow::FrozenKick || flow.kind == SubFlow::FilteredStiffFlow ||
             flow.kind == SubFlow::FilteredKick) {
             auto found = std::find(plan.slotGroups.begin(), plan.slotGroups.end(), flow.groups);
             slot = (int)(found - plan.slotGroups.begin());

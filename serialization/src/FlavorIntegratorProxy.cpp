@@ -13,11 +13,13 @@ FlavorIntegratorProxy::FlavorIntegratorProxy() : SerializationProxy("FlavorInteg
 
 void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const FlavorIntegrator& integrator = *reinterpret_cast<const FlavorIntegrator*>(object);
-    node.setIntProperty("version", 1);
+    node.setIntProperty("version", 2);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("microStep", integrator.getMicroStep());
     node.setIntProperty("stiffGroups", integrator.getStiffGroups());
     node.setIntProperty("scheme", integrator.getScheme());
+    node.setIntProperty("averaging", integrator.getAveraging());
+    node.setBoolProperty("exactFastFlow", integrator.getExactFastFlow());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
     node.setBoolProperty("stiffFriction", integrator.getStiffFriction());
@@ -27,16 +29,27 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
     SerializationNode& particles = node.createChildNode("FrictionParticles");
     for (int p : integrator.getFrictionParticles())
         particles.createChildNode("Particle").setIntProperty("index", p);
+    SerializationNode& frozen = node.createChildNode("FrozenDistances");
+    for (int i = 0; i < integrator.getNumFrozenDistances(); ++i) {
+        int p1, p2;
+        integrator.getFrozenDistance(i, p1, p2);
+        frozen.createChildNode("Distance").setIntProperty("p1", p1).setIntProperty("p2", p2);
+    }
 }
 
 void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version != 1)
+    if (version != 1 && version != 2)
         throw OpenMMException("FlavorIntegrator: unsupported serialization version " + std::to_string(version) +
-                              "; this library reads version 1");
+                              "; this library reads versions 1 and 2");
     auto integrator = std::make_unique<FlavorIntegrator>(
         node.getDoubleProperty("stepSize"), node.getDoubleProperty("microStep"), node.getIntProperty("stiffGroups"));
     integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
+    if (version >= 2) {
+        // Version 1 predates the artificial averagings: it is the nonintrusive FLAVOR.
+        integrator->setAveraging((FlavorIntegrator::Averaging)node.getIntProperty("averaging"));
+        integrator->setExactFastFlow(node.getBoolProperty("exactFastFlow"));
+    }
     integrator->setTemperature(node.getDoubleProperty("temperature"));
     integrator->setFriction(node.getDoubleProperty("friction"));
     integrator->setStiffFriction(node.getBoolProperty("stiffFriction"));
@@ -47,5 +60,8 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     for (const SerializationNode& particle : node.getChildNode("FrictionParticles").getChildren())
         particles.push_back(particle.getIntProperty("index"));
     integrator->setFrictionParticles(particles);
+    if (version >= 2)
+        for (const SerializationNode& distance : node.getChildNode("FrozenDistances").getChildren())
+            integrator->addFrozenDistance(distance.getIntProperty("p1"), distance.getIntProperty("p2"));
     return integrator.release();
 }

@@ -61,7 +61,8 @@ def configured_integrator():
 def parameters(integrator):
     return (integrator.getMesoStep(), integrator.getStepSize(), integrator.getMicroStep(),
             integrator.getStiffGroups(), integrator.getScheme(), integrator.getTemperature(),
-            integrator.getFriction(), integrator.getStiffFriction(), integrator.getRandomNumberSeed())
+            integrator.getFriction(), integrator.getStiffFriction(), integrator.getRandomNumberSeed(),
+            integrator.getAveraging(), integrator.getExactFastFlow(), integrator.getNumFrozenDistances())
 
 
 BAD_SETTER_CALLS = [
@@ -94,6 +95,9 @@ BAD_SETTER_CALLS = [
     ("setStiffGroups", {-1}, ValueError, "stiffGroups", "-1", "0..31"),
     ("setStiffGroups", 1 << 40, ValueError, "stiffGroups", str(1 << 40), "0..31"),
     ("setScheme", 5, openmm.OpenMMException, "scheme", "5", "Verlet"),
+    ("setAveraging", 3, openmm.OpenMMException, "averaging", "3", "ArtificialProjected (2)"),
+    ("addFrozenDistance", (2, 2), openmm.OpenMMException, "frozen distance particles", "2, 2", "must differ"),
+    ("addFrozenDistance", (-1, 2), openmm.OpenMMException, "frozen distance particle", "-1", ">= 0"),
 ]
 
 
@@ -107,7 +111,7 @@ def test_rejected_setter_keeps_old_value(setter, value, exception, parameter, va
     integrator = configured_integrator()
     before = parameters(integrator)
     with pytest.raises(exception) as info:
-        getattr(integrator, setter)(value)
+        getattr(integrator, setter)(*(value if isinstance(value, tuple) else (value,)))
     check_message(info, parameter, value_text, allowed)
     assert parameters(integrator) == before
 

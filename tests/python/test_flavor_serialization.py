@@ -2,6 +2,7 @@
 exactly like the original."""
 import copy
 import pickle
+import re
 
 import numpy as np
 import openmm
@@ -38,6 +39,10 @@ def non_default_integrator():
     integrator.setRandomNumberSeed(918273)
     integrator.setConstraintTolerance(3.5e-7)
     integrator.setIntegrationForceGroups({0, 1, 3, 31})
+    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
+    integrator.setExactFastFlow(True)
+    integrator.addFrozenDistance(4, 9)
+    integrator.addFrozenDistance(2, 1)
     return integrator
 
 
@@ -54,6 +59,9 @@ def all_parameters(integrator):
         "randomSeed": integrator.getRandomNumberSeed(),
         "constraintTolerance": integrator.getConstraintTolerance(),
         "integrationForceGroups": integrator.getIntegrationForceGroups(),
+        "averaging": integrator.getAveraging(),
+        "exactFastFlow": integrator.getExactFastFlow(),
+        "frozenDistances": [list(integrator.getFrozenDistance(i)) for i in range(integrator.getNumFrozenDistances())],
     }
 
 
@@ -100,9 +108,25 @@ def test_serialized_xml_names_the_integrator():
 
 def test_xml_with_unknown_version_is_rejected():
     text = openmm.XmlSerializer.serialize(non_default_integrator())
-    assert 'version="1"' in text
+    assert 'version="2"' in text
     with pytest.raises(openmm.OpenMMException, match="version"):
-        openmm.XmlSerializer.deserialize(text.replace('version="1"', 'version="99"'))
+        openmm.XmlSerializer.deserialize(text.replace('version="2"', 'version="99"'))
+
+
+def test_version_1_xml_loads_as_the_nonintrusive_flavor():
+    # Version 1 had no averaging: written here as that version wrote it, every other parameter kept.
+    text = openmm.XmlSerializer.serialize(non_default_integrator())
+    old = (text.replace('version="2"', 'version="1"').replace(' averaging="2"', '')
+           .replace(' exactFastFlow="1"', ''))
+    old = re.sub(r"<FrozenDistances>.*</FrozenDistances>", "", old, flags=re.S)
+    assert "averaging" not in old and "exactFastFlow" not in old and "FrozenDistances" not in old
+    integrator = openmm.XmlSerializer.deserialize(old)
+    assert isinstance(integrator, FlavorIntegrator)
+    assert integrator.getAveraging() == FlavorIntegrator.Nonintrusive
+    assert not integrator.getExactFastFlow()
+    expected = all_parameters(non_default_integrator())
+    expected.update(averaging=FlavorIntegrator.Nonintrusive, exactFastFlow=False, frozenDistances=[])
+    assert all_parameters(integrator) == expected
 
 
 def test_xml_with_invalid_parameter_is_rejected():

@@ -179,7 +179,10 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %ignore FlavorPlugin::StochasticImpulseIntegrator::loadCheckpoint;
 
 #define OPENMM_EXPORT_FLAVORS
+%include "typemaps.i"
+%apply int& OUTPUT { int& particle1, int& particle2 };
 %include "FlavorIntegrator.h"
+%clear int& particle1, int& particle2;
 %include "StochasticImpulseIntegrator.h"
 
 %extend FlavorPlugin::FlavorIntegrator {

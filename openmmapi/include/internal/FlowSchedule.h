@@ -31,7 +31,17 @@ struct SubFlow {
          */
         FilteredStiffFlow,
         /** The closing half kick of the Filtered splitting by the forces of groups, scaled by kappa as above. */
-        FilteredKick
+        FilteredKick,
+        /** Exact flow of the quadratic stiff potential without friction or noise, E(h, 0). */
+        HarmonicFlow,
+        /**
+         * Drift with the stiff degrees of freedom frozen, theta^tr(h): q += h P0 v, where P0 is the mass-orthogonal
+         * projection onto the zero modes of the quadratic stiff potential; velocities (so the rates of the frozen
+         * coordinates) are unchanged.
+         */
+        FrozenDrift,
+        /** Kick along the zero modes of the quadratic stiff potential only: v += h P0 M^-1 F_groups(q). */
+        FrozenKick
     };
     Kind kind;
     double h;
@@ -45,6 +55,9 @@ typedef std::vector<SubFlow> Schedule;
 /** The parameters that define a FLAVOR step. */
 struct FlavorParameters {
     FlavorIntegrator::Scheme scheme;
+    FlavorIntegrator::Averaging averaging;
+    /** Artificial averagings: the fast microstep is HarmonicFlow instead of kicks and a drift. */
+    bool exactFastFlow;
     double mesoStep, microStep;
     int stiffGroups;
     /** The force groups integrated at all (stiff and soft together). */
@@ -52,14 +65,25 @@ struct FlavorParameters {
     double friction;
     bool stiffFriction;
     bool operator==(const FlavorParameters& o) const {
-        return scheme == o.scheme && mesoStep == o.mesoStep && microStep == o.microStep &&
-               stiffGroups == o.stiffGroups && integrationGroups == o.integrationGroups && friction == o.friction &&
-               stiffFriction == o.stiffFriction;
+        return scheme == o.scheme && averaging == o.averaging && exactFastFlow == o.exactFastFlow &&
+               mesoStep == o.mesoStep && microStep == o.microStep && stiffGroups == o.stiffGroups &&
+               integrationGroups == o.integrationGroups && friction == o.friction && stiffFriction == o.stiffFriction;
     }
 };
 
 /**
- * Builds the schedule of one FLAVOR mesostep (docs/ARCHITECTURE.md), already simplified.
+ * Builds the schedule of one FLAVOR mesostep (docs/ARCHITECTURE.md), already simplified.  The artificial averagings
+ * (eq. (2.11) of the FLAVORS paper and its symmetric composition), with theta^eps(tau) the fast microstep:
+ *
+ *     SymplecticEuler:  K_soft(delta) theta^eps(tau) theta^tr(delta - tau),   theta^eps = D(tau) K_stiff(tau)
+ *     Verlet:           K_soft(delta/2) theta^tr((delta-tau)/2) theta^eps(tau) theta^tr((delta-tau)/2)
+ *                       K_soft(delta/2),                                      theta^eps = K_stiff(tau/2) D(tau)
+ *                                                                                         K_stiff(tau/2)
+ *
+ * or theta^eps = E(tau, 0) with the exact fast flow.  ArtificialProjected splits each soft kick K_soft(h) into
+ * K_soft(h tau/delta) and a FrozenKick over h (1 - tau/delta).  Thermostats are placed as for the nonintrusive
+ * schemes: over the whole mesostep (O(tau) before the fast part and O(delta - tau) before the frozen drift for
+ * SymplecticEuler, O(delta/2) at each end for Verlet) or, with stiff friction, for tau.
  */
 OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
 
@@ -84,9 +108,16 @@ OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& paramete
 
 /**
  * Removes zero-length sub-flows and kicks by no force group, and merges adjacent sub-flows that compose exactly into
- * one (two drifts, two kicks of the same groups, two Ornstein-Uhlenbeck flows).
+ * one (two drifts, two kicks of the same groups, two Ornstein-Uhlenbeck flows, and two kicks of disjoint groups over
+ * the same step, which are one kick by their union).
  */
 OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
+
+/**
+ * Whether a sub-flow acts through the modes of the quadratic stiff potential (StiffFlow, HarmonicFlow, FrozenDrift,
+ * FrozenKick, FilteredStiffFlow, FilteredKick); such a sub-flow is a pass of its own.
+ */
+OPENMM_EXPORT_FLAVORS bool isModeFlow(SubFlow::Kind kind);
 
 /**
  * A run of sub-flows that act particle by particle with forces that are all evaluated at the positions where the
@@ -94,7 +125,7 @@ OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
  */
 struct FlowPass {
     std::vector<SubFlow> flows;
-    /** For each flow, the index of the force slot a Kick reads (-1 for other kinds). */
+    /** For each flow, the index of the force slot a Kick or FrozenKick reads (-1 for other kinds). */
     std::vector<int> slots;
 };
 

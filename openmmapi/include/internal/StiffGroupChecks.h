@@ -2,6 +2,7 @@
 #define OPENMM_FLAVORS_STIFF_GROUP_CHECKS_H_
 
 #include "windowsExportFlavors.h"
+#include <string>
 #include <vector>
 
 namespace OpenMM {
@@ -24,6 +25,14 @@ OPENMM_EXPORT_FLAVORS std::vector<int> bondedStiffComponents(OpenMM::ContextImpl
  */
 OPENMM_EXPORT_FLAVORS void rejectConstraintsInsideStiffComponents(const OpenMM::ContextImpl& context,
                                                                   const std::vector<int>& componentOf);
+
+/**
+ * Throws if a constraint of the System touches a particle for which stiff[i] is true; the message names the owner
+ * (the integrator) and suggests the alternative.
+ */
+OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
+                                                           const std::vector<bool>& stiff, const std::string& owner,
+                                                           const std::string& alternative);
 
 } // namespace FlavorPlugin
 

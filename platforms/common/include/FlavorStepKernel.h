@@ -3,6 +3,7 @@
 
 #include "FlavorKernels.h"
 #include "FlowStepRunner.h"
+#include "StiffProbe.h"
 #include "internal/windowsExportFlavors.h"
 #include <memory>
 
@@ -16,15 +17,24 @@ class OPENMM_EXPORT_FLAVORS FlavorStepKernel : public IntegrateFlavorStepKernel 
 public:
     FlavorStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParallelLoop> loop);
     void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) override;
-    void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) override;
+    void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                 bool& stiffModesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
 
 private:
+    /**
+     * Decides what the artificial averagings freeze: the nonzero modes of a quadratic stiff group, or the distances
+     * of the stiff bonded forces and those added with FlavorIntegrator::addFrozenDistance().
+     */
+    void determineFrozenCoordinates(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator);
     std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
+    std::unique_ptr<StiffModesMeasurement> measurement;
+    std::shared_ptr<FrozenDistances> frozenDistances;
+    std::vector<std::pair<int, int>> frozenPairs;
     bool configured;
     FlavorParameters parameters;
     double kT;

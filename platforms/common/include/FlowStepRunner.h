@@ -1,6 +1,8 @@
 #ifndef OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 #define OPENMM_FLAVORS_FLOW_STEP_RUNNER_H_
 
+#include "FrozenDistances.h"
+#include "FrozenFlowTask.h"
 #include "ParticleFlows.h"
 #include "StiffFlowTask.h"
 #include "StiffModes.h"
@@ -48,8 +50,8 @@ public:
      */
     void setSchedule(const Schedule& schedule, double kT, double friction);
     /**
-     * Sets the decomposed stiff potential whose exact flow StiffFlow sub-flows apply (friction and kT as given to
-     * setSchedule()).
+     * Sets the decomposed stiff potential whose exact flow StiffFlow (friction and kT as given to setSchedule()) and
+     * HarmonicFlow sub-flows apply, and whose zero modes FrozenDrift and FrozenKick move along.
      */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
     /**
@@ -57,6 +59,11 @@ public:
      * a negative value means the one given to setSchedule().  Cheap when nothing changed.
      */
     void setStiffModeBath(double kT, double friction);
+    /**
+     * Sets the frozen distances along which FrozenDrift and FrozenKick hold stiff bonded forces (instead of the
+     * zero modes of a quadratic stiff potential); null returns to the modes.
+     */
+    void setFrozenDistances(std::shared_ptr<FrozenDistances> distances);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
     void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
@@ -105,6 +112,8 @@ private:
     /** Adds the force response of pass passIndex to the forces of the flow's slot (FilteredKick). */
     void runFilteredKick(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                          double constraintTolerance);
+    /** Runs a FrozenDrift or FrozenKick pass. */
+    void runFrozenFlow(OpenMM::ContextImpl& context, const PreparedFlow& flow, double constraintTolerance);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
@@ -125,6 +134,8 @@ private:
     std::vector<bool> kickFusedIntoNext;
     std::shared_ptr<const StiffModes> stiffModes;
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
+    std::unique_ptr<FrozenFlowTask> frozenFlowTask;
+    std::shared_ptr<FrozenDistances> frozenDistances;
     // For each pass that is a StiffFlow, the exact flow over its step.
     std::vector<StiffModes::Propagator> stiffFlows;
     // For each FilteredStiffFlow or FilteredKick pass, its response to the forces of its slot.

@@ -32,9 +32,7 @@ private:
     void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);
     std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
-    std::shared_ptr<const StiffModes> modes;
-    ProbedStiffness measured;
-    std::vector<double> masses;
+    std::unique_ptr<StiffModesMeasurement> measurement;
     bool configured;
     ImpulseParameters parameters;
     double kT, friction, stiffKT, stiffFriction;

@@ -98,6 +98,9 @@ struct ParticlePass : public RangeTask {
                 case SubFlow::StiffFlow:
                 case SubFlow::FilteredStiffFlow:
                 case SubFlow::FilteredKick:
+                case SubFlow::HarmonicFlow:
+                case SubFlow::FrozenDrift:
+                case SubFlow::FrozenKick:
                     break; // never in a particle pass (compileStepPlan)
                 }
             }

@@ -57,6 +57,11 @@ public:
     /** The column-major eigenvectors U of component c. */
     const double* getEigenvectors(int c) const { return &eigenvectors[components[c].matrixOffset]; }
     double getSqrtMass(int particle) const { return sqrtMass[particle]; }
+    /**
+     * The angular frequency of mode m (component c's mode k in column col is m = firstMode + columns() k + col);
+     * exactly 0 for the zero modes, along which the stiff potential is flat.
+     */
+    double getModeFrequency(int mode) const { return omega[mode]; }
     /** The angular frequencies of the modes of components with nonzero stiffness, ascending. */
     std::vector<double> getStiffFrequencies() const;
     /** Whether particle i belongs to a component with nonzero stiffness. */

@@ -1,9 +1,13 @@
 #include "FlavorStepKernel.h"
+#include "internal/StiffGroupChecks.h"
+#include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
+using std::string;
+using std::vector;
 
 FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
     : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0) {}
@@ -11,10 +15,16 @@ FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, s
 void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
     runner->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
+    measurement = std::make_unique<StiffModesMeasurement>(
+        system, "FlavorIntegrator",
+        "use the Nonintrusive averaging (FlavorIntegrator::setAveraging) for nonlinear stiff forces");
 }
 
-void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid) {
+void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                               bool& stiffModesValid) {
     FlavorParameters current{integrator.getScheme(),
+                             integrator.getAveraging(),
+                             integrator.getExactFastFlow(),
                              integrator.getMesoStep(),
                              integrator.getMicroStep(),
                              integrator.getStiffGroups(),
@@ -29,8 +39,69 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         runner->setSchedule(flavorSchedule(parameters), kT, parameters.friction);
         configured = true;
     }
+    // The artificial averagings freeze the nonzero modes of the stiff potential, measured where the first step starts
+    // and again after anything that may change it.
+    if (parameters.averaging != FlavorIntegrator::Nonintrusive &&
+        (!stiffModesValid || (!measurement->getModes() && !frozenDistances))) {
+        determineFrozenCoordinates(context, integrator);
+        stiffModesValid = true;
+    }
+    if (parameters.averaging != FlavorIntegrator::Nonintrusive && parameters.exactFastFlow && frozenDistances)
+        throw OpenMMException("FlavorIntegrator: the stiff force groups are not quadratic (their distances are frozen "
+                              "with constraints), so they have no exact fast flow; call setExactFastFlow(false)");
     runner->setFrictionParticles(integrator.getFrictionParticles());
     runner->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
+}
+
+void FlavorStepKernel::determineFrozenCoordinates(ContextImpl& context, const FlavorIntegrator& integrator) {
+    // A quadratic stiff group freezes its nonzero modes; otherwise the distances of the stiff bonded forces freeze.
+    vector<std::pair<int, int>> extra;
+    for (int i = 0; i < integrator.getNumFrozenDistances(); ++i) {
+        int p1, p2;
+        integrator.getFrozenDistance(i, p1, p2);
+        extra.emplace_back(p1, p2);
+    }
+    try {
+        // The zero-mode drift moves particles of stiff components along the modes alone: no constraint may touch them.
+        auto checkConstraints = [&context](const StiffModes& modes) {
+            std::vector<bool> stiff(context.getSystem().getNumParticles());
+            for (size_t i = 0; i < stiff.size(); ++i)
+                stiff[i] = modes.isStiffParticle((int)i);
+            rejectConstrainedStiffParticles(
+                context, stiff, "FlavorIntegrator",
+                "use the Nonintrusive averaging (FlavorIntegrator::setAveraging) for nonlinear stiff forces");
+        };
+        if (measurement->measure(context, parameters.stiffGroups, checkConstraints) || frozenDistances)
+            runner->setStiffModes(measurement->getModes());
+        frozenDistances = nullptr;
+        frozenPairs.clear();
+        runner->setFrozenDistances(nullptr);
+        return;
+    } catch (const NotQuadraticException& notQuadratic) {
+        if (parameters.exactFastFlow)
+            throw OpenMMException(string(notQuadratic.what()) +
+                                  ".  The exact fast flow (FlavorIntegrator::setExactFastFlow) needs a quadratic stiff "
+                                  "group; set it to false to integrate nonlinear stiff forces with the stiff kicks");
+        vector<string> unsupported;
+        vector<std::pair<int, int>> pairs = bondedFrozenPairs(context, parameters.stiffGroups, extra, unsupported);
+        if (!unsupported.empty() && extra.empty()) {
+            string list;
+            for (const string& u : unsupported)
+                list += (list.empty() ? "" : ", ") + u;
+            throw OpenMMException(
+                "FlavorIntegrator: the artificial averaging freezes the stiff degrees of freedom, but the stiff force "
+                "groups are not quadratic and the frozen coordinates of " +
+                list +
+                " cannot be determined (only HarmonicBondForce, CustomBondForce and HarmonicAngleForce have known "
+                "frozen distances).  Declare its frozen distances with FlavorIntegrator::addFrozenDistance(), move "
+                "it to a soft force group, or use the Nonintrusive averaging");
+        }
+        if (pairs == frozenPairs && frozenDistances)
+            return;
+        frozenDistances = std::make_shared<FrozenDistances>(context.getSystem(), pairs);
+        frozenPairs = pairs;
+        runner->setFrozenDistances(frozenDistances);
+    }
 }
 
 double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const FlavorIntegrator& /*integrator*/) {

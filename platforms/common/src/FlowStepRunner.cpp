@@ -140,7 +140,12 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     }
     stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
     forceResponseTask = modes ? std::make_unique<ForceResponseTask>(*modes) : nullptr;
+    frozenFlowTask = modes ? std::make_unique<FrozenFlowTask>(*modes) : nullptr;
     prepare();
+}
+
+void FlowStepRunner::setFrozenDistances(std::shared_ptr<FrozenDistances> distances) {
+    frozenDistances = distances;
 }
 
 void FlowStepRunner::prepare() {
@@ -184,6 +189,8 @@ void FlowStepRunner::prepare() {
             if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick))
                 stiffModes->computeForceResponse(flow.h, friction, modeFriction, flow.kind == SubFlow::FilteredKick,
                                                  forceResponses[passIndex]);
+            if (flow.kind == SubFlow::HarmonicFlow && stiffModes)
+                stiffModes->computePropagator(flow.h, 0.0, kT, 0.0, kT, stiffFlows[passIndex]);
             prepared.push_back(p);
         }
         preparedPasses.push_back(prepared);
@@ -193,7 +200,8 @@ void FlowStepRunner::prepare() {
     for (size_t p = 0; p + 1 < plan.passes.size(); ++p)
         kickFusedIntoNext[p] = !hasConstraints && plan.passes[p].flows.size() == 1 &&
                                plan.passes[p].flows[0].kind == SubFlow::Kick &&
-                               plan.passes[p + 1].flows[0].kind == SubFlow::StiffFlow;
+                               (plan.passes[p + 1].flows[0].kind == SubFlow::StiffFlow ||
+                                plan.passes[p + 1].flows[0].kind == SubFlow::HarmonicFlow);
 }
 
 void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
@@ -235,7 +243,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
             kickStep = flows[0].h;
             continue;
         }
-        if (flows[0].kind == SubFlow::StiffFlow) {
+        if (flows[0].kind == SubFlow::StiffFlow || flows[0].kind == SubFlow::HarmonicFlow) {
             runStiffFlow(context, p, flows[0], constraintTolerance, kickForces, kickStep);
             kickForces = nullptr;
             continue;
@@ -248,6 +256,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         }
         if (flows[0].kind == SubFlow::FilteredKick) {
             runFilteredKick(context, p, flows[0], constraintTolerance);
+            continue;
+        }
+        if (flows[0].kind == SubFlow::FrozenDrift || flows[0].kind == SubFlow::FrozenKick) {
+            runFrozenFlow(context, flows[0], constraintTolerance);
             continue;
         }
         ParticlePass pass;
@@ -302,7 +314,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
 void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                                   double constraintTolerance, const Vec3* kickForces, double kickStep) {
     if (!stiffModes)
-        throw OpenMMException("FlowStepRunner: a StiffFlow needs setStiffModes()");
+        throw OpenMMException("FlowStepRunner: a StiffFlow or HarmonicFlow needs setStiffModes()");
     ReferencePlatform::PlatformData& data = platformData(context);
     vector<Vec3>& positions = *data.positions;
     if (hasConstraints)
@@ -384,6 +396,57 @@ void FlowStepRunner::constrainVelocities(ContextImpl& context, double tolerance)
     carriedConstraints->applyToVelocities(*data.positions, velocities, carriedInverseMasses, tolerance);
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         velocities[carriedParticles[k].first] += velocities[carriedParticles[k].second] - carrierBefore[k];
+}
+
+void FlowStepRunner::runFrozenFlow(ContextImpl& context, const PreparedFlow& flow, double constraintTolerance) {
+    if (frozenDistances) {
+        // The System's constraints are part of the frozen distances' solver.
+        ReferencePlatform::PlatformData& data = platformData(context);
+        if (flow.kind == SubFlow::FrozenDrift) {
+            frozenDistances->drift(*data.positions, *data.velocities, inverseMasses, flow.h, constraintTolerance,
+                                   *loop);
+            invalidateForces();
+        } else {
+            ensureForces(context, flow.slot);
+            frozenDistances->kick(*data.positions, *data.velocities, slots[flow.slot].forces, inverseMasses, flow.h,
+                                  constraintTolerance, *loop);
+        }
+        return;
+    }
+    if (!stiffModes)
+        throw OpenMMException("FlowStepRunner: a FrozenDrift or FrozenKick needs setStiffModes()");
+    ReferencePlatform::PlatformData& data = platformData(context);
+    vector<Vec3>& positions = *data.positions;
+    vector<Vec3>& velocities = *data.velocities;
+    FrozenFlowTask& task = *frozenFlowTask;
+    task.h = flow.h;
+    if (flow.kind == SubFlow::FrozenDrift) {
+        if (hasConstraints)
+            previousPositions = positions;
+        task.source = velocities.data();
+        task.target = positions.data();
+        task.sourceIsForce = false;
+        loop->run(task, stiffModes->getNumComponents());
+        invalidateForces();
+        if (hasConstraints) {
+            // Constrained particles belong to no stiff component (StiffModesMeasurement): for them this was a plain
+            // drift, and their velocities take the constrained displacement as after any drift.  The velocities of
+            // stiff particles keep the rates of their frozen coordinates.
+            data.constraints->apply(previousPositions, positions, inverseMasses, constraintTolerance);
+            const double inverseTime = 1.0 / flow.h;
+            for (int i = 0; i < numParticles; ++i)
+                if (inverseMasses[i] != 0.0 && !stiffModes->isStiffParticle(i))
+                    velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
+        }
+    } else {
+        ensureForces(context, flow.slot);
+        task.source = slots[flow.slot].forces.data();
+        task.target = velocities.data();
+        task.sourceIsForce = true;
+        loop->run(task, stiffModes->getNumComponents());
+        if (hasConstraints)
+            data.constraints->applyToVelocities(positions, velocities, inverseMasses, constraintTolerance);
+    }
 }
 
 double FlowStepRunner::kineticEnergy(ContextImpl& context) const {

@@ -1,5 +1,6 @@
 #include "StiffProbe.h"
 #include "internal/ParameterChecks.h"
+#include "internal/StiffGroupChecks.h"
 #include "openmm/Force.h"
 #include "openmm/NonbondedForce.h"
 #include "openmm/OpenMMException.h"
@@ -12,6 +13,7 @@
 #include <map>
 #include <numeric>
 #include <random>
+#include <utility>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -25,8 +27,6 @@ const double ProbeStep = 1e-3; // nm; exact for a quadratic potential, any step 
 // still shows its curvature, harmless for a quadratic one, which is linear at any displacement.
 const double VerificationDisplacement = 0.05;
 const double LinearityTolerance = 1e-5; // relative; well above double-precision rounding of the probes
-
-const std::string Owner = "StochasticImpulseIntegrator";
 
 int findRoot(vector<int>& parent, int i) {
     while (parent[i] != i)
@@ -284,16 +284,18 @@ double linearityDeviation(ForceProbe& probe, const vector<StiffnessBlock>& block
 
 } // namespace
 
-ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGroups, const vector<double>& masses) {
+ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGroups, const vector<double>& masses,
+                                             const string& Owner, const string& alternative) {
     ForceProbe probe(context, stiffGroups);
     const vector<Vec3> f0 = probe.forces(probe.positions());
     const int n = (int)masses.size();
-    const string quadraticExamples = "The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, "
-                                     "CustomBondForce \"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); use "
-                                     "FlavorIntegrator for nonlinear stiff forces";
+    const string quadraticExamples =
+        string("The stiff potential must be quadratic (e.g. HarmonicBondForce with length 0, "
+               "CustomBondForce \"k*r^2\", CustomExternalForce \"k*(x-x0)^2\"); ") +
+        alternative;
     const double quickDeviation = quickLinearityDeviation(probe, masses, f0);
     if (!(quickDeviation <= LinearityTolerance))
-        throw OpenMMException(
+        throw NotQuadraticException(
             Owner +
             ": the stiff force groups are not quadratic in the positions: along a random displacement of up "
             "to " +
@@ -320,14 +322,14 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
             break;
     }
     if (asymmetric.first >= 0)
-        throw OpenMMException(Owner +
-                              ": the stiff force groups are not quadratic in the positions: the measured "
-                              "stiffness between particles " +
-                              std::to_string(asymmetric.first) + " and " + std::to_string(asymmetric.second) +
-                              " is not symmetric (relative asymmetry " + formatNumber(asymmetry) + ", at most " +
-                              formatNumber(LinearityTolerance) + " allowed).  " + quadraticExamples);
+        throw NotQuadraticException(Owner +
+                                    ": the stiff force groups are not quadratic in the positions: the measured "
+                                    "stiffness between particles " +
+                                    std::to_string(asymmetric.first) + " and " + std::to_string(asymmetric.second) +
+                                    " is not symmetric (relative asymmetry " + formatNumber(asymmetry) + ", at most " +
+                                    formatNumber(LinearityTolerance) + " allowed).  " + quadraticExamples);
     if (!(result.linearityDeviation <= LinearityTolerance))
-        throw OpenMMException(
+        throw NotQuadraticException(
             Owner + ": the stiff force groups are not quadratic in the positions: at a random displacement of up to " +
             formatNumber(VerificationDisplacement) + " nm their forces differ from the linear prediction -K dq by " +
             formatNumber(result.linearityDeviation) + " (relative; at most " + formatNumber(LinearityTolerance) +
@@ -337,4 +339,65 @@ ProbedStiffness FlavorPlugin::probeStiffness(ContextImpl& context, int stiffGrou
     for (int i = 0; i < n; ++i)
         result.constantForce[i] = (masses[i] == 0.0 ? Vec3() : f0[i] + kq[i]);
     return result;
+}
+
+namespace {
+
+/**
+ * Whether two measurements describe the same potential up to the rounding of the probes.  Keeping the old modes
+ * then keeps trajectories reproducible (a checkpoint restored elsewhere measures again): eigenvectors of degenerate
+ * modes could otherwise rotate with the rounding, and the noise with them.
+ */
+bool samePotential(const ProbedStiffness& a, const ProbedStiffness& b) {
+    if (a.blocks.size() != b.blocks.size() || a.constantForce.size() != b.constantForce.size())
+        return false;
+    double scale = 0;
+    for (const StiffnessBlock& block : a.blocks)
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                scale = std::max(scale, std::abs(block.k[r][c]));
+    for (size_t n = 0; n < a.blocks.size(); ++n) {
+        if (a.blocks[n].i != b.blocks[n].i || a.blocks[n].j != b.blocks[n].j)
+            return false;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                if (std::abs(a.blocks[n].k[r][c] - b.blocks[n].k[r][c]) > 1e-10 * scale)
+                    return false;
+    }
+    // b = F(q) + K q is measured with the rounding of forces of size ~K |q|: compare on that scale (|q| ~ 1 nm).
+    double forceScale = scale;
+    for (const Vec3& f : a.constantForce)
+        forceScale = std::max(forceScale, std::sqrt(f.dot(f)));
+    for (size_t i = 0; i < a.constantForce.size(); ++i) {
+        Vec3 d = a.constantForce[i] - b.constantForce[i];
+        if (std::sqrt(d.dot(d)) > 1e-10 * forceScale)
+            return false;
+    }
+    return true;
+}
+
+} // namespace
+
+StiffModesMeasurement::StiffModesMeasurement(const System& system, string owner, string alternative)
+    : owner(std::move(owner)), alternative(std::move(alternative)) {
+    masses.resize(system.getNumParticles());
+    for (int i = 0; i < system.getNumParticles(); ++i)
+        masses[i] = system.getParticleMass(i);
+}
+
+bool StiffModesMeasurement::measure(ContextImpl& context, int stiffGroups,
+                                    const std::function<void(const StiffModes&)>& checkConstraints) {
+    ProbedStiffness stiffness = probeStiffness(context, stiffGroups, masses, owner, alternative);
+    if (modes && samePotential(stiffness, measured))
+        return false;
+    std::shared_ptr<const StiffModes> decomposed;
+    try {
+        decomposed = std::make_shared<const StiffModes>(masses, stiffness.blocks, stiffness.constantForce);
+    } catch (const OpenMMException& e) {
+        throw OpenMMException(owner + ": " + e.what());
+    }
+    checkConstraints(*decomposed);
+    modes = decomposed;
+    measured = stiffness;
+    return true;
 }

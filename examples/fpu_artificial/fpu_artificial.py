@@ -1,0 +1,173 @@
+#!/usr/bin/env python3
+"""Energy exchange among the stiff springs of the Fermi-Pasta-Ulam chain: the FLAVOR averagings against a fine
+velocity-Verlet reference (FLAVORS paper, Figs. 6.4, 6.5 and 6.7).
+
+    H = 1/2 sum p^2 + omega^2/4 sum_{i=1..m} (q_2i - q_2i-1)^2 + sum_{i=0..m} (q_2i+1 - q_2i)^4,  q_0 = q_2m+1 = 0
+
+m = 3, omega = 200, unit masses on the x axis; start x0 = (1, 0, 0), x1 = (1/omega, 0, 0) (slow and fast coordinates
+x0_i = (q_2i + q_2i-1)/sqrt2, x1_i = (q_2i - q_2i-1)/sqrt2), at rest.  Observables: the stiff springs' energies
+I_j = (x1_j'^2 + omega^2 x1_j^2)/2, whose slow exchange over O(omega) times is what Fig. 6.5 shows.
+
+Runs (Reference platform): OpenMM's VerletIntegrator at h = 1e-5 (the reference, as in the paper), and
+FlavorIntegrator SymplecticEuler with delta = 0.002, tau = 0.0005 (the paper's Fig. 6.5 parameters) for the
+Nonintrusive, Artificial (eq. (2.11)) and ArtificialProjected averagings, and the Artificial one with the exact fast
+flow at tau = 1e-4 (Fig. 6.7).
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/fpu_artificial/fpu_artificial.py [--quick] [--T T] [--out DIR]
+
+Outputs: DIR/fpu_artificial.json and DIR/fpu_artificial.png.
+"""
+import argparse
+import json
+import math
+import os
+import time
+
+import numpy as np
+import openmm as mm
+
+from openmmflavors import FlavorIntegrator
+
+M, OMEGA = 3, 200.0
+
+
+def fpu_system():
+    system = mm.System()
+    stiff = mm.HarmonicBondForce()
+    soft = mm.CustomBondForce("r^4")
+    walls = mm.CustomExternalForce("x^4")
+    stiff.setForceGroup(1)
+    for _ in range(2 * M):
+        system.addParticle(1.0)
+    for i in range(M):
+        stiff.addBond(2 * i, 2 * i + 1, 0.0, OMEGA ** 2 / 2)
+    for i in range(M - 1):
+        soft.addBond(2 * i + 1, 2 * i + 2, [])
+    walls.addParticle(0, [])
+    walls.addParticle(2 * M - 1, [])
+    for force in (stiff, soft, walls):
+        system.addForce(force)
+    return system
+
+
+def start_positions():
+    x0, x1 = [1.0, 0.0, 0.0], [1 / OMEGA, 0.0, 0.0]
+    positions = []
+    for i in range(M):
+        positions += [mm.Vec3((x0[i] - x1[i]) / math.sqrt(2), 0, 0), mm.Vec3((x0[i] + x1[i]) / math.sqrt(2), 0, 0)]
+    return positions
+
+
+def stiff_energies(q, v):
+    x1 = (q[1::2] - q[0::2]) / math.sqrt(2)
+    v1 = (v[1::2] - v[0::2]) / math.sqrt(2)
+    return 0.5 * (v1 ** 2 + OMEGA ** 2 * x1 ** 2)
+
+
+def run(integrator, dt, times, leapfrog):
+    """I_j at the given times; leapfrog: OpenMM's VerletIntegrator, whose velocities lag half a step."""
+    context = mm.Context(fpu_system(), integrator, mm.Platform.getPlatformByName("Reference"))
+    context.setPositions(start_positions())
+
+    def forces():
+        return context.getState(getForces=True).getForces(asNumpy=True)._value[:, 0]
+
+    if leapfrog:
+        f = forces()
+        context.setVelocities([mm.Vec3(-0.5 * dt * f[i], 0, 0) for i in range(2 * M)])
+    energies, t, elapsed, steps = [], 0.0, 0.0, 0
+    for target in times:
+        n = int(round((target - t) / dt))
+        start = time.perf_counter()
+        integrator.step(n)
+        elapsed += time.perf_counter() - start
+        steps += n
+        t = target
+        state = context.getState(getPositions=True, getVelocities=True)
+        q = state.getPositions(asNumpy=True)._value[:, 0]
+        v = state.getVelocities(asNumpy=True)._value[:, 0]
+        if leapfrog:
+            v = v + 0.5 * dt * forces()
+        if not np.all(np.isfinite(q)):
+            break
+        energies.append(stiff_energies(q, v))
+    return np.array(energies), elapsed, steps
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="T = 5 (smoke test)")
+    parser.add_argument("--T", type=float, default=200.0, help="simulated time (default omega = 200)")
+    parser.add_argument("--out", default="results/fpu_artificial")
+    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    args = parser.parse_args()
+    if args.replot:
+        with open(args.replot) as f:
+            data = json.load(f)
+        os.makedirs(args.out, exist_ok=True)
+        plot(data, os.path.join(args.out, "fpu_artificial.png"))
+        return
+    T = 5.0 if args.quick else args.T
+    times = list(np.arange(0.5, T + 1e-9, 0.5))
+    runs = {}
+    h = 1e-5
+    energies, elapsed, steps = run(mm.VerletIntegrator(h), h, times, True)
+    runs["Verlet h=1e-5 (reference)"] = (energies, elapsed, steps, h)
+    settings = [("FLAVOR Nonintrusive δ=0.002 τ=0.0005", FlavorIntegrator.Nonintrusive, 5e-4, False),
+                ("FLAVOR Artificial δ=0.002 τ=0.0005", FlavorIntegrator.Artificial, 5e-4, False),
+                ("FLAVOR ArtificialProjected δ=0.002 τ=0.0005", FlavorIntegrator.ArtificialProjected, 5e-4, False),
+                ("FLAVOR Artificial, exact fast flow, δ=0.002 τ=1e-4", FlavorIntegrator.Artificial, 1e-4, True)]
+    for name, averaging, tau, exact in settings:
+        integrator = FlavorIntegrator(0.002, tau, {1})
+        integrator.setScheme(FlavorIntegrator.SymplecticEuler)
+        integrator.setAveraging(averaging)
+        integrator.setExactFastFlow(exact)
+        energies, elapsed, steps = run(integrator, 0.002, times, False)
+        runs[name] = (energies, elapsed, steps, 0.002)
+    reference = runs["Verlet h=1e-5 (reference)"][0]
+    result = {"m": M, "omega": OMEGA, "T": T, "times": times, "runs": {}}
+    for name, (energies, elapsed, steps, dt) in runs.items():
+        n = min(len(energies), len(reference))
+        error = np.max(np.abs(energies[:n] - reference[:n]), axis=0) if n else [float("nan")] * M
+        result["runs"][name] = {
+            "I": energies.tolist(), "wall_s": elapsed, "steps": steps, "step": dt,
+            "max_error_I": [float(e) for e in error],
+            "I_T": [float(e) for e in energies[-1]] if len(energies) == len(times) else None,
+            "speedup_vs_reference_wall": runs["Verlet h=1e-5 (reference)"][1] / elapsed if elapsed > 0 else None,
+            "stable": len(energies) == len(times)}
+        print("%-52s %8d steps %7.2f s  I(T) = %s  max |I - I_ref| = %s" % (
+            name, steps, elapsed, np.array2string(energies[-1], precision=4),
+            np.array2string(np.array(error), precision=3)))
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "fpu_artificial.json"), "w") as f:
+        json.dump(result, f, indent=1)
+    plot(result, os.path.join(args.out, "fpu_artificial.png"))
+
+
+def plot(result, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 3, figsize=(18, 5.5), sharex=True)
+    times = np.array(result["times"])
+    styles = ["k-", "C3--", "C0-", "C2-.", "C1:"]
+    for j, ax in enumerate(axes):
+        for (name, run), style in zip(result["runs"].items(), styles):
+            energies = np.array(run["I"])
+            if len(energies):
+                ax.plot(times[:len(energies)], energies[:, j], style, lw=1.2, label=name)
+        ax.set_xlabel("t (time units of (6.7))")
+        ax.set_ylabel("I_%d, energy of stiff spring %d" % (j + 1, j + 1))
+        ax.set_yscale("log")
+        ax.set_title("I_%d" % (j + 1))
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=9)
+    fig.suptitle("FPU chain (m = 3, ω = %g): energy exchange among the stiff springs, FLAVOR averagings (δ = 0.002) "
+                 "against velocity Verlet (h = 1e-5)" % result["omega"])
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,174 @@
+#!/usr/bin/env python3
+"""Stability domains of the nonintrusive and the artificial FLAVOR on system (5.1) (FLAVORS paper, Fig. 5.1(a) and
+(b), Theorem 5.1), found by running FlavorIntegrator.
+
+    H = p_x^2/2 + p_y^2/2 + x^2/2 + omega^2/2 (y - x)^2,   omega = 1/sqrt(eps) = 1000
+
+x is particle 0 (soft potential x^2/2, force group 0) and y particle 1 (a HarmonicBondForce of length 0 and
+constant omega^2, force group 1, stiff); both move along x only.  For each mesostep delta and microstep tau (given
+as tau/eps), the SymplecticEuler FlavorIntegrator runs --steps mesosteps from x = 0.8, y = x + 1.1/omega at rest;
+the run counts as stable when |x| and |y| stay below 100.  Beside each domain: the boundaries of Theorem 5.1 for
+tau -> 0 (delta = 2 nonintrusive, delta = 2 sqrt(2) artificial), the artificial FLAVOR's fast-stability line
+tau = sqrt(2 eps) (symplectic Euler on the stiff mode of frequency sqrt(2) omega needs tau sqrt(2) omega <= 2), and
+the spectral radius of the one-step matrix computed here with NumPy, eq. (5.5) for the artificial FLAVOR.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/stability_5_1/stability_5_1.py [--quick] [--out DIR]
+
+Outputs: DIR/stability_5_1.json and DIR/stability_5_1.png.
+"""
+import argparse
+import json
+import math
+import os
+
+import numpy as np
+import openmm as mm
+
+import openmmflavors
+
+OMEGA = 1000.0
+EPS = 1 / OMEGA ** 2
+BOUND = 100.0
+
+
+def make_system():
+    system = mm.System()
+    system.addParticle(1.0)
+    system.addParticle(1.0)
+    soft = mm.CustomExternalForce("0.5*x^2")
+    soft.addParticle(0, [])
+    soft.setForceGroup(0)
+    stiff = mm.HarmonicBondForce()
+    stiff.addBond(0, 1, 0.0, OMEGA ** 2)
+    stiff.setForceGroup(1)
+    system.addForce(soft)
+    system.addForce(stiff)
+    return system
+
+
+def run_stable(system, platform, averaging, delta, tau, steps):
+    integrator = openmmflavors.FlavorIntegrator(delta, tau, {1})
+    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
+    integrator.setAveraging(averaging)
+    context = mm.Context(system, integrator, platform)
+    context.setPositions([mm.Vec3(0.8, 0, 0), mm.Vec3(0.8 + 1.1 / OMEGA, 0, 0)])
+    done = 0
+    while done < steps:
+        integrator.step(min(50, steps - done))
+        done += 50
+        x = context.getState(getPositions=True).getPositions(asNumpy=True)._value[:, 0]
+        if not np.all(np.isfinite(x)) or np.max(np.abs(x)) > BOUND:
+            return False
+    return True
+
+
+def one_step_matrix(artificial, delta, tau):
+    """The one-step map on (y, x, p_y, p_x), composed from the flows (rightmost acts first)."""
+    def kick(h, soft, stiff):
+        m = np.eye(4)
+        k = h * OMEGA ** 2 * stiff
+        m[2, 0] += -k
+        m[2, 1] += k
+        m[3, 0] += k
+        m[3, 1] += -k - h * soft
+        return m
+
+    def drift(h):
+        m = np.eye(4)
+        m[0, 2] = m[1, 3] = h
+        return m
+
+    if artificial:  # eq. (5.5)
+        frozen = np.eye(4)
+        frozen[0:2, 2:4] = (delta - tau) / 2
+        return frozen @ kick(tau, 0, 1) @ drift(tau) @ kick(delta, 1, 0)
+    # eq. (2.17): K_all(tau) D(tau) K_soft(delta - tau) D(delta - tau), applied left to right.
+    return drift(delta - tau) @ kick(delta - tau, 1, 0) @ drift(tau) @ kick(tau, 1, 1)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="a coarse grid")
+    parser.add_argument("--out", default="results/stability_5_1")
+    parser.add_argument("--steps", type=int, default=400)
+    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    args = parser.parse_args()
+    if args.replot:
+        with open(args.replot) as f:
+            data = json.load(f)
+        os.makedirs(args.out, exist_ok=True)
+        plot(data, np.array(data["delta"]), np.array(data["tau_over_eps"]),
+             os.path.join(args.out, "stability_5_1.png"))
+        return
+    n_delta, n_tau = (8, 6) if args.quick else (44, 36)
+    deltas = np.linspace(0.1, 3.5, n_delta)
+    ratios = np.logspace(-1, 4, n_tau)  # tau / eps
+    system = make_system()
+    platform = mm.Platform.getPlatformByName("Reference")
+    averagings = {"Nonintrusive": openmmflavors.FlavorIntegrator.Nonintrusive,
+                  "Artificial": openmmflavors.FlavorIntegrator.Artificial}
+    result = {"omega": OMEGA, "steps": args.steps, "bound": BOUND, "delta": list(deltas), "tau_over_eps": list(ratios),
+              "domains": {}}
+    for name, averaging in averagings.items():
+        stable = np.zeros((n_tau, n_delta), dtype=int)
+        radius = np.full((n_tau, n_delta), np.nan)
+        for i, ratio in enumerate(ratios):
+            tau = ratio * EPS
+            for j, delta in enumerate(deltas):
+                if tau > delta:
+                    stable[i, j] = -1  # not a FLAVOR (tau > delta)
+                    continue
+                stable[i, j] = int(run_stable(system, platform, averaging, delta, tau, args.steps))
+                radius[i, j] = np.max(np.abs(np.linalg.eigvals(one_step_matrix(name == "Artificial", delta, tau))))
+        agree = np.sum((stable == 1) == (radius <= 1 + 1e-6)) - np.sum(stable == -1)
+        result["domains"][name] = {"stable": stable.tolist(), "spectral_radius": radius.tolist(),
+                                   "runs_agreeing_with_matrix": int(agree), "runs": int(np.sum(stable >= 0))}
+        # The largest stable delta at the smallest tau, against Theorem 5.1.
+        row = stable[0]
+        result["domains"][name]["largest_stable_delta_at_smallest_tau"] = float(
+            max((d for d, s in zip(deltas, row) if s == 1), default=float("nan")))
+        print("%-13s stable %d of %d runs; %d agree with the spectral radius of the one-step matrix; largest stable "
+              "delta at tau/eps = %.2g: %.3f" % (name, np.sum(stable == 1), np.sum(stable >= 0), agree, ratios[0],
+                                                result["domains"][name]["largest_stable_delta_at_smallest_tau"]))
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "stability_5_1.json"), "w") as f:
+        json.dump(result, f, indent=1)
+    plot(result, deltas, ratios, os.path.join(args.out, "stability_5_1.png"))
+
+
+def plot(result, deltas, ratios, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+    fig, axes = plt.subplots(1, 2, figsize=(13, 6.2), sharey=True)
+    cmap = ListedColormap(["#dddddd", "#d62728", "#2ca02c"])  # tau > delta, unstable, stable
+    for ax, (name, boundary, label) in zip(axes, [("Nonintrusive", 2.0, "δ = 2"),
+                                                   ("Artificial", 2 * math.sqrt(2), "δ = 2√2")]):
+        stable = np.array(result["domains"][name]["stable"])
+        ax.pcolormesh(deltas, ratios, stable + 1, cmap=cmap, vmin=0, vmax=2, shading="nearest")
+        radius = np.array(result["domains"][name]["spectral_radius"])
+        ax.contour(deltas, ratios, np.where(np.isnan(radius), 10, radius), levels=[1 + 1e-6], colors="k",
+                   linewidths=1.2)
+        ax.axvline(boundary, color="b", ls="--", label="Theorem 5.1, τ → 0: " + label)
+        if name == "Artificial":
+            ax.axhline(math.sqrt(2 * EPS) / EPS, color="m", ls=":", label="τ = √(2ε)")
+        ax.plot([], [], color="k", label="spectral radius 1 of the one-step matrix")
+        ax.plot([], [], "s", color="#2ca02c", label="stable run")
+        ax.plot([], [], "s", color="#d62728", label="unstable run")
+        if np.any(stable < 0):
+            ax.plot([], [], "s", color="#dddddd", label="τ > δ (not run)")
+        ax.set_yscale("log")
+        ax.set_xlabel("mesostep δ")
+        ax.set_title("(%s) %s FLAVOR (SymplecticEuler)" % ("a" if name == "Nonintrusive" else "b", name))
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
+    axes[0].set_ylabel("τ/ε (ε = 1/ω², ω = 1000)")
+    fig.suptitle("Stability domains on system (5.1), found by running FlavorIntegrator for %d mesosteps "
+                 "(FLAVORS paper, Fig. 5.1)" % result["steps"])
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()

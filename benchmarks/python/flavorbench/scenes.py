@@ -15,6 +15,7 @@ A scene is an object with
 and `run` is what runners.simulate() returns.
 """
 import math
+import re
 import sys
 
 import numpy as np
@@ -232,20 +233,29 @@ STYLE = {"reference": dict(color="k", lw=1.4), "legacy": dict(color="tab:blue", 
          "effective": dict(color="tab:green", lw=0.9, ls="-.")}
 
 
+def plot_label(label):
+    """A run's label in the charts' notation: δ, τ for FLAVOR's mesostep and microstep (the JSON keeps the label)."""
+    return re.sub(r"\s*\bt=", ", τ = ", re.sub(r"\bd=", "δ = ", label)).replace("h=", "h = ").replace(
+        "stiff x tau/delta", "stiff × τ/δ")
+
+
 def plot(sc, runs, out, p, path, panels):
-    """panels: [(title, function(run) -> array, kind)] with kind "slow" (whole run, every method), "slow_end" (the
-    last p["zoom_end"] of the run, every method), "fast" (zoom on [0, zoom], reference / legacy / FLAVOR), "band"
-    (running mean and mean +- std over p["avg_window"], reference / legacy / FLAVOR); then energies and the
-    running maximum of the first slow variable's error are added."""
+    """panels: [(title, function(run) -> array, kind[, y-axis label])] with kind "slow" (whole run, every method),
+    "slow_end" (the last p["zoom_end"] of the run, every method), "fast" (zoom on [0, zoom], reference / legacy /
+    FLAVOR), "band" (running mean and mean +- std over p["avg_window"], reference / legacy / FLAVOR); then energies
+    and the running maximum of the first slow variable's error are added, and the legend takes a free slot (or goes
+    below the panels).  Times are in ps (the scenes' units: 1 amu, 1 nm, 1 ps)."""
     plt = pyplot()
     n = len(panels) + 2
     cols = 3
     rows = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.8 * rows))
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.8 * rows + (0 if n < rows * cols else 1.2)))
     axes = axes.ravel()
-    fig.suptitle(f"{sc.title}: T = {p['T']:g}, delta = {p['delta']:g}, tau = {p['tau']:g}, Reference platform",
+    fig.suptitle(f"{sc.title}\nFLAVOR against symplectic Euler and a fine Verlet reference: T = {p['T']:g} ps, "
+                 f"δ = {p['delta']:g} ps, τ = {p['tau']:g} ps, Reference platform (units: 1 amu, 1 nm, 1 ps)",
                  fontsize=11)
-    for ax, (title, fn, kind) in zip(axes, panels):
+    for ax, panel in zip(axes, panels):
+        title, fn, kind = panel[:3]
         keys = ["reference", "legacy", "flavor"] if kind in ("fast", "band") else \
             [k for k in ("reference", "legacy", "flavor", "flavor_verlet", "effective") if k in runs]
         for key in keys:
@@ -261,43 +271,60 @@ def plot(sc, runs, out, p, path, panels):
                 width = max(1, int(round(p["avg_window"] / (t[1] - t[0]))))
                 mean = running_mean(y, width)
                 std = np.sqrt(np.maximum(running_mean(y * y, width) - mean * mean, 0.0))
-                ax.plot(t, mean, label=run["label"], **STYLE[key])
+                ax.plot(t, mean, label=plot_label(run["label"]), **STYLE[key])
                 ax.plot(t, mean + std, **{**STYLE[key], "lw": 0.6})
                 ax.plot(t, mean - std, **{**STYLE[key], "lw": 0.6})
             else:
-                ax.plot(t, y, label=run["label"], **STYLE[key])
+                ax.plot(t, y, label=plot_label(run["label"]), **STYLE[key])
         ax.set_title(title, fontsize=9)
-        ax.set_xlabel("t")
+        ax.set_xlabel("t (ps)")
+        if len(panel) > 3:
+            ax.set_ylabel(panel[3], fontsize=8.5)
     ax = axes[len(panels)]
     for key in ("reference", "legacy", "flavor"):
         run = runs[key]
-        ax.plot(run["t"], run["H"] / run["H"][0], label=f"{run['label']}: H", **STYLE[key])
+        ax.plot(run["t"], run["H"] / run["H"][0], **STYLE[key])
     run = runs["flavor"]
     ax.plot(run["t"], run["H_eff"] / run["H_eff"][0], color="tab:orange", lw=1.0, label="FLAVOR SympEuler: H_eff")
-    ax.set_title("H(t) / H(0); for FLAVOR also H_eff(t) / H_eff(0),\nH_eff = K + V_soft + (tau/delta) V_stiff",
-                 fontsize=9)
-    ax.set_xlabel("t")
-    ax.legend(fontsize=6, loc="lower right")
+    ax.set_title("total energy H(t) / H(0); for FLAVOR also H_eff(t) / H_eff(0),\n"
+                 "H_eff = K + V_soft + (τ/δ) V_stiff", fontsize=9)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("energy / its value at t = 0 (dimensionless)", fontsize=8.5)
     ax = axes[len(panels) + 1]
     name = next(iter(sc.slow(runs["reference"])))
+    symbol = {"theta": "θ", "phi": "φ"}.get(name, name)
     ref = runs["reference"]
     tc = ref["t"][ref["coarse"]]
     for key in runs:
         if key != "effective" and "slow_error" in runs[key]:
-            label = runs[key]["label"] + (": own error (step halving)" if key == "reference" else "")
+            label = plot_label(runs[key]["label"])
             style = STYLE.get(key, dict(color="tab:red" if key.startswith("flavor_r") else "tab:purple",
                                         lw=0.6, alpha=0.6, ls="-" if key.startswith("flavor_r") else ":"))
             err = np.maximum.accumulate(runs[key]["slow_error"][name])
             ax.semilogy(tc[1:], np.maximum(err[1:], 1e-16), label=label, **style)
-    ax.set_title(f"running max of |{name} - {name}(reference)|\n(thin lines: FLAVORs at delta/k, tau/k)",
-                 fontsize=9)
-    ax.set_xlabel("t")
-    ax.legend(fontsize=6, loc="lower right")
-    axes[0].legend(fontsize=6, loc="lower left")
+    ax.set_title(f"slow variable: running max of |{symbol} − {symbol}(reference)|\n(black: the reference's own error, "
+                 f"from step halving; thin lines: FLAVORs at δ/k, τ/k)", fontsize=9)
+    ax.set_xlabel("t (ps)")
+    unit = getattr(sc, "slow_unit", "")
+    ax.set_ylabel(f"absolute error{f' ({unit})' if unit else ''}", fontsize=8.5)
+    # One legend for every panel, in a free slot or below the panels: inside a panel it would hide curves.
+    handles, labels = [], []
+    for a in axes[:n]:
+        for h, lab in zip(*a.get_legend_handles_labels()):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
     for ax in axes[n:]:
         ax.axis("off")
+    if n < rows * cols:
+        axes[n].legend(handles, labels, loc="center", fontsize=8.5, frameon=False, title="methods",
+                       title_fontsize=9)
+        bottom = 0.05
+    else:
+        fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+        bottom = 0.14
     # Fixed spacing: tight_layout and legend placement "best" cost seconds with long series.
-    fig.subplots_adjust(left=0.05, right=0.98, bottom=0.05, top=0.93, wspace=0.22, hspace=0.42)
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=bottom, top=0.91, wspace=0.25, hspace=0.42)
     save_figure(fig, path, 110)
 
 

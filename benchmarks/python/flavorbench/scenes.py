@@ -15,13 +15,12 @@ A scene is an object with
 and `run` is what runners.simulate() returns.
 """
 import math
-import re
 import sys
 
 import numpy as np
 import openmm as mm
 
-from .reporting import pyplot, save_figure, table
+from .reporting import greek, pyplot, save_figure, table
 from .runners import flavor, simulate, start_context, time_batches
 
 
@@ -233,12 +232,6 @@ STYLE = {"reference": dict(color="k", lw=1.4), "legacy": dict(color="tab:blue", 
          "effective": dict(color="tab:green", lw=0.9, ls="-.")}
 
 
-def plot_label(label):
-    """A run's label in the charts' notation: δ, τ for FLAVOR's mesostep and microstep (the JSON keeps the label)."""
-    return re.sub(r"\s*\bt=", ", τ = ", re.sub(r"\bd=", "δ = ", label)).replace("h=", "h = ").replace(
-        "stiff x tau/delta", "stiff × τ/δ")
-
-
 def plot(sc, runs, out, p, path, panels):
     """panels: [(title, function(run) -> array, kind[, y-axis label])] with kind "slow" (whole run, every method),
     "slow_end" (the last p["zoom_end"] of the run, every method), "fast" (zoom on [0, zoom], reference / legacy /
@@ -271,11 +264,11 @@ def plot(sc, runs, out, p, path, panels):
                 width = max(1, int(round(p["avg_window"] / (t[1] - t[0]))))
                 mean = running_mean(y, width)
                 std = np.sqrt(np.maximum(running_mean(y * y, width) - mean * mean, 0.0))
-                ax.plot(t, mean, label=plot_label(run["label"]), **STYLE[key])
+                ax.plot(t, mean, label=greek(run["label"]), **STYLE[key])
                 ax.plot(t, mean + std, **{**STYLE[key], "lw": 0.6})
                 ax.plot(t, mean - std, **{**STYLE[key], "lw": 0.6})
             else:
-                ax.plot(t, y, label=plot_label(run["label"]), **STYLE[key])
+                ax.plot(t, y, label=greek(run["label"]), **STYLE[key])
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("t (ps)")
         if len(panel) > 3:
@@ -297,7 +290,7 @@ def plot(sc, runs, out, p, path, panels):
     tc = ref["t"][ref["coarse"]]
     for key in runs:
         if key != "effective" and "slow_error" in runs[key]:
-            label = plot_label(runs[key]["label"])
+            label = greek(runs[key]["label"])
             style = STYLE.get(key, dict(color="tab:red" if key.startswith("flavor_r") else "tab:purple",
                                         lw=0.6, alpha=0.6, ls="-" if key.startswith("flavor_r") else ":"))
             err = np.maximum.accumulate(runs[key]["slow_error"][name])

@@ -437,7 +437,7 @@ def plot_errors(cases, measure, path, dpi, small=False):
             ax.text(0.02, 0.03, f"chaotic at T = {T:g} ps: a 1e-10 change of x₀,₁ grows ×{amplification:.2g} by T,\n"
                     "so x₀,₁ decorrelates from the reference and every method's relative error\n"
                     f"saturates at O(1); compare methods at T = {case['checkpoints'][0]:g} ps",
-                    transform=ax.transAxes, fontsize=7.5, va="bottom",
+                    transform=ax.transAxes, fontsize=8.5, va="bottom",
                     bbox=dict(facecolor="white", edgecolor="0.6", alpha=0.9))
         ax.set_title(f"ω = {case['omega']:g} ps⁻¹ ({START[case['setup']]}), T = {T:g} ps", fontsize=9.5)
         ax.set_xlabel("cost: force-group evaluations to T (count)")
@@ -489,7 +489,7 @@ def plot_cost(cases, rows, path, dpi, small=False):
                  f"error ≤ {TOL:g}\n(at the first checkpoint of each ω: {primary}; a method missing at an ω "
                  "reached the tolerance with none of its runs)", fontsize=10)
     fig.legend(handles=method_handles(), loc="center right", fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0, 0.8, 0.9))
+    fig.tight_layout(rect=(0, 0, 0.84, 0.9))
     reporting.save_figure(fig, path, dpi, small)
 
 

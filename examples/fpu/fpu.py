@@ -292,7 +292,7 @@ def plot(times, coarse, results, summary, T, window, omega, path):
     fig.legend(handles=[Line2D([], [], color=colors[k], lw=1.4 if k == "reference" else 1, label=names[k])
                         for k in shown], fontsize=8, loc="lower center", bbox_to_anchor=(0.75, 0.0), ncol=2,
                frameon=False, title="methods (colours)", title_fontsize=8)
-    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    fig.tight_layout(rect=(0, 0.1, 1, 0.98))
     reporting.save_figure(fig, path, 110)
 
 

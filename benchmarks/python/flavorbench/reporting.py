@@ -56,6 +56,7 @@ def greek(label):
     "H=", "h=" as "H = ", "h = " (the JSON and the tables keep the labels as they are)."""
     label = re.sub(r"\s*\bt=", ", τ = ", re.sub(r"\bd=", "δ = ", label))
     label = re.sub(r"\b([hH])=", r"\1 = ", label)
+    label = re.sub(r"(\d) pi\b", r"\1π", label.replace("tau=delta", "τ = δ"))
     return label.replace("stiff x tau/delta", "stiff × τ/δ").replace("omega", "ω").replace("gamma", "γ")
 
 

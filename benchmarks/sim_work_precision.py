@@ -614,7 +614,7 @@ def print_tables(part_a, part_b, part_c, T):
 PLOT_CRITERIA = {"cheapest": "strict: x₀,₁ and every I_j(T) relative to itself",
                  "cheapest_energy_scale": "energy scale: x₀,₁ and every I_j relative to Σ_j I_j over [0, T]",
                  "cheapest_x0_only": "x₀,₁ alone (for information)"}
-STEP_CASES = {"sim_strang": "SIM Strang", "sim_lietrotter": "SIM LieTrotter", "sim_yoshida4": "SIM Yoshida4",
+STEP_CASES = {"sim_strang": "SIM\nStrang", "sim_lietrotter": "SIM\nLieTrotter", "sim_yoshida4": "SIM\nYoshida4",
               "sim_strang_langevin": "SIM Strang\nLangevin", "verlet_all": "Verlet\nall groups",
               "verlet_soft_only": "Verlet\nsoft group only"}
 
@@ -622,7 +622,7 @@ STEP_CASES = {"sim_strang": "SIM Strang", "sim_lietrotter": "SIM LieTrotter", "s
 def plot(part_a, part_b, part_c, T, path):
     from matplotlib.lines import Line2D
     plt = reporting.pyplot()
-    fig = plt.figure(figsize=(22, 12.5))
+    fig = plt.figure(figsize=(22, 13.5))
     grid = fig.add_gridspec(2, 4, width_ratios=(1, 1, 1, 0.42), height_ratios=(1, 1.15))
     top = [fig.add_subplot(grid[0, j]) for j in range(3)]
     fig.suptitle(f"StochasticImpulseIntegrator (SIM) against VerletIntegrator on the FPU chain (m = {M}, T = {T:g} ps, "
@@ -735,8 +735,8 @@ def plot(part_a, part_b, part_c, T, path):
                           if m in part_a[o]["methods"] and not part_a[o]["methods"][m].get(criterion)]
                 ax.text(k + i * width + width / 4, 0.6, "n/a", rotation=90, ha="center", va="bottom", fontsize=8,
                         color=color)
-                missing.append(f"ω = {o}, {name.split(' (')[0]}: no passing run of " + (" or ".join(failed) or
-                                                                                         "a method"))
+                missing.append(f"ω = {o}, {name.split(' (')[0]}: no passing run\n   of " + (" or ".join(failed) or
+                                                                                           "a method"))
     ax.set_xticks(np.arange(len(omegas)) + 0.4 - width / 2)
     ax.set_xticklabels([f"ω = {o} ps⁻¹" for o in omegas])
     ax.set_yscale("log")
@@ -747,7 +747,7 @@ def plot(part_a, part_b, part_c, T, path):
                     + [1.0])
     ax.set_ylim(0.5, 30 * top_value)
     ax.grid(alpha=0.3, axis="y", lw=0.3)
-    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.1), frameon=False)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.08), frameon=False)
     if missing:
         note_ax = fig.add_subplot(grid[1, 3])
         note_ax.axis("off")

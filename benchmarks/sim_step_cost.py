@@ -120,29 +120,33 @@ def main():
 
     def plot(path):
         plt = reporting.pyplot()
-        fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 3.6))
+        fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.4))
+        fig.suptitle("StochasticImpulseIntegrator step cost, Reference platform: mode work (exact stiff flow and noise) "
+                     "against the rest of the step\nand one soft-group force evaluation; friction γ in ps⁻¹",
+                     fontsize=10)
         names = list(results["runs"])
         ax.bar(names, [results["runs"][n]["mode_work_us"] for n in names], label="mode work")
         ax.bar(names, [results["runs"][n]["step_us"] - results["runs"][n]["mode_work_us"] for n in names],
                bottom=[results["runs"][n]["mode_work_us"] for n in names], label="rest of the step")
         ax.axhline(soft, color="k", ls="--", lw=1, label="one soft evaluation")
-        ax.set_ylabel("µs per step")
+        ax.set_ylabel("wall time per step (µs)")
         ax.legend(fontsize=7)
-        ax.tick_params(axis="x", labelsize=7)
-        ax.set_title(f"(a) {chains} FPU chains", fontsize=9)
+        ax.set_xticks(range(len(names)))
+        ax.set_xticklabels([n.replace("_friction", ", γ = ") for n in names], fontsize=7)
+        ax.set_title(f"(a) {chains} FPU chains (FLAVORS paper eq. 6.7): one step, split", fontsize=9)
         work = [r["sum_nc2"] for r in scaling["rows"]]
         for friction, marker in (("0", "o"), ("1", "s")):
             bx.loglog(work, [r[f"step_us_friction{friction}"] for r in scaling["rows"]], marker + "-",
-                      label=f"friction {friction}/ps")
+                      label=f"friction γ = {friction} ps⁻¹")
         for r in scaling["rows"]:
             bx.annotate(f"{r['n_c']}", (r["sum_nc2"], r["step_us_friction0"]), fontsize=6,
                         textcoords="offset points", xytext=(2, -8))
         reference = scaling["rows"][-1]
         bx.loglog(work, [reference["step_us_friction0"] * w / reference["sum_nc2"] for w in work], "k:", lw=1,
                   label="∝ Σ n_c²")
-        bx.set_xlabel("Σ n_c² (labels: n_c)")
-        bx.set_ylabel("µs per step (stiff only)")
-        bx.set_title(f"(b) mode work, {particles} particles in stiff chains", fontsize=9)
+        bx.set_xlabel("Σ_c n_c², n_c particles per stiff chain (point labels: n_c)")
+        bx.set_ylabel("wall time per step, stiff forces only (µs)")
+        bx.set_title(f"(b) mode work against the chain size, {particles} particles in stiff chains", fontsize=9)
         bx.legend(fontsize=7)
         fig.tight_layout()
         reporting.save_figure(fig, path, 90)

@@ -611,55 +611,85 @@ def print_tables(part_a, part_b, part_c, T):
                         for k, v in counted["instructions_per_step"].items()))
 
 
+PLOT_CRITERIA = {"cheapest": "strict: x₀,₁ and every I_j(T) relative to itself",
+                 "cheapest_energy_scale": "energy scale: x₀,₁ and every I_j relative to Σ_j I_j over [0, T]",
+                 "cheapest_x0_only": "x₀,₁ alone (for information)"}
+STEP_CASES = {"sim_strang": "SIM\nStrang", "sim_lietrotter": "SIM\nLieTrotter", "sim_yoshida4": "SIM\nYoshida4",
+              "sim_strang_langevin": "SIM Strang\nLangevin", "verlet_all": "Verlet\nall groups",
+              "verlet_soft_only": "Verlet\nsoft group only"}
+
+
 def plot(part_a, part_b, part_c, T, path):
+    from matplotlib.lines import Line2D
     plt = reporting.pyplot()
-    fig, axes = plt.subplots(2, 3, figsize=(20, 10))
-    fig.suptitle(f"StochasticImpulseIntegrator work-precision (FPU m = {M}, T = {T:g}, Reference), set-up and step "
-                 f"cost")
+    fig = plt.figure(figsize=(22, 13.5))
+    grid = fig.add_gridspec(2, 4, width_ratios=(1, 1, 1, 0.42), height_ratios=(1, 1.15))
+    top = [fig.add_subplot(grid[0, j]) for j in range(3)]
+    fig.suptitle(f"StochasticImpulseIntegrator (SIM) against VerletIntegrator on the FPU chain (m = {M}, T = {T:g} ps, "
+                 f"Reference platform): error against wall time,\nset-up cost of the stiff modes, step cost and "
+                 f"speedup at matched accuracy (dimensionless units: 1 amu, 1 nm, 1 ps)", fontsize=12)
     colors = {"sim_strang": "tab:blue", "verlet": "k", "sim_yoshida4": "tab:green", "sim_lietrotter": "tab:red"}
     markers = {"200": "o", "1000": "s", "5000": "D"}
     quantities = {"x0": lambda r: r["rel_err_x0_1"], "strict": lambda r: max(r["rel_err_I"]),
                   "scale": lambda r: r["energy_scale_err_I"]}
+    labels = {}
     for ax, quantity, tol, title, criterion in (
-            (axes[0, 0], "x0", X0_TOL, "relative error of x0,1(T)", "cheapest_energy_scale"),
-            (axes[0, 1], "strict", I_TOL, "strict: max_j |dI_j(T)| / I_j(T)", "cheapest"),
-            (axes[0, 2], "scale", I_TOL, "energy scale: max over t, j of |dI_j(t)| / sum I", "cheapest_energy_scale")):
+            (top[0], "x0", X0_TOL, "slow variable: |Δx₀,₁(T)| / |x₀,₁(T)|", "cheapest_energy_scale"),
+            (top[1], "strict", I_TOL, "stiff energies, strict: max_j |ΔI_j(T)| / I_j(T)", "cheapest"),
+            (top[2], "scale", I_TOL, "stiff energies, energy scale: max over t, j of |ΔI_j(t)| / Σ_j I_j(t)",
+             "cheapest_energy_scale")):
         value = quantities[quantity]
         for omega, res in part_a.items():
             for key, m in res["methods"].items():
+                labels[key] = m["label"]
                 walls = [r["wall_s"] for r in m["runs"]]
                 ax.loglog(walls, np.maximum([value(r) for r in m["runs"]], 1e-16), color=colors.get(key, "gray"),
                           marker=markers.get(omega, "^"), ms=4, lw=0.8,
-                          ls="-" if key in ("sim_strang", "verlet") else ":", label=f"{m['label']} omega={omega}")
+                          ls="-" if key in ("sim_strang", "verlet") else ":")
                 best = m[criterion]
                 if best:
                     ax.loglog([best["wall_s"]], [value(best)], marker="*", ms=14, color=colors.get(key, "gray"),
                               ls="none")
         ax.axhline(tol, color="gray", ls="--", lw=0.8)
-        ax.set_xlabel("wall time of integrator.step() [s]")
+        ax.set_xlabel("wall time of integrator.step() to T (s)")
+        ax.set_ylabel("relative error (dimensionless)")
         which = "strict" if criterion == "cheapest" else "energy-scale"
-        ax.set_title(f"{title}\n(stars: cheapest run passing the {which} criterion)", fontsize=9)
-        ax.legend(fontsize=6)
-    ax = axes[1, 0]
+        ax.set_title(f"{title}\n(stars: cheapest run passing the {which} criterion)", fontsize=9.5)
+        ax.grid(alpha=0.3, which="both", lw=0.3)
+    key_ax = fig.add_subplot(grid[0, 3])
+    key_ax.axis("off")
+    handles = [Line2D([], [], color=colors.get(k, "gray"), lw=1, ls="-" if k in ("sim_strang", "verlet") else ":",
+                      label=name) for k, name in labels.items()]
+    handles += [Line2D([], [], color="0.4", marker=mk, ls="none", label=f"ω = {o} ps⁻¹")
+                for o, mk in markers.items() if o in part_a]
+    handles += [Line2D([], [], color="0.4", marker="*", ms=12, ls="none", label="cheapest passing run"),
+                Line2D([], [], color="gray", ls="--", lw=0.8,
+                       label=f"tolerance: {X0_TOL:g} (x₀,₁), {I_TOL:g} (I_j)")]
+    key_ax.legend(handles=handles, loc="center left", fontsize=9, frameon=False,
+                  title="colour: method; marker: ω;\none point per step size", title_fontsize=9)
+
+    ax = fig.add_subplot(grid[1, 0])
     for platform in sorted({r["platform"] for r in part_b["rows"]}):
         rows = [r for r in part_b["rows"] if r["platform"] == platform]
         n = [r["springs"] for r in rows]
         slope = part_b["loglog_slopes"].get(platform, {})
         ax.loglog(n, [max(r["setup_s"], 1e-9) for r in rows], marker="o",
-                  label=f"{platform}: first step - later step (slope {slope.get('first_step_minus_later', 0):.2f})")
+                  label=f"{platform}: first step − later step (slope {slope.get('first_step_minus_later', 0):.2f})")
         fresh = slope.get("get_frequencies_fresh", 0)
         ax.loglog(n, [r["get_frequencies_fresh_s"] for r in rows], marker="s", ls=":",
-                  label=f"{platform}: getStiffModeFrequencies() fresh (slope {fresh:.2f})")
+                  label=f"{platform}: getStiffModeFrequencies() on a fresh Context (slope {fresh:.2f})")
     counted = part_b.get("instructions")
     if counted:
         ax.loglog([r["springs"] for r in counted["rows"]], [r["instructions"] / 3e9 for r in counted["rows"]],
                   marker="^", color="k", ls="--",
                   label=f"Reference: set-up instructions / 3e9 (callgrind, slope {counted['loglog_slope']:.3f})")
-    ax.set_xlabel("independent stiff springs")
-    ax.set_ylabel("s")
-    ax.set_title("set-up cost of the stiff modes")
-    ax.legend(fontsize=7)
-    ax = axes[1, 1]
+    ax.set_xlabel("independent stiff springs (count)")
+    ax.set_ylabel("wall time (s)")
+    ax.set_title("set-up cost of the stiff modes against their number", fontsize=10)
+    ax.grid(alpha=0.3, which="both", lw=0.3)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), frameon=False)
+
+    ax = fig.add_subplot(grid[1, 1])
     rows = part_c["rows"]
     keys = list(rows[0]["ratio_to_soft_force"])
     counted = part_c.get("instructions")
@@ -667,38 +697,64 @@ def plot(part_a, part_b, part_c, T, path):
     width = 0.8 / bars
     for i, r in enumerate(rows):
         ax.bar(np.arange(len(keys)) + i * width, [r["ratio_to_soft_force"][k] for k in keys], width,
-               label=f"{r['platform']}, {r['chains']} chains (soft F {r['soft_force_us_used']:.3g} us)")
+               label=f"wall time: {r['platform']}, {r['chains']} chain{'s' if r['chains'] != 1 else ''} "
+                     f"(one soft evaluation {r['soft_force_us_used']:.3g} µs)")
     if counted:
         ax.bar(np.arange(len(keys)) + len(rows) * width, [counted["ratio_to_soft_force"][k] for k in keys], width,
                color="0.6", hatch="//", edgecolor="k",
-               label=f"Reference, 1 chain, callgrind instructions (soft F {counted['force_soft_instructions']:.0f})")
+               label=f"instructions (callgrind): Reference, 1 chain (one soft evaluation "
+                     f"{counted['force_soft_instructions']:.0f})")
     ax.set_xticks(np.arange(len(keys)) + 0.4 - width / 2)
-    ax.set_xticklabels(keys, rotation=20, fontsize=8)
-    ax.set_ylabel("step cost / one soft-group force evaluation")
-    ax.set_title("per-step cost relative to a soft force evaluation")
-    ax.legend(fontsize=7)
-    ax = axes[1, 2]
+    ax.set_xticklabels([STEP_CASES.get(k, k) for k in keys], fontsize=8)
+    ax.set_ylabel("cost of one step / one soft-group force evaluation")
+    ax.set_title("cost of one step relative to one soft-group force evaluation (FPU chains, ω = 200 ps⁻¹)",
+                 fontsize=10)
+    ax.grid(alpha=0.3, axis="y", lw=0.3)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), frameon=False)
+
+    ax = fig.add_subplot(grid[1, 2])
     omegas = list(part_a)
     width = 0.8 / len(CRITERIA)
+    missing = []
     for i, (criterion, name) in enumerate(CRITERIA.items()):
         values = [part_a[o]["speedup_sim_strang_over_verlet"][criterion] or 0.0 for o in omegas]
-        bars = ax.bar(np.arange(len(omegas)) + i * width, values, width / 2, label=f"{name}: wall time")
+        bars = ax.bar(np.arange(len(omegas)) + i * width, values, width / 2,
+                      label=f"{PLOT_CRITERIA.get(criterion, name)}: wall time")
         ax.bar_label(bars, fmt="%.0f", fontsize=7)
+        color = bars.patches[0].get_facecolor()
         counted = [part_a[o].get("speedup_instructions_sim_strang_over_verlet", {}).get(criterion) or 0.0
                    for o in omegas]
         if any(counted):
             bars = ax.bar(np.arange(len(omegas)) + i * width + width / 2, counted, width / 2, hatch="//",
-                          color=bars.patches[0].get_facecolor(), alpha=0.5, label=f"{name}: instructions")
+                          color=color, alpha=0.5, label=f"{PLOT_CRITERIA.get(criterion, name)}: instructions")
             ax.bar_label(bars, fmt="%.0f", fontsize=7)
+        for k, o in enumerate(omegas):
+            if not part_a[o]["speedup_sim_strang_over_verlet"][criterion]:
+                # No bar: say which method had no run passing this criterion in its sweep.
+                failed = [part_a[o]["methods"][m]["label"] for m in ("sim_strang", "verlet")
+                          if m in part_a[o]["methods"] and not part_a[o]["methods"][m].get(criterion)]
+                ax.text(k + i * width + width / 4, 0.6, "n/a", rotation=90, ha="center", va="bottom", fontsize=8,
+                        color=color)
+                missing.append(f"ω = {o}, {name.split(' (')[0]}: no passing run\n   of " + (" or ".join(failed) or
+                                                                                           "a method"))
     ax.set_xticks(np.arange(len(omegas)) + 0.4 - width / 2)
-    ax.set_xticklabels([f"omega = {o}" for o in omegas])
+    ax.set_xticklabels([f"ω = {o} ps⁻¹" for o in omegas])
     ax.set_yscale("log")
-    ax.set_ylabel("wall time of Verlet / wall time of Strang SIM")
-    ax.set_title("speedup at matched accuracy (cheapest passing runs)")
-    top = max([v or 1.0 for res in part_a.values() for v in res["speedup_sim_strang_over_verlet"].values()] + [1.0])
-    ax.set_ylim(0.5, 30 * top)
-    ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
+    ax.set_ylabel("speedup: wall time of Verlet / wall time of Strang SIM")
+    ax.set_title("speedup of Strang SIM over VerletIntegrator at matched accuracy\n(cheapest passing runs; hatched: "
+                 "the same in callgrind instructions)", fontsize=10)
+    top_value = max([v or 1.0 for res in part_a.values() for v in res["speedup_sim_strang_over_verlet"].values()]
+                    + [1.0])
+    ax.set_ylim(0.5, 30 * top_value)
+    ax.grid(alpha=0.3, axis="y", lw=0.3)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.08), frameon=False)
+    if missing:
+        note_ax = fig.add_subplot(grid[1, 3])
+        note_ax.axis("off")
+        note_ax.text(0.0, 0.75, "Speedup bars marked n/a are missing\nbecause a method had no run in its\n"
+                     "step sweep that passes the criterion:\n\n" + "\n".join(f"• {m}" for m in missing),
+                     fontsize=8.5, va="top", wrap=True)
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
     reporting.save_figure(fig, path, 110)
 
 

@@ -291,7 +291,7 @@ def plot_stability(a, path, dpi, small=False):
     plt = reporting.pyplot()
 
     deltas, tw = np.array(a["deltas"]), np.array(a["tau_omega2"])
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharey=True)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.6), sharey=True)
     avg = np.array(a["averaged_boundary_delta"])
     for ax, (scheme, s) in zip(axes, a["schemes"].items()):
         bounded = np.array(s["bounded"])
@@ -299,25 +299,28 @@ def plot_stability(a, path, dpi, small=False):
         ax.pcolormesh(deltas, tw, bounded, cmap=ListedColormap(["#f4a6a6", "#a6d8a6"]), shading="nearest")
         ax.contour(deltas, tw, np.log10(np.maximum(radius, 1.0) - 1.0 + 1e-16), levels=[-8.5], colors="k",
                    linewidths=0.8)
-        ax.axvline(2.0, color="tab:blue", lw=1.5, ls="--", label="Theorem 5.1: delta = 2")
-        ax.plot(avg, tw, color="tab:purple", lw=1.5, label="averaged oscillator, delta^2 lambda_max(K_eff) = 4")
+        ax.axvline(2.0, color="tab:blue", lw=1.5, ls="--", label="Theorem 5.1: δ = 2 ps")
+        ax.plot(avg, tw, color="tab:purple", lw=1.5, label="averaged oscillator: δ² λ_max(K_eff) = 4")
         d = np.linspace(0.05, 3.0, 200)
         ax.plot(d, 2.0 / d, color="tab:purple", lw=0.8, ls=":",
-                label="delta tau omega^2 = 2: its asymptote = README's delta tau omega_stiff^2 = 4")
-        ax.plot(d, 4.0 / d, color="tab:orange", lw=1.2, ls="--", label="delta tau omega^2 = 4")
+                label="δτω² = 2: its asymptote (= README's δτω_stiff² = 4)")
+        ax.plot(d, 4.0 / d, color="tab:orange", lw=1.2, ls="--", label="δτω² = 4")
         ax.axhline(math.sqrt(2) * a["omega"], color="gray", lw=0.8, ls="-.",
-                   label="inner step limit tau sqrt2 omega = 2")
+                   label="inner step limit τ√2 ω = 2")
         ax.set_yscale("log")
         ax.set_xlim(deltas[0], deltas[-1])
         ax.set_ylim(tw[0], tw[-1])
-        ax.set_xlabel("mesostep delta")
-        ax.set_title(f"FLAVOR {scheme}: green bounded after {a['steps']} steps, red blew up;\nblack: spectral radius "
-                     f"= 1 of the exact transfer matrix (agreement {100 * s['agreement_with_matrix']:.1f} %)",
+        ax.set_xlabel("mesostep δ (ps)")
+        ax.set_title(f"FLAVOR {scheme}: green bounded after {a['steps']} mesosteps, red blew up;\nblack: spectral "
+                     f"radius = 1 of the exact transfer matrix (agreement {100 * s['agreement_with_matrix']:.1f} %)",
                      fontsize=9)
-    axes[0].set_ylabel("tau omega^2 (= tau / epsilon)")
-    axes[1].legend(fontsize=7, loc="upper right", framealpha=0.9)
-    fig.suptitle(f"Stability domain on (5.1), omega = {a['omega']:g} (FLAVORS paper Fig. 5.1)", fontsize=11)
-    fig.tight_layout()
+    axes[0].set_ylabel("microstep τ times ω²:  τω² = τ/ε (ps⁻¹)")
+    # Below the panels: inside, the legend would hide part of the domain.
+    fig.legend(*axes[-1].get_legend_handles_labels(), fontsize=8, loc="lower center", ncol=3, frameon=False)
+    fig.suptitle(f"Stability domain of FlavorIntegrator, SymplecticEuler and Verlet schemes, on system (5.1), "
+                 f"ω = {a['omega']:g} ps⁻¹\n(FLAVORS paper Fig. 5.1; dimensionless units: 1 amu, 1 nm, 1 ps)",
+                 fontsize=10.5)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
     reporting.save_figure(fig, path, dpi, small)
 
 
@@ -326,31 +329,33 @@ def plot_resonance(b, path, dpi, small=False):
 
     grid = np.array(b["omega_H"])
     cap = 1e3
-    fig, ax = plt.subplots(figsize=(12, 5))
+    fig, ax = plt.subplots(figsize=(12, 6.2))
 
     def clip(values):
         return np.array([min(v, cap) if v is not None and math.isfinite(v) else cap for v in values])
 
     ax.semilogy(grid, clip([v[0] for v in b["rrespa"]]), color="tab:blue", lw=1, marker=".", ms=3,
-                label=f"r-RESPA (MTSIntegrator, inner omega h <= {b['inner_omega_h']:g}): |H(T) - H(0)|/H(0)")
+                label=f"r-RESPA (MTSIntegrator, inner ωh ≤ {b['inner_omega_h']:g}): |E(T) − E(0)|/E(0)")
     ax.semilogy(grid, clip([v[0] for v in b["sim"]]), color="tab:green", lw=1, marker=".", ms=3,
-                label="SIM Strang, friction 0: |H(T) - H(0)|/H(0)")
+                label="SIM Strang, friction γ = 0: |E(T) − E(0)|/E(0)")
     for g, color in zip(b["sim_langevin"], ("tab:red", "tab:orange", "tab:brown")):
         ax.semilogy(grid, clip(b["sim_langevin"][g]), color=color, lw=1, marker=".", ms=3,
-                    label=f"SIM Strang, friction {g}/ps, {b['langevin']['temperature_K']:g} K, "
-                          f"{b['langevin']['chains']} chains: |<K>/K_eq - 1|")
+                    label=f"SIM Strang, friction γ = {float(g):g} ps⁻¹, {b['langevin']['temperature_K']:g} K, "
+                          f"{b['langevin']['chains']} chains: |⟨K⟩/K_eq − 1|")
     ax.axhline(b["langevin"]["noise_floor"], color="tab:red", lw=0.6, ls="--",
                label="statistical floor of the Langevin measure (independent samples)")
     for k in range(1, int(grid[-1] / math.pi) + 1):
         ax.axvline(k * math.pi, color="gray", lw=0.6, ls=":")
     ax.axhline(cap, color="k", lw=0.5)
-    ax.text(grid[0], cap * 1.3, "blown up / >= 1e3", fontsize=7)
-    ax.set_xlabel("omega H (dotted: multiples of pi)")
-    ax.set_ylabel("error at the end of the run")
+    ax.text(grid[0], cap * 1.3, "blown up / ≥ 1e3", fontsize=7)
+    ax.set_xlabel("ωH, stiff frequency ω times outer step H (dimensionless; dotted: multiples of π)")
+    ax.set_ylabel("relative error at the end of the run")
     ax.set_ylim(1e-7, cap * 5)
-    ax.set_title(f"Resonance on the FPU chain, omega = {b['omega']:g}, T = {b['T']:g} (Langevin T = "
-                 f"{b['T_langevin']:g})", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left")
+    ax.set_title(f"Resonances of the impulse methods on the FPU chain: r-RESPA and SIM Strang with and without "
+                 f"friction\nω = {b['omega']:g} ps⁻¹, run length T = {b['T']:g} ps (Langevin T = {b['T_langevin']:g} "
+                 f"ps; E: total energy, K: kinetic energy, dimensionless units: 1 amu, 1 nm, 1 ps)", fontsize=10)
+    # Below the axes: inside, the legend would hide the peaks.
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
     fig.tight_layout()
     reporting.save_figure(fig, path, dpi, small)
 

@@ -90,6 +90,7 @@ FULL_CASES = {50.0: ("hlw", [50.0]), 200.0: ("paper", [100.0, 200.0]), 1000.0: (
 DEMO_CASES = {50.0: ("hlw", [20.0]), 200.0: ("paper", [40.0])}
 QUICK_CASES = {50.0: ("hlw", [4.0])}
 WINDOW, WINDOW_SAMPLES = 1.0, 200
+START = {"hlw": "Hairer–Lubich–Wanner start", "paper": "start of FLAVORS Fig. 6.5"}
 
 
 def snap(step, T0):
@@ -379,69 +380,117 @@ def markdown_table(rows, also=""):
     return "\n".join(lines)
 
 
-def plot(cases, rows, path, dpi, small=False):
+CHARTS = ("work_precision_slow.png", "work_precision_stiff.png", "work_precision_cost.png")
+MEASURES = {"slow": "slow variable x₀,₁: relative error", "stiff": "stiff energies I_j: relative error"}
+
+
+def plot_all(cases, rows, folder, dpi, small=False):
+    """The three charts: error against cost of the slow variable, of the stiff energies, and cost against omega."""
+    for measure in MEASURES:
+        plot_errors(cases, measure, os.path.join(folder, f"work_precision_{measure}.png"), dpi, small)
+    plot_cost(cases, rows, os.path.join(folder, "work_precision_cost.png"), dpi, small)
+
+
+def method_handles():
+    from matplotlib.lines import Line2D
+    return [Line2D([], [], color=color, marker=marker, ms=5, lw=1, label=label)
+            for label, color, marker in METHODS.values()]
+
+
+def plot_errors(cases, measure, path, dpi, small=False):
+    """One panel per (omega, checkpoint T), at most 5, and a sixth slot with the legend and the line-style key."""
+    from matplotlib.lines import Line2D
     plt = reporting.pyplot()
 
     panels = [(case, T) for case in cases for T in case["checkpoints"]]
-    fig = plt.figure(figsize=(13, 3.6 * len(panels) + 4))
-    grid = fig.add_gridspec(len(panels) + 1, 2)
+    cols = 2
+    nrows = (len(panels) + 1 + cols - 1) // cols
+    fig = plt.figure(figsize=(13, 3.9 * nrows + 1.0))
+    grid = fig.add_gridspec(nrows, cols)
     floor = 1e-14
     for i, (case, T) in enumerate(panels):
         key = f"{T:g}"
-        for j, (measure, title) in enumerate((("slow", "slow variable x0,1"), ("stiff", "stiff energies I_j"))):
-            ax = fig.add_subplot(grid[i, j])
-            for method, (label, color, marker) in METHODS.items():
-                mine = [r for r in case["runs"] if r["method"] == method]
-                for s, sweep in enumerate(sorted({r["sweep"] for r in mine})):
-                    rs = sorted((r for r in mine if r["sweep"] == sweep), key=lambda r: r["checkpoints"][key]
-                                ["group_evals"])
-                    rs = [r for r in rs if finite(r["checkpoints"][key][f"{measure}_Tmax"])]
-                    if not rs:
-                        continue
-                    cost = [r["checkpoints"][key]["group_evals"] for r in rs]
-                    ls = "-" if s == 0 else "-."
-                    name = label if s == 0 else None
-                    ax.loglog(cost, [max(r["checkpoints"][key][f"{measure}_Tmax"], floor) for r in rs], ls=ls,
-                              color=color, marker=marker, ms=4, lw=1, label=name)
-                    ax.loglog(cost, [max(value(r["checkpoints"][key][f"{measure}_avg"]), floor) for r in rs], ls=":",
-                              color=color, marker=marker, ms=4, mfc="none", lw=0.8)
-                    if measure == "stiff" and method.startswith("flavor"):
-                        ax.loglog(cost, [max(value(r["checkpoints"][key]["stiff_avg_positions"]), floor) for r in rs],
-                                  ls="--", color=color, lw=0.8, marker=".", ms=3)
-            if measure == "slow":
-                ax.axhline(TOL, color="gray", lw=0.8, ls="--")
-            ax.set_title(f"omega = {case['omega']:g} ({case['setup']}), T = {T:g}: {title}", fontsize=9)
-            ax.set_xlabel("force-group evaluations to T")
-            ax.set_ylabel("relative error")
-            ax.grid(alpha=0.3, which="both", lw=0.3)
-            if i == 0 and j == 0:
-                ax.legend(fontsize=7, loc="lower left")
-            if i == 0 and j == 1:
-                ax.text(0.02, 0.02, f"filled, solid: pointwise, max over [T - {WINDOW:g}, T]; hollow, dotted: "
-                        "error of the window mean;\n"
-                        "dash-dot: second sweep (r-RESPA inner wh = 1; FLAVOR tau/delta = 1/8);\n"
-                        "FLAVOR dashed: window mean of omega^2 x1^2 (positions only)", transform=ax.transAxes,
-                        fontsize=6.5, va="bottom")
-    # Cost at fixed accuracy against omega, per unit simulated time, at each omega's primary checkpoint.
-    for j, (field, name) in enumerate((("group_evals", "force-group evaluations per unit time"),
-                                       ("wall_s", "wall seconds per unit time"))):
-        ax = fig.add_subplot(grid[len(panels), j])
+        ax = fig.add_subplot(grid[i // cols, i % cols])
+        for method, (label, color, marker) in METHODS.items():
+            mine = [r for r in case["runs"] if r["method"] == method]
+            for s, sweep in enumerate(sorted({r["sweep"] for r in mine})):
+                rs = sorted((r for r in mine if r["sweep"] == sweep), key=lambda r: r["checkpoints"][key]
+                            ["group_evals"])
+                rs = [r for r in rs if finite(r["checkpoints"][key][f"{measure}_Tmax"])]
+                if not rs:
+                    continue
+                cost = [r["checkpoints"][key]["group_evals"] for r in rs]
+                ls = "-" if s == 0 else "-."
+                ax.loglog(cost, [max(r["checkpoints"][key][f"{measure}_Tmax"], floor) for r in rs], ls=ls,
+                          color=color, marker=marker, ms=4, lw=1)
+                ax.loglog(cost, [max(value(r["checkpoints"][key][f"{measure}_avg"]), floor) for r in rs], ls=":",
+                          color=color, marker=marker, ms=4, mfc="none", lw=0.8)
+                if measure == "stiff" and method.startswith("flavor"):
+                    ax.loglog(cost, [max(value(r["checkpoints"][key]["stiff_avg_positions"]), floor) for r in rs],
+                              ls="--", color=color, lw=0.8, marker=".", ms=3)
+        if measure == "slow":
+            ax.axhline(TOL, color="gray", lw=0.8, ls="--")
+        amplification = case["reference"]["checkpoints"].get(key, {}).get("perturbation_1e-10_amplification")
+        if measure == "slow" and amplification is not None and amplification > CHAOS:
+            bottom, top = ax.get_ylim()
+            ax.set_ylim(min(bottom, 1e-5), top)
+            ax.text(0.02, 0.03, f"chaotic at T = {T:g} ps: a 1e-10 change of x₀,₁ grows ×{amplification:.2g} by T,\n"
+                    "so x₀,₁ decorrelates from the reference and every method's relative error\n"
+                    f"saturates at O(1); compare methods at T = {case['checkpoints'][0]:g} ps",
+                    transform=ax.transAxes, fontsize=8.5, va="bottom",
+                    bbox=dict(facecolor="white", edgecolor="0.6", alpha=0.9))
+        ax.set_title(f"ω = {case['omega']:g} ps⁻¹ ({START[case['setup']]}), T = {T:g} ps", fontsize=9.5)
+        ax.set_xlabel("cost: force-group evaluations to T (count)")
+        ax.set_ylabel("relative error (dimensionless)")
+        ax.grid(alpha=0.3, which="both", lw=0.3)
+    # The last slot: what the colours and line styles mean.
+    ax = fig.add_subplot(grid[len(panels) // cols, len(panels) % cols])
+    ax.axis("off")
+    first = ax.legend(handles=method_handles(), loc="upper left", fontsize=8, title="method (colour, marker)",
+                      title_fontsize=8, frameon=False)
+    ax.add_artist(first)
+    styles = [Line2D([], [], color="0.3", marker="o", ms=4, lw=1,
+                     label=f"solid, filled: pointwise error, max over the window [T − {WINDOW:g} ps, T]"),
+              Line2D([], [], color="0.3", marker="o", ms=4, mfc="none", lw=0.8, ls=":",
+                     label="dotted, hollow: error of the window mean"),
+              Line2D([], [], color="0.3", lw=1, ls="-.",
+                     label="dash-dot: second sweep (r-RESPA inner ωh = 1; FLAVOR τ/δ = 1/8)")]
+    if measure == "stiff":
+        styles.append(Line2D([], [], color="0.3", lw=0.8, ls="--", marker=".", ms=3,
+                             label="dashed (FLAVOR): window mean of ω²x₁,ⱼ² (positions only)"))
+    else:
+        styles.append(Line2D([], [], color="gray", lw=0.8, ls="--", label=f"gray dashed: tolerance {TOL:g}"))
+    ax.legend(handles=styles, loc="lower left", fontsize=7.5, title="line style", title_fontsize=8, frameon=False)
+    what = ("slow variable: |x₀,₁ − x₀,₁(ref)| / max_t |x₀,₁(ref)|" if measure == "slow" else
+            "stiff energies: max_j |I_j − I_j(ref)| / Σ_j I_j(ref), I_j = (y₁,ⱼ² + ω²x₁,ⱼ²)/2")
+    fig.suptitle(f"FPU chain (m = {M}), every integrator, OpenMM Reference platform: relative error against cost\n"
+                 f"{what}; reference DOP853 rtol 1e-12 (dimensionless units: 1 amu, 1 nm, 1 ps)", fontsize=10.5)
+    fig.tight_layout(rect=(0, 0, 1, 0.97 if nrows > 1 else 0.9))
+    reporting.save_figure(fig, path, dpi, small)
+
+
+def plot_cost(cases, rows, path, dpi, small=False):
+    """Cost at fixed accuracy against omega, per unit simulated time, at each omega's primary checkpoint."""
+    plt = reporting.pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
+    for ax, (field, name) in zip(axes, (("group_evals", "force-group evaluations per ps of simulated time"),
+                                        ("wall_s", "wall time per ps of simulated time (s)"))):
         for method, (label, color, marker) in METHODS.items():
             pts = [(r["omega"], r[field] / r["T"]) for r in rows
                    if r["method"] == method and r["run"] is not None and
                    r["T"] == next(c["checkpoints"][0] for c in cases if c["omega"] == r["omega"])]
             if pts:
                 ax.loglog(*zip(*pts), color=color, marker=marker, label=label)
-        ax.set_xlabel("omega")
+        ax.set_xlabel("stiff frequency ω (ps⁻¹)")
         ax.set_ylabel(name)
-        ax.set_title(f"cost of the cheapest run with slow error <= {TOL:g} (primary T of each omega)", fontsize=9)
         ax.grid(alpha=0.3, which="both", lw=0.3)
-        if j == 0:
-            ax.legend(fontsize=7)
-    fig.suptitle("FPU chain (m = 3): work-precision, OpenMM Reference platform", fontsize=11)
-    fig.tight_layout(rect=(0, 0, 1, 0.985))
+    primary = ", ".join(f"ω = {c['omega']:g}: T = {c['checkpoints'][0]:g} ps" for c in cases)
+    fig.suptitle(f"FPU chain (m = {M}), OpenMM Reference platform: cost of each method's cheapest run with slow "
+                 f"error ≤ {TOL:g}\n(at the first checkpoint of each ω: {primary}; a method missing at an ω "
+                 "reached the tolerance with none of its runs)", fontsize=10)
+    fig.legend(handles=method_handles(), loc="center right", fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 0.84, 0.9))
     reporting.save_figure(fig, path, dpi, small)
-
 
 
 def main():
@@ -464,10 +513,10 @@ def main():
             data = json.load(f)
         data["table"] = make_table(data["cases"])
         data["table_slow_and_stiff"] = make_table(data["cases"], slow_and_stiff_ok)
-        plot(data["cases"], data["table"], os.path.join(args.out, "work_precision.png"), 100)
+        plot_all(data["cases"], data["table"], args.out, 100)
         if args.docs:
             os.makedirs(args.docs, exist_ok=True)
-            plot(data["cases"], data["table"], os.path.join(args.docs, "work_precision.png"), DOCS_DPI, small=True)
+            plot_all(data["cases"], data["table"], args.docs, DOCS_DPI, small=True)
         print(markdown_table(data["table"]))
         print()
         print(markdown_table(data["table_slow_and_stiff"], "and window-mean stiff-energy error (from the state)"))
@@ -501,11 +550,10 @@ def main():
     with open(os.path.join(args.out, "work_precision.md"), "w") as f:
         f.write(f"Cheapest run with slow-variable error <= {TOL:g}\n\n{table}\n\nCheapest run with slow-variable "
                 f"error <= {TOL:g} and window-mean stiff-energy error <= {TOL:g}\n\n{table2}\n")
-    png = os.path.join(args.out, "work_precision.png")
-    plot(data["cases"], rows, png, 100)
+    plot_all(data["cases"], rows, args.out, 100)
     if args.docs:
         os.makedirs(args.docs, exist_ok=True)
-        plot(data["cases"], rows, os.path.join(args.docs, "work_precision.png"), DOCS_DPI, small=True)
+        plot_all(data["cases"], rows, args.docs, DOCS_DPI, small=True)
 
     print(f"\nFPU work-precision ({data['mode']}), Reference platform, {data['wall_s_total']:.0f} s.  Reference "
           f"(DOP853, rtol {args.rtol:g}):")
@@ -519,7 +567,7 @@ def main():
     print(table)
     print(f"\nThe same with the window-mean stiff-energy error (I_j from the state) also <= {TOL:g}\n")
     print(table2)
-    print(f"\nwrote {args.out}/work_precision.json, work_precision.md and work_precision.png")
+    print(f"\nwrote {args.out}/work_precision.json, work_precision.md and {', '.join(CHARTS)}")
 
 
 if __name__ == "__main__":

@@ -221,69 +221,78 @@ def print_tables(summary, effective, checkpoints, T, window, omega):
 
 
 def plot(times, coarse, results, summary, T, window, omega, path):
+    from matplotlib.lines import Line2D
     plt = reporting.pyplot()
 
     shown = [k for k in results if k != "reference_check"]
     palette = ["tab:blue", "tab:red", "tab:purple", "tab:green", "tab:brown", "tab:olive"]
     colors = {"reference": "k"}
     colors.update({k: palette[i % len(palette)] for i, k in enumerate(k for k in shown if k != "reference")})
-    fig, axes = plt.subplots(2, 2, figsize=(14, 9))
-    fig.suptitle(f"FPU (FLAVORS paper eq. 6.7, Fig. 6.5 start), omega = {omega:g}, T = {T:g}, Reference platform")
+    names = {k: reporting.greek(summary[k]["label"]) for k in shown}
+    fig, axes = plt.subplots(2, 2, figsize=(14, 11))
+    fig.suptitle(f"FPU chain (FLAVORS paper eq. 6.7, Fig. 6.5 start): FlavorIntegrator against VerletIntegrator, "
+                 f"ω = {omega:g} ps⁻¹, T = {T:g} ps,\nReference platform (dimensionless units: 1 amu, 1 nm, 1 ps; "
+                 f"energies in kJ/mol)")
 
     ax = axes[0, 0]
     w = times >= T - window - 1e-12
     for key in shown:
         ax.plot(times[w], results[key]["x0"][w, 0], color=colors[key], lw=1.4 if key == "reference" else 1,
-                ls="-" if key == "reference" else "--", label=summary[key]["label"])
-    ax.set_title("slow variable x0,1 = (q2+q1)/sqrt2, final window")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+                ls="-" if key == "reference" else "--")
+    ax.set_title(f"slow variable x₀,₁ = (q₂ + q₁)/√2, last {window:g} ps of the run", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("x₀,₁ (nm)")
 
     ax = axes[0, 1]
     for key in shown:
         err = np.abs(results[key]["x0"][:, 0] - results["reference"]["x0"][:, 0])
-        label = summary[key]["label"]
         if key == "reference":
             err = np.abs(results["reference_check"]["x0"][:, 0] - results["reference"]["x0"][:, 0]) / 3.0
-            label += ": own error (step halving)"
-        ax.semilogy(times[coarse][1:], np.maximum(err[coarse][1:], 1e-16), color=colors[key], lw=0.7, label=label)
+        ax.semilogy(times[coarse][1:], np.maximum(err[coarse][1:], 1e-16), color=colors[key], lw=0.7)
         if "effective_error" in results[key]:
             ax.semilogy(times[coarse][1:], np.maximum(results[key]["effective_error"][coarse][1:], 1e-16),
-                        color=colors[key], lw=0.7, ls=":", label=f"{label} vs FPU(omega sqrt(tau/delta))")
-    ax.set_title("|x0,1 - x0,1(reference)|; dotted: FLAVOR vs the FPU at omega sqrt(tau/delta)")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+                        color=colors[key], lw=0.7, ls=":")
+    ax.set_title("slow-variable error |x₀,₁ − x₀,₁(reference)|; black: the reference's own error\n(step halving); "
+                 "dotted: FLAVOR against the FPU chain at stiff frequency ω√(τ/δ)", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("absolute error (nm)")
 
     ax = axes[1, 0]
     tc = times[coarse]
     step = tc[1] - tc[0] if len(tc) > 1 else 1.0
     width = max(1, int(round(window / step)))
+    styles = [Line2D([], [], color="0.3", lw=1.4, label="solid: reference I_j")]
     for j in range(results["reference"]["I"].shape[1]):
-        ax.plot(tc, results["reference"]["I"][coarse, j], color=f"C{j}", lw=1.4,
-                label="reference I_j" if j == 0 else None)
+        ax.plot(tc, results["reference"]["I"][coarse, j], color=f"C{j}", lw=1.4)
         for key in shown:
             if key.startswith("flavor_verlet"):
                 ls = "--" if key == "flavor_verlet" else ":"
-                ax.plot(tc, running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls,
-                        label=f"{summary[key]['label']}: mean omega^2 x1_j^2" if j == 0 else None)
-    ax.set_title(f"stiff energies I1 (blue), I2 (orange), I3 (green); FLAVOR: running means over {window:g}")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+                ax.plot(tc, running_mean(results[key]["Ix"][coarse, j], width), color=f"C{j}", lw=1.0, ls=ls)
+                if j == 0:
+                    styles.append(Line2D([], [], color="0.3", lw=1.0, ls=ls,
+                                         label=f"{'dashed' if ls == '--' else 'dotted'}: {names[key]}, running mean "
+                                               f"of ω²x₁,ⱼ² over {window:g} ps"))
+    ax.set_title("stiff energies I₁ (blue), I₂ (orange), I₃ (green)", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("energy (kJ/mol)")
+    ax.legend(handles=styles, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), frameon=False)
 
     ax = axes[1, 1]
     for key in shown:
         if key.startswith("flavor"):
-            ax.plot(tc, results[key]["Ht"][coarse] - results[key]["Ht"][0], color=colors[key], lw=1.0,
-                    label=summary[key]["label"] + ": H_F")
+            ax.plot(tc, results[key]["Ht"][coarse] - results[key]["Ht"][0], color=colors[key], lw=1.0)
         else:
-            ax.plot(tc, results[key]["E"][coarse] - results[key]["E"][0], color=colors[key], lw=1.0,
-                    label=summary[key]["label"] + ": H")
-    ax.set_title("energy drift: H(t) - H(0); for FLAVOR H_F = K + V_soft + (tau/delta) U_stiff\n"
-                 "(FLAVOR's H itself swings by up to (1 - tau/delta) of the stiff energy: see the table)", fontsize=10)
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+            ax.plot(tc, results[key]["E"][coarse] - results[key]["E"][0], color=colors[key], lw=1.0)
+    ax.set_title("energy drift H(t) − H(0); for FLAVOR H_F = K + V_soft + (τ/δ) U_stiff\n"
+                 "(FLAVOR's H itself swings by up to (1 − τ/δ) of the stiff energy: see the table)", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("H(t) − H(0) (kJ/mol)")
 
-    fig.tight_layout()
+    # The methods' colours, once for the three panels that use them, below the right-hand column.
+    fig.legend(handles=[Line2D([], [], color=colors[k], lw=1.4 if k == "reference" else 1, label=names[k])
+                        for k in shown], fontsize=8, loc="lower center", bbox_to_anchor=(0.75, 0.0), ncol=2,
+               frameon=False, title="methods (colours)", title_fontsize=8)
+    fig.tight_layout(rect=(0, 0.1, 1, 0.98))
     reporting.save_figure(fig, path, 110)
 
 

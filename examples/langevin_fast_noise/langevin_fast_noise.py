@@ -320,6 +320,12 @@ def print_tables(summary, comparison, cross_check, equilibrium, late_from, regim
         print(f"  {name:22s} " + ", ".join(f"{QUANTITIES[q].split('  ')[0]} = {values[q]:.4g}" for q in QUANTITIES))
 
 
+PLOT_TITLES = {"s": "E[x − y]  (Fig. 6.16)", "y": "E[y]  (Fig. 6.16)", "s2": "E[(x − y)²]  (Fig. 6.16)", "y2": "E[y²]",
+               "px2": "E[p_x²] / kT", "py2": "E[p_y²] / kT"}
+PLOT_UNITS = {"s": "nm", "y": "nm", "s2": "nm²", "y2": "nm²", "px2": "dimensionless (m = 1 amu)",
+              "py2": "dimensionless (m = 1 amu)"}
+
+
 def plot(t_window, stats, summary, equilibrium, params, path):
     plt = reporting.pyplot()
 
@@ -335,18 +341,20 @@ def plot(t_window, stats, summary, equilibrium, params, path):
             style[key] = (next(reds, "tab:gray"), "-", 1.0)
     panels = ["s", "y", "s2", "y2", "px2", "py2"]
     fig, axes = plt.subplots(3, 2, figsize=(14, 13))
-    fig.suptitle(f"eqs. (6.20)-(6.21), FLAVORS paper Fig. 6.16: {params['n']} trajectories, "
-                 f"omega = {params['omega']:g}, c = {params['c']:g}, sigma = {params['sigma']:g}, "
-                 f"kT = {params['kT']:g}, h = {params['h']:g}, friction and noise on y only\n"
-                 f"lines: means over windows of {params['window']:g}, bands: +-2 standard errors (copies that did not "
-                 f"blow up)\ngrey dotted: exact Boltzmann values of H, dash-dot: of H_eff; GLA (black) is drawn on "
+    fig.suptitle(f"Eqs. (6.20)-(6.21), FLAVORS paper Fig. 6.16: FLAVOR (FlavorIntegrator, solid; CustomIntegrator, "
+                 f"dashed) against GLA, {params['n']} trajectories\n"
+                 f"ω = {params['omega']:g} ps⁻¹, friction γ (the paper's c) = {params['c']:g} ps⁻¹, σ = "
+                 f"{params['sigma']:g}, kT = {params['kT']:g} kJ/mol, GLA step h = {params['h']:g} ps, friction and "
+                 f"noise on y only (dimensionless units: 1 amu, 1 nm, 1 ps)\n"
+                 f"lines: means over windows of {params['window']:g} ps, bands: ±2 standard errors (copies that did "
+                 f"not blow up)\ngrey dotted: exact Boltzmann values of H, dash-dot: of H_eff; GLA (black) is drawn on "
                  f"top", fontsize=10)
     for ax, q in zip(axes.flat, panels):
         for key, s in stats.items():
             color, ls, lw = style[key]
             # The reference on top: the other GLA and the FLAVOR slow-variable curves lie on it.
             ax.plot(t_window, s[q]["w_mean"], color=color, ls=ls, lw=lw, zorder=5 if key == "gla" else 2,
-                    label=f"{summary[key]['label']} ({summary[key]['copies_used']} copies)")
+                    label=f"{reporting.greek(summary[key]['label'])} ({summary[key]['copies_used']} copies)")
             ax.fill_between(t_window, s[q]["w_mean"] - 2 * s[q]["w_se"], s[q]["w_mean"] + 2 * s[q]["w_se"],
                             color=color, alpha=0.15, lw=0)
         if q in ("s2", "y2", "px2", "py2"):
@@ -356,11 +364,12 @@ def plot(t_window, stats, summary, equilibrium, params, path):
                     ax.axhline(values[q], color="gray", ls="-.", lw=1)
         if q == "y2":
             ax.set_yscale("log")
-        ax.set_title(QUANTITIES[q])
-        ax.set_xlabel("t")
+        ax.set_title(PLOT_TITLES.get(q, QUANTITIES[q]))
+        ax.set_xlabel("t (ps)")
+        ax.set_ylabel(f"{PLOT_TITLES.get(q, q).split('  ')[0]} ({PLOT_UNITS[q]})" if q in PLOT_UNITS else "")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8)
-    fig.tight_layout(rect=(0, 0.07, 1, 0.95))
+    fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=9, frameon=False)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.98))
     reporting.save_figure(fig, path, 100)
 
 

@@ -241,39 +241,54 @@ def print_tables(summary, comparison, stats, equilibrium, late_from, regime, T, 
                   f"{fmt(eq_f)}  {'agree' if c['agree'] else 'DIFFER'}")
 
 
+TITLES = {"acf_y": "E[y(t) y(0)]  (Fig. 6.14, dominantly fast)", "acf_s": "E[(x−y)(t) (x−y)(0)]  (Fig. 6.14, "
+          "dominantly slow)", "s": "E[x − y]", "y": "E[y]", "s2": "E[(x − y)²]", "y2": "E[y²]",
+          "px2": "E[p_x²] / kT", "py2": "E[p_y²] / kT"}
+UNITS = {"acf_y": "nm²", "acf_s": "nm²", "s": "nm", "y": "nm", "s2": "nm²", "y2": "nm²",
+         "px2": "dimensionless (m = 1 amu)", "py2": "dimensionless (m = 1 amu)"}
+
+
 def plot(t, t_window, stats, summary, equilibrium, params, path):
+    """Two charts: path (correlations and means, Figs. 6.14-6.15) and path with _moments (second moments against
+    their Boltzmann values)."""
     plt = reporting.pyplot()
 
     colors = {"gla": "k"}
     palette = ["tab:red", "tab:blue", "tab:green", "tab:purple"]
     colors.update({k: palette[i % len(palette)] for i, k in enumerate(k for k in stats if k != "gla")})
-    panels = [("acf_y", False), ("acf_s", False), ("s", False), ("y", False), ("s2", False), ("y2", True),
-              ("px2", False), ("py2", False)]
-    fig, axes = plt.subplots(4, 2, figsize=(14, 15))
-    fig.suptitle(f"eq. (6.19), FLAVORS paper Figs. 6.14-6.15: {params['n']} trajectories, eps = {params['eps']:g}, "
-                 f"c = {params['c']:g}, sigma = {params['sigma']:g}, kT = {params['kT']:g}; "
-                 f"GLA = FlavorIntegrator(h, h)\n"
-                 f"lines: means over windows of {params['window']:g}, bands: +-2 standard errors; thin: every sample "
-                 f"(first row)\ndotted: exact Boltzmann values (FLAVOR: of H_eff = K + V_soft + (tau/delta) V_stiff); "
-                 f"FLAVOR statistics use the copies that did not blow up", fontsize=10)
-    for ax, (q, logy) in zip(axes.flat, panels):
-        for key, s in stats.items():
-            lab = f"{summary[key]['label']} ({summary[key]['copies_used']} copies)"
-            if q.startswith("acf"):
-                ax.plot(t, s[q]["mean"], color=colors[key], lw=0.4, alpha=0.5)
-            ax.plot(t_window, s[q]["w_mean"], color=colors[key], lw=1.2, label=lab)
-            ax.fill_between(t_window, s[q]["w_mean"] - 2 * s[q]["w_se"], s[q]["w_mean"] + 2 * s[q]["w_se"],
-                            color=colors[key], alpha=0.2, lw=0)
-            eq = equilibrium["true" if key == "gla" else key].get(q)
-            if eq is not None and q in ("s2", "y2", "px2", "py2"):
-                ax.axhline(eq, color=colors[key], ls=":", lw=1)
-        ax.set_title(QUANTITIES[q][0])
-        ax.set_xlabel("t")
-        if logy:
-            ax.set_yscale("log")
-        ax.legend(fontsize=7)
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
-    reporting.save_figure(fig, path, 100)
+    charts = [(path, "correlations and means", [("acf_y", False), ("acf_s", False), ("s", False), ("y", False)]),
+              (path[:-len(".png")] + "_moments.png", "second moments",
+               [("s2", False), ("y2", True), ("px2", False), ("py2", False)])]
+    for chart_path, what, panels in charts:
+        fig, axes = plt.subplots(2, 2, figsize=(14, 9.5))
+        fig.suptitle(f"Eq. (6.19), FLAVORS paper Figs. 6.14-6.15, {what}: FLAVOR against GLA = FlavorIntegrator(h, h), "
+                     f"{params['n']} trajectories\nε = {params['eps']:g} ps², friction γ (the paper's c) = "
+                     f"{params['c']:g} ps⁻¹, σ = {params['sigma']:g}, kT = {params['kT']:g} kJ/mol (dimensionless "
+                     f"units: 1 amu, 1 nm, 1 ps)\nlines: means over windows of {params['window']:g} ps, bands: ±2 "
+                     f"standard errors" + ("; thin: every sample (first row)" if what.startswith("corr") else
+                                          "; dotted: exact Boltzmann values (FLAVOR: of H_eff = K + V_soft + "
+                                          "(τ/δ) V_stiff)") +
+                     "\nFLAVOR statistics use the copies that did not blow up", fontsize=10)
+        for ax, (q, logy) in zip(axes.flat, panels):
+            for key, s in stats.items():
+                lab = f"{reporting.greek(summary[key]['label'])} ({summary[key]['copies_used']} copies)"
+                if q.startswith("acf"):
+                    ax.plot(t, s[q]["mean"], color=colors[key], lw=0.4, alpha=0.5)
+                ax.plot(t_window, s[q]["w_mean"], color=colors[key], lw=1.2, label=lab)
+                ax.fill_between(t_window, s[q]["w_mean"] - 2 * s[q]["w_se"], s[q]["w_mean"] + 2 * s[q]["w_se"],
+                                color=colors[key], alpha=0.2, lw=0)
+                eq = equilibrium["true" if key == "gla" else key].get(q)
+                if eq is not None and q in ("s2", "y2", "px2", "py2"):
+                    ax.axhline(eq, color=colors[key], ls=":", lw=1)
+            ax.set_title(TITLES.get(q, QUANTITIES[q][0]))
+            ax.set_xlabel("t (ps)")
+            ax.set_ylabel(f"{TITLES.get(q, q).split('  ')[0]} ({UNITS[q]})" if q in UNITS else "")
+            if logy:
+                ax.set_yscale("log")
+        # One legend below the panels: inside, it hid the curves.
+        fig.legend(*axes.flat[0].get_legend_handles_labels(), loc="lower center", ncol=3, fontsize=9, frameon=False)
+        fig.tight_layout(rect=(0, 0.05, 1, 1))
+        reporting.save_figure(fig, chart_path, 100)
 
 
 if __name__ == "__main__":

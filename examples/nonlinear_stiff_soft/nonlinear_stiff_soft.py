@@ -25,7 +25,8 @@ from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 
 class NonlinearStiffSoft:
     name = "nonlinear_stiff_soft"
-    title = "FLAVORS paper eq. (6.6), Fig. 6.2: H = p^2/2 + y^6/eps + (x-y)^4"
+    title = "FLAVORS paper eq. (6.6), Fig. 6.2: H = p²/2 + y⁶/ε + (x − y)⁴"
+    slow_unit = "nm"
 
     def __init__(self, eps, x0, y0):
         self.eps = eps
@@ -94,12 +95,14 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     png = os.path.join(args.out, f"{sc.name}.png")
     scenes.plot(sc, runs, out, p, png, [
-        ("x(t) (slow)", lambda r: sc.coords(r)[1], "slow"),
-        ("x(t) - y(t) (slow, modulated by the fast y), zoom", lambda r: sc.coords(r)[1] - sc.coords(r)[0], "fast"),
-        ("y(t) (fast), zoom", lambda r: sc.coords(r)[0], "fast"),
-        (f"x(t) - y(t): running mean and mean +- std over {p['avg_window']:g}",
-         lambda r: sc.coords(r)[1] - sc.coords(r)[0], "band"),
-        ("y(t) over the run", lambda r: sc.coords(r)[0], "band"),
+        ("x(t) (slow)", lambda r: sc.coords(r)[1], "slow", "x (nm)"),
+        ("x(t) − y(t) (slow, modulated by the fast y), zoom", lambda r: sc.coords(r)[1] - sc.coords(r)[0], "fast",
+         "x − y (nm)"),
+        ("y(t) (fast), zoom", lambda r: sc.coords(r)[0], "fast", "y (nm)"),
+        (f"x(t) − y(t): running mean and mean ± std over {p['avg_window']:g} ps",
+         lambda r: sc.coords(r)[1] - sc.coords(r)[0], "band", "x − y (nm)"),
+        (f"y(t): running mean and mean ± std over {p['avg_window']:g} ps", lambda r: sc.coords(r)[0], "band",
+         "y (nm)"),
     ])
     data = {"scene": "FLAVORS paper section 6.2, eq. (6.6), Fig. 6.2", "platform": "Reference",
             "openmm_version": mm.__version__, "parameters": p, **out,

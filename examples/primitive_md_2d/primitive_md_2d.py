@@ -29,6 +29,7 @@ from flavorbench.systems import SOFT_GROUP, STIFF_GROUP
 class PrimitiveMD2D:
     name = "primitive_md_2d"
     title = "FLAVORS paper eq. (6.8), Fig. 6.9: particle on a stiff spring hinged at the origin"
+    slow_unit = "rad"
 
     def __init__(self, omega, r0, x0, y0):
         self.omega, self.r0 = omega, r0
@@ -103,11 +104,12 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     png = os.path.join(args.out, f"{sc.name}.png")
     scenes.plot(sc, runs, out, p, png, [
-        ("theta(t) (slow)", lambda r: sc.coords(r)["theta"], "slow"),
-        (f"theta(t), last {p['zoom_end']:g} of the run", lambda r: sc.coords(r)["theta"], "slow_end"),
-        ("angular momentum L = x p_y - y p_x (slow)", lambda r: sc.coords(r)["L"], "slow"),
-        ("r(t) (fast), zoom", lambda r: sc.coords(r)["r"], "fast"),
-        (f"r(t): running mean and mean +- std over {p['avg_window']:g}", lambda r: sc.coords(r)["r"], "band"),
+        ("angle θ(t) (slow)", lambda r: sc.coords(r)["theta"], "slow", "θ (rad)"),
+        (f"θ(t), last {p['zoom_end']:g} ps of the run", lambda r: sc.coords(r)["theta"], "slow_end", "θ (rad)"),
+        ("angular momentum L = x p_y − y p_x (slow)", lambda r: sc.coords(r)["L"], "slow", "L (amu nm² ps⁻¹)"),
+        ("spring length r(t) (fast), zoom", lambda r: sc.coords(r)["r"], "fast", "r (nm)"),
+        (f"r(t): running mean and mean ± std over {p['avg_window']:g} ps", lambda r: sc.coords(r)["r"], "band",
+         "r (nm)"),
     ])
     data = {"scene": "FLAVORS paper section 6.4, eq. (6.8), Fig. 6.9", "platform": "Reference",
             "openmm_version": mm.__version__, "parameters": p, **out,

@@ -35,6 +35,7 @@ MOMENTA = [(-0.4326, -1.6656), (0.1253, 0.2877), (-1.1465, 1.1909)]
 class PropaneClipper:
     name = "propane_clipper"
     title = "FLAVORS paper eqs. (6.9)-(6.12), Fig. 6.11: exaggerated propane"
+    slow_unit = "rad"
 
     def __init__(self, k_r, r0, k_theta, theta0_deg):
         self.k_r, self.r0, self.k_theta = k_r, r0, k_theta
@@ -126,12 +127,14 @@ def main():
     png = os.path.join(args.out, f"{sc.name}.png")
     deg = 180 / math.pi
     scenes.plot(sc, runs, out, p, png, [
-        ("bond angle theta(t) in degrees (slow)", lambda r: deg * sc.coords(r)["theta"], "slow"),
-        (f"theta(t), last {p['zoom_end']:g} of the run", lambda r: deg * sc.coords(r)["theta"], "slow_end"),
-        ("orientation phi of atom 1 -> atom 3 (slow)", lambda r: sc.coords(r)["phi"], "slow"),
-        ("bond length r1(t) (fast), zoom", lambda r: sc.coords(r)["r1"], "fast"),
-        ("bond length r2(t) (fast), zoom", lambda r: sc.coords(r)["r2"], "fast"),
-        (f"r1(t): running mean and mean +- std over {p['avg_window']:g}", lambda r: sc.coords(r)["r1"], "band"),
+        ("bond angle θ(t) (slow)", lambda r: deg * sc.coords(r)["theta"], "slow", "θ (degrees)"),
+        (f"θ(t), last {p['zoom_end']:g} ps of the run", lambda r: deg * sc.coords(r)["theta"], "slow_end",
+         "θ (degrees)"),
+        ("orientation φ of atom 1 → atom 3 (slow)", lambda r: sc.coords(r)["phi"], "slow", "φ (rad)"),
+        ("bond length r₁(t) (fast), zoom", lambda r: sc.coords(r)["r1"], "fast", "r₁ (nm)"),
+        ("bond length r₂(t) (fast), zoom", lambda r: sc.coords(r)["r2"], "fast", "r₂ (nm)"),
+        (f"r₁(t): running mean and mean ± std over {p['avg_window']:g} ps", lambda r: sc.coords(r)["r1"], "band",
+         "r₁ (nm)"),
     ])
     data = {"scene": "FLAVORS paper section 6.5, eqs. (6.9)-(6.12), Fig. 6.11", "platform": "Reference",
             "openmm_version": mm.__version__, "parameters": p, **out,

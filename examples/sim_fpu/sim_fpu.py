@@ -199,58 +199,69 @@ def print_horizons(summary, window):
 
 
 def plot(times, results, summary, T, omega, window, path):
+    from matplotlib.lines import Line2D
     plt = reporting.pyplot()
 
     shown = [k for k in results if k not in ("reference_check", "verlet")]
     colors = {"reference": "k"}
     palette = ["tab:red", "tab:blue", "tab:orange", "tab:cyan", "tab:green", "tab:purple"]
     colors.update({k: palette[i % len(palette)] for i, k in enumerate(k for k in shown if k != "reference")})
-    fig, axes = plt.subplots(2, 2, figsize=(14, 9))
-    fig.suptitle(f"FPU (SIM paper eq. 9, Fig. 4 start), omega = {omega:g}, T = {T:g}, Reference platform")
+    names = {k: reporting.greek(summary[k]["label"]) for k in shown}
+    fig, axes = plt.subplots(2, 2, figsize=(14, 11))
+    fig.suptitle(f"FPU chain (SIM paper eq. 9, Fig. 4 start): StochasticImpulseIntegrator (LieTrotter, Strang) against "
+                 f"a fine Verlet reference,\nω = {omega:g} ps⁻¹, T = {T:g} ps, Reference platform (dimensionless "
+                 f"units: 1 amu, 1 nm, 1 ps; energies in kJ/mol)")
 
     ax = axes[0, 0]
     w = times <= min(T, 5.0)
     for key in shown:
         ax.plot(times[w], results[key]["x0"][w, 0], color=colors[key], lw=1.4 if key == "reference" else 1,
-                ls="-" if key == "reference" else "--", label=summary[key]["label"])
-    ax.set_title("slow variable x0,1 = (q2+q1)/sqrt2 (start)")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+                ls="-" if key == "reference" else "--")
+    ax.set_title(f"slow variable x₀,₁ = (q₂ + q₁)/√2, first {min(T, 5.0):g} ps", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("x₀,₁ (nm)")
 
     ax = axes[0, 1]
     for key in shown:
         err = np.abs(results[key]["x0"][:, 0] - results["reference"]["x0"][:, 0])
-        label = summary[key]["label"]
         if key == "reference":
             err = np.abs(results["reference_check"]["x0"][:, 0] - results["reference"]["x0"][:, 0]) / 3.0
-            label += ": own error (step halving)"
-        ax.semilogy(times[1:], np.maximum(err[1:], 1e-16), color=colors[key], lw=0.7, label=label)
-    ax.set_title("|x0,1 - x0,1(reference)|")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+        ax.semilogy(times[1:], np.maximum(err[1:], 1e-16), color=colors[key], lw=0.7)
+    ax.set_title("slow-variable error |x₀,₁ − x₀,₁(reference)|\n(black: the reference's own error, from step "
+                 "halving)", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("absolute error (nm)")
 
     ax = axes[1, 0]
     m = results["reference"]["I"].shape[1]
     width = max(1, int(round(window / (times[1] - times[0]))))
     kernel = np.ones(width) / width
+    styles = []
     for j in range(m):
         for key in shown:
+            ls = "-" if key == "reference" else ["--", ":", "-.", (0, (1, 3)), (0, (5, 2, 1, 2))][shown.index(key) % 5]
             mean = np.convolve(results[key]["I"][:, j], kernel, mode="valid")
-            ax.plot(times[width - 1:], mean, color=f"C{j}", lw=1.6 if key == "reference" else 0.8,
-                    ls="-" if key == "reference" else ["--", ":", "-.", (0, (1, 3)), (0, (5, 2, 1, 2))][
-                        shown.index(key) % 5], label=f"{summary[key]['label']}" if j == 0 else None)
-    ax.set_title(f"stiff energies I1 (blue), I2 (orange), I3 (green): running means over {window:g}")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
+            ax.plot(times[width - 1:], mean, color=f"C{j}", lw=1.6 if key == "reference" else 0.8, ls=ls)
+            if j == 0:
+                styles.append(Line2D([], [], color="0.3", lw=1.6 if key == "reference" else 0.8, ls=ls,
+                                     label=names[key]))
+    ax.set_title(f"stiff energies I₁ (blue), I₂ (orange), I₃ (green): running means over {window:g} ps", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("energy (kJ/mol)")
+    ax.legend(handles=styles, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, frameon=False,
+              title="line style: method", title_fontsize=8)
 
     ax = axes[1, 1]
     for key in shown:
-        ax.plot(times, results[key]["I"].sum(axis=1), color=colors[key], lw=1.2 if key == "reference" else 0.8,
-                label=summary[key]["label"])
-    ax.set_title("total stiff energy I1 + I2 + I3")
-    ax.set_xlabel("t")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
+        ax.plot(times, results[key]["I"].sum(axis=1), color=colors[key], lw=1.2 if key == "reference" else 0.8)
+    ax.set_title("total stiff energy I₁ + I₂ + I₃", fontsize=10)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("energy (kJ/mol)")
+    # The methods' colours, once for the three panels that use them, below the right-hand column.
+    fig.legend(handles=[Line2D([], [], color=colors[k], lw=1.4 if k == "reference" else 1, label=names[k])
+                        for k in shown], fontsize=8, loc="lower center", bbox_to_anchor=(0.75, 0.0), ncol=2,
+               frameon=False, title="colour: method", title_fontsize=8)
+    fig.tight_layout(rect=(0, 0.1, 1, 0.98))
     reporting.save_figure(fig, path, 110)
 
 

@@ -316,18 +316,22 @@ def print_tables(results, comparison, speedups, gla_phase):
 
 
 def plot(results, comparison, parameters, platform, path):
+    from matplotlib.lines import Line2D
     plt = reporting.pyplot()
 
     palette = {"gla": "k", "gla_fine": "tab:gray", "sim_lietrotter": "tab:red", "sim_strang": "tab:blue",
                "sim_lietrotter_nonresonant": "tab:orange", "sim_strang_nonresonant": "tab:cyan"}
     styles = {"gla": "-", "gla_fine": "-", "sim_lietrotter": "--", "sim_strang": "--",
               "sim_lietrotter_nonresonant": ":", "sim_strang_nonresonant": ":"}
-    fig, axes = plt.subplots(2, 3, figsize=(17, 9.5))
-    fig.suptitle(f"Two-spring Langevin system (SIM paper Fig. 2): omega = {parameters['omega']:g}, c = "
-                 f"{parameters['c']:g}, beta = {parameters['beta']:g}, {parameters['copies']} realizations in one "
-                 f"System, resonant SIM H = {parameters['H']:.4g} (omega H = {parameters['omega_H_over_pi']:g} pi), "
-                 f"GLA h = {parameters['gla_h']:.4g}; {platform}", fontsize=10)
-    panels = [(0, "E[x]"), (1, "E[y]"), (2, "E[x^2]"), (3, "E[y^2]"), (4, "E[px^2]")]
+    fig, axes = plt.subplots(2, 3, figsize=(17, 11.5))
+    fig.suptitle(f"Two-spring Langevin system (SIM paper Fig. 2): moments from StochasticImpulseIntegrator (SIM) "
+                 f"against GLA, {parameters['copies']} realizations in one System, {platform} platform\n"
+                 f"ω = {parameters['omega']:g} ps⁻¹, friction γ (the paper's c) = {parameters['c']:g} ps⁻¹, "
+                 f"β = {parameters['beta']:g} mol/kJ; resonant SIM step H = {parameters['H']:.4g} ps "
+                 f"(ωH = {parameters['omega_H_over_pi']:g}π), GLA step h = {parameters['gla_h']:.4g} ps "
+                 f"(dimensionless units: 1 amu, 1 nm, 1 ps)", fontsize=11)
+    panels = [(0, "E[x]", "E[x] (nm)"), (1, "E[y]", "E[y] (nm)"), (2, "E[x²]", "E[x²] (nm²)"),
+              (3, "E[y²]", "E[y²] (nm²)"), (4, "E[p_x²]", "E[p_x²] (amu² nm² ps⁻²)")]
     # GLA is drawn at the SIM sample times (stroboscopically): sampled densely, the stiff oscillation fills the panels.
     sim_keys = [k for k in results if k.startswith("sim")]
     strobe = {}
@@ -335,24 +339,28 @@ def plot(results, comparison, parameters, platform, path):
         stride = results[key]["every"] // results["gla"]["every"]
         tag = "nonresonant" if key.endswith("nonresonant") else "resonant"
         strobe[tag] = (stride, len(results[key]["times"]))
-    for ax, (j, name) in zip(axes.flat, panels):
+    for ax, (j, name, ylabel) in zip(axes.flat, panels):
         for key, r in results.items():
             if key.startswith("gla"):
                 for tag, (stride, count) in strobe.items():
                     t, m, s = r["times"][::stride][:count], r["mean"][::stride][:count, j], r["se"][::stride][:count, j]
                     ax.plot(t, m, color=palette[key], lw=1.2 if tag == "resonant" else 0.8,
-                            ls="-" if tag == "resonant" else (0, (1, 1)), label=f"{r['label']} at {tag} SIM times")
+                            ls="-" if tag == "resonant" else (0, (1, 1)),
+                            label=f"{reporting.greek(r['label'])} at {tag} SIM times")
                     ax.fill_between(t, m - 2 * s, m + 2 * s, color=palette[key], alpha=0.15, lw=0)
                 continue
             m, s = r["mean"][:, j], r["se"][:, j]
             ax.plot(r["times"], m, color=palette.get(key, "gray"), ls=styles.get(key, "-"), lw=1.3, marker=".", ms=3,
-                    label=r["label"])
+                    label=reporting.greek(r["label"]))
             ax.fill_between(r["times"], m - 2 * s, m + 2 * s, color=palette.get(key, "gray"), alpha=0.15, lw=0)
-        ax.set_title(f"{name} (bands: +-2 s.e.)")
-        if name == "E[px^2]":
+        ax.set_title(f"{name} (bands: ±2 standard errors)", fontsize=10)
+        if j == 4:
             ax.set_yscale("log")
-        ax.set_xlabel("t")
-    axes[0, 1].legend(fontsize=6)
+        ax.set_xlabel("t (ps)")
+        ax.set_ylabel(ylabel)
+    # One legend for the five moment panels, below them: inside, it hid curves.
+    fig.legend(*axes[0, 1].get_legend_handles_labels(), fontsize=8.5, loc="lower center",
+               bbox_to_anchor=(0.36, 0.0), ncol=2, frameon=False, title="methods", title_fontsize=9)
     ax = axes.flat[5]
     markers = "ox+."
     reference = "gla_fine" if "gla_fine" in results else "gla"
@@ -361,17 +369,21 @@ def plot(results, comparison, parameters, platform, path):
             continue
         key = pair.split(" vs ")[0]
         for j, name in enumerate(POSITION_MOMENTS):
-            ax.plot(comp["t"], comp["z"][:, j], color=palette.get(key, "gray"), marker=markers[j], ms=3, ls="none",
-                    label=f"{key} {name}")
+            ax.plot(comp["t"], comp["z"][:, j], color=palette.get(key, "gray"), marker=markers[j], ms=3, ls="none")
     thresholds = sorted({round(comp["positions"]["bonferroni_1pct_threshold"], 2) for comp in comparison.values()})
     for level in [2.0, thresholds[0]]:
         ax.axhline(level, color="gray", lw=0.6, ls="--")
         ax.axhline(-level, color="gray", lw=0.6, ls="--")
     ax.set_yscale("symlog", linthresh=5)
-    ax.set_title(f"z = (SIM - {reference})/s.e. of position moments (dashed: 2 and Bonferroni 1%)", fontsize=9)
-    ax.set_xlabel("t")
-    ax.legend(fontsize=5, ncol=2)
-    fig.tight_layout()
+    ax.set_title(f"z = (SIM − {reporting.greek(results[reference]['label'])}) / standard error, position moments\n"
+                 f"(dashed: |z| = 2 and the Bonferroni 1 % threshold {thresholds[0]:g}; colour: method)", fontsize=9)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("z (dimensionless; symmetric log scale)")
+    names = [n.replace("^2", "²") for n in POSITION_MOMENTS]
+    ax.legend(handles=[Line2D([], [], color="0.3", marker=mk, ls="none", label=n) for mk, n in zip(markers, names)],
+              fontsize=8.5, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=4, frameon=False,
+              title="marker: moment", title_fontsize=9)
+    fig.tight_layout(rect=(0, 0.12, 1, 0.97))
     reporting.save_figure(fig, path, 110)
 
 

@@ -27,7 +27,8 @@ def run_quick(script, out, outputs):
 
 def test_work_precision_quick(tmp_path):
     result, data = run_quick("work_precision.py", tmp_path,
-                             ("work_precision.json", "work_precision.md", "work_precision.png"))
+                             ("work_precision.json", "work_precision.md", "work_precision_slow.png",
+                              "work_precision_stiff.png", "work_precision_cost.png"))
     case = data["cases"][0]
     assert {r["method"] for r in case["runs"]} == METHODS
     reference = case["reference"]["checkpoints"]

@@ -41,6 +41,8 @@ def test_quick_run_writes_json(tmp_path, scene, runs):
     for run in data["runs"].values():
         assert run["wall_s"] > 0 and run["copies_used"] >= 1
     assert (tmp_path / f"{scene}.png").stat().st_size > 0
+    if scene == "langevin_slow_noise":
+        assert (tmp_path / f"{scene}_moments.png").stat().st_size > 0
     if scene == "langevin_fast_noise":
         assert set(data["cross_check"]) == {key for key in runs if "custom" in key}
 

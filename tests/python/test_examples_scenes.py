@@ -46,6 +46,7 @@ def test_quick_run_writes_json(tmp_path, scene, slow):
     for key in ("flavor", "flavor_verlet", "effective"):
         assert abs(data["fast"][key]["period_ratio_to_reference"] / predicted - 1) < 0.15
     assert (tmp_path / f"{scene}.png").stat().st_size > 0
+    assert (tmp_path / f"{scene}_energy_error.png").stat().st_size > 0
 
 
 def load_scene_module(scene):

@@ -5,6 +5,7 @@ import io
 import json
 import math
 import os
+import re
 
 import numpy as np
 
@@ -48,6 +49,15 @@ def save_outputs(out, name, data, plot):
     write_json(json_path, data, strict=False)
     plot(png_path)
     print(f"\nwrote {json_path} and {png_path}")
+
+
+def greek(label):
+    """A run's label in the charts' notation: "d=0.1 t=0.01" (FLAVOR's mesostep and microstep) as "δ = 0.1, τ = 0.01",
+    "H=", "h=" as "H = ", "h = " (the JSON and the tables keep the labels as they are)."""
+    label = re.sub(r"\s*\bt=", ", τ = ", re.sub(r"\bd=", "δ = ", label))
+    label = re.sub(r"\b([hH])=", r"\1 = ", label)
+    label = re.sub(r"(\d) pi\b", r"\1π", label.replace("tau=delta", "τ = δ"))
+    return label.replace("stiff x tau/delta", "stiff × τ/δ").replace("omega", "ω").replace("gamma", "γ")
 
 
 def pyplot():

@@ -20,7 +20,7 @@ import sys
 import numpy as np
 import openmm as mm
 
-from .reporting import pyplot, save_figure, table
+from .reporting import greek, pyplot, save_figure, table
 from .runners import flavor, simulate, start_context, time_batches
 
 
@@ -233,19 +233,22 @@ STYLE = {"reference": dict(color="k", lw=1.4), "legacy": dict(color="tab:blue", 
 
 
 def plot(sc, runs, out, p, path, panels):
-    """panels: [(title, function(run) -> array, kind)] with kind "slow" (whole run, every method), "slow_end" (the
-    last p["zoom_end"] of the run, every method), "fast" (zoom on [0, zoom], reference / legacy / FLAVOR), "band"
-    (running mean and mean +- std over p["avg_window"], reference / legacy / FLAVOR); then energies and the
-    running maximum of the first slow variable's error are added."""
+    """Two charts.  path: panels [(title, function(run) -> array, kind[, y-axis label])] with kind "slow" (whole run,
+    every method), "slow_end" (the last p["zoom_end"] of the run, every method), "fast" (zoom on [0, zoom], reference
+    / legacy / FLAVOR), "band" (running mean and mean +- std over p["avg_window"], reference / legacy / FLAVOR).
+    path with _energy_error: the energies and the running maximum of the first slow variable's error.  In each, the
+    legend takes a free slot (or goes below the panels).  Times are in ps (the scenes' units: 1 amu, 1 nm, 1 ps)."""
     plt = pyplot()
-    n = len(panels) + 2
     cols = 3
-    rows = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.8 * rows))
+    rows = (len(panels) + cols - 1) // cols
+    free = len(panels) < rows * cols
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.8 * rows + (0.9 if free else 1.8)), squeeze=False)
     axes = axes.ravel()
-    fig.suptitle(f"{sc.title}: T = {p['T']:g}, delta = {p['delta']:g}, tau = {p['tau']:g}, Reference platform",
-                 fontsize=11)
-    for ax, (title, fn, kind) in zip(axes, panels):
+    compared = (f"FLAVOR against symplectic Euler and a fine Verlet reference: T = {p['T']:g} ps, δ = {p['delta']:g} "
+                f"ps, τ = {p['tau']:g} ps, Reference platform (units: 1 amu, 1 nm, 1 ps)")
+    fig.suptitle(f"{sc.title}\n{compared}", fontsize=11)
+    for ax, panel in zip(axes, panels):
+        title, fn, kind = panel[:3]
         keys = ["reference", "legacy", "flavor"] if kind in ("fast", "band") else \
             [k for k in ("reference", "legacy", "flavor", "flavor_verlet", "effective") if k in runs]
         for key in keys:
@@ -261,44 +264,69 @@ def plot(sc, runs, out, p, path, panels):
                 width = max(1, int(round(p["avg_window"] / (t[1] - t[0]))))
                 mean = running_mean(y, width)
                 std = np.sqrt(np.maximum(running_mean(y * y, width) - mean * mean, 0.0))
-                ax.plot(t, mean, label=run["label"], **STYLE[key])
+                ax.plot(t, mean, label=greek(run["label"]), **STYLE[key])
                 ax.plot(t, mean + std, **{**STYLE[key], "lw": 0.6})
                 ax.plot(t, mean - std, **{**STYLE[key], "lw": 0.6})
             else:
-                ax.plot(t, y, label=run["label"], **STYLE[key])
+                ax.plot(t, y, label=greek(run["label"]), **STYLE[key])
         ax.set_title(title, fontsize=9)
-        ax.set_xlabel("t")
-    ax = axes[len(panels)]
+        ax.set_xlabel("t (ps)")
+        if len(panel) > 3:
+            ax.set_ylabel(panel[3], fontsize=8.5)
+    _legend(fig, axes, len(panels), rows * cols)
+    # Fixed spacing: tight_layout and legend placement "best" cost seconds with long series.
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.08 if free else 0.06 + 1.2 / (3.8 * rows + 1.8),
+                        top=1 - 1.0 / (3.8 * rows + (0.9 if free else 1.8)), wspace=0.25, hspace=0.42)
+    save_figure(fig, path, 110)
+
+    fig, axes = plt.subplots(1, cols, figsize=(5.2 * cols, 4.7))
+    fig.suptitle(f"{sc.title}: energies and slow-variable error\n{compared}", fontsize=11)
+    ax = axes[0]
     for key in ("reference", "legacy", "flavor"):
         run = runs[key]
-        ax.plot(run["t"], run["H"] / run["H"][0], label=f"{run['label']}: H", **STYLE[key])
+        ax.plot(run["t"], run["H"] / run["H"][0], label=greek(run["label"]), **STYLE[key])
     run = runs["flavor"]
     ax.plot(run["t"], run["H_eff"] / run["H_eff"][0], color="tab:orange", lw=1.0, label="FLAVOR SympEuler: H_eff")
-    ax.set_title("H(t) / H(0); for FLAVOR also H_eff(t) / H_eff(0),\nH_eff = K + V_soft + (tau/delta) V_stiff",
-                 fontsize=9)
-    ax.set_xlabel("t")
-    ax.legend(fontsize=6, loc="lower right")
-    ax = axes[len(panels) + 1]
+    ax.set_title("total energy H(t) / H(0); for FLAVOR also H_eff(t) / H_eff(0),\n"
+                 "H_eff = K + V_soft + (τ/δ) V_stiff", fontsize=9)
+    ax.set_xlabel("t (ps)")
+    ax.set_ylabel("energy / its value at t = 0 (dimensionless)", fontsize=8.5)
+    ax = axes[1]
     name = next(iter(sc.slow(runs["reference"])))
+    symbol = {"theta": "θ", "phi": "φ"}.get(name, name)
     ref = runs["reference"]
     tc = ref["t"][ref["coarse"]]
     for key in runs:
         if key != "effective" and "slow_error" in runs[key]:
-            label = runs[key]["label"] + (": own error (step halving)" if key == "reference" else "")
             style = STYLE.get(key, dict(color="tab:red" if key.startswith("flavor_r") else "tab:purple",
                                         lw=0.6, alpha=0.6, ls="-" if key.startswith("flavor_r") else ":"))
             err = np.maximum.accumulate(runs[key]["slow_error"][name])
-            ax.semilogy(tc[1:], np.maximum(err[1:], 1e-16), label=label, **style)
-    ax.set_title(f"running max of |{name} - {name}(reference)|\n(thin lines: FLAVORs at delta/k, tau/k)",
-                 fontsize=9)
-    ax.set_xlabel("t")
-    ax.legend(fontsize=6, loc="lower right")
-    axes[0].legend(fontsize=6, loc="lower left")
-    for ax in axes[n:]:
+            ax.semilogy(tc[1:], np.maximum(err[1:], 1e-16), label=greek(runs[key]["label"]), **style)
+    ax.set_title(f"slow variable: running max of |{symbol} − {symbol}(reference)|\n(black: the reference's own error, "
+                 f"from step halving; thin lines: FLAVORs at δ/k, τ/k)", fontsize=9)
+    ax.set_xlabel("t (ps)")
+    unit = getattr(sc, "slow_unit", "")
+    ax.set_ylabel(f"absolute error{f' ({unit})' if unit else ''}", fontsize=8.5)
+    _legend(fig, axes, 2, cols)
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.12, top=0.8, wspace=0.25)
+    save_figure(fig, path[:-len(".png")] + "_energy_error.png", 110)
+
+
+def _legend(fig, axes, used, slots):
+    """One legend for every panel, in the first free slot or below the panels: inside a panel it would hide curves."""
+    handles, labels = [], []
+    for a in axes[:used]:
+        for h, lab in zip(*a.get_legend_handles_labels()):
+            if lab not in labels:
+                handles.append(h)
+                labels.append(lab)
+    for ax in axes[used:]:
         ax.axis("off")
-    # Fixed spacing: tight_layout and legend placement "best" cost seconds with long series.
-    fig.subplots_adjust(left=0.05, right=0.98, bottom=0.05, top=0.93, wspace=0.22, hspace=0.42)
-    save_figure(fig, path, 110)
+    if used < slots:
+        axes[used].legend(handles, labels, loc="center", fontsize=8.5, frameon=False, title="methods",
+                          title_fontsize=9)
+    else:
+        fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8.5, frameon=False)
 
 
 def series(runs, fields, max_points=2000):

@@ -27,10 +27,12 @@ def test_quickstart_runs_and_keeps_the_water_box(tmp_path):
     rows = [line.split() for line in result.stdout.splitlines() if re.match(r"^\s*\d+\.\d+\s", line)]
     assert len(rows) == 11, result.stdout
     assert float(rows[-1][0]) == pytest.approx(0.2)  # 100 mesosteps of 2 fs
-    # The run stays a liquid of intact molecules: a finite temperature and O-H bonds near their 0.0957 nm.
+    # The run stays a liquid of intact molecules at a finite temperature, and the frozen (not weakened) bonds keep
+    # flexible TIP3P's mean O-H length, 0.0973 nm with a spread of 0.0024 nm over 256 bonds; a FLAVOR that weakens
+    # the bonds by tau/delta stretches them to 0.104 nm.
     for row in rows:
         temperature, bond = float(row[1]), float(row[3])
-        assert 0 < temperature < 1000 and 0.08 < bond < 0.13, result.stdout
+        assert 0 < temperature < 1000 and 0.095 < bond < 0.1, result.stdout
 
 
 @pytest.fixture(scope="module")

@@ -243,24 +243,29 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
             kickStep = flows[0].h;
             continue;
         }
-        if (flows[0].kind == SubFlow::StiffFlow || flows[0].kind == SubFlow::HarmonicFlow) {
+        // Passes over stiff components or frozen coordinates hold one sub-flow each (compileStepPlan).
+        switch (flows[0].kind) {
+        case SubFlow::StiffFlow:
+        case SubFlow::HarmonicFlow:
             runStiffFlow(context, p, flows[0], constraintTolerance, kickForces, kickStep);
             kickForces = nullptr;
             continue;
-        }
-        if (flows[0].kind == SubFlow::FilteredStiffFlow) {
+        case SubFlow::FilteredStiffFlow:
             // The forces where the flow begins; runStiffFlow adds their response after the flow.
             ensureForces(context, flows[0].slot);
             runStiffFlow(context, p, flows[0], constraintTolerance, nullptr, 0.0);
             continue;
-        }
-        if (flows[0].kind == SubFlow::FilteredKick) {
+        case SubFlow::FilteredKick:
             runFilteredKick(context, p, flows[0], constraintTolerance);
             continue;
-        }
-        if (flows[0].kind == SubFlow::FrozenDrift || flows[0].kind == SubFlow::FrozenKick) {
+        case SubFlow::FrozenDrift:
+        case SubFlow::FrozenKick:
             runFrozenFlow(context, flows[0], constraintTolerance);
             continue;
+        case SubFlow::Kick:
+        case SubFlow::Drift:
+        case SubFlow::Thermostat:
+            break;
         }
         ParticlePass pass;
         pass.flows = flows.data();

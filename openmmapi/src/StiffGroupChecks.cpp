@@ -1,4 +1,5 @@
 #include "internal/StiffGroupChecks.h"
+#include "internal/UnionFind.h"
 #include "openmm/Force.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/System.h"
@@ -11,16 +12,6 @@ using namespace FlavorPlugin;
 using namespace OpenMM;
 using std::string;
 using std::vector;
-
-namespace {
-
-int findRoot(vector<int>& parent, int i) {
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-} // namespace
 
 vector<int> FlavorPlugin::bondedStiffComponents(ContextImpl& context, int stiffGroups) {
     const int numParticles = context.getSystem().getNumParticles();

@@ -1,4 +1,5 @@
 #include "FrozenDistances.h"
+#include "internal/UnionFind.h"
 #include "openmm/CustomBondForce.h"
 #include "openmm/HarmonicAngleForce.h"
 #include "openmm/HarmonicBondForce.h"
@@ -68,16 +69,6 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
         add(p.first, p.second);
     return result;
 }
-
-namespace {
-
-int findRoot(vector<int>& parent, int i) {
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-} // namespace
 
 FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs)
     : positions(nullptr), velocities(nullptr), forces(nullptr), inverseMasses(nullptr), h(0.0), tolerance(0.0),

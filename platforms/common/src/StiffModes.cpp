@@ -1,5 +1,6 @@
 #include "StiffModes.h"
 #include "internal/ParameterChecks.h"
+#include "internal/UnionFind.h"
 #include "openmm/OpenMMException.h"
 #include <Eigen/Dense>
 #include <algorithm>
@@ -10,16 +11,6 @@
 using namespace FlavorPlugin;
 using namespace OpenMM;
 using std::vector;
-
-namespace {
-
-int findRoot(vector<int>& parent, int i) {
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-} // namespace
 
 StiffModes::StiffModes(const vector<double>& masses, const vector<StiffnessBlock>& blocks,
                        const vector<Vec3>& constantForce) {

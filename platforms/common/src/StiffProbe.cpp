@@ -1,6 +1,7 @@
 #include "StiffProbe.h"
 #include "internal/ParameterChecks.h"
 #include "internal/StiffGroupChecks.h"
+#include "internal/UnionFind.h"
 #include "openmm/Force.h"
 #include "openmm/NonbondedForce.h"
 #include "openmm/OpenMMException.h"
@@ -27,12 +28,6 @@ const double ProbeStep = 1e-3; // nm; exact for a quadratic potential, any step 
 // still shows its curvature, harmless for a quadratic one, which is linear at any displacement.
 const double VerificationDisplacement = 0.05;
 const double LinearityTolerance = 1e-5; // relative; well above double-precision rounding of the probes
-
-int findRoot(vector<int>& parent, int i) {
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
 
 bool inGroups(const ForceImpl* impl, int groups) {
     return (groups & (1 << impl->getOwner().getForceGroup())) != 0;

@@ -1,0 +1,350 @@
+#!/usr/bin/env python3
+"""Villin headpiece (N68H) in explicit water, 8,867 atoms (OpenMM's own example input, amber14 + TIP3P, PME,
+X-H bonds constrained, rigid water), on the CPU platform: the artificial FLAVOR against OpenMM's Langevin
+integrators, every peer run here from the same equilibrated start.
+
+Force groups: HarmonicBondForce (the heavy-atom bonds; the X-H bonds are constraints) in group 1,
+HarmonicAngleForce in group 2, everything else (PME, torsions) in group 0.
+
+Peers (Langevin, 300 K, friction 1/ps):
+  - LangevinMiddleIntegrator 2 fs (the reference for the observables);
+  - MTSLangevinIntegrator 4 fs outer, the bonds and angles 4 times per step (1 fs);
+  - FlavorIntegrator, ArtificialProjected averaging, Verlet scheme, at the mesostep delta and microstep tau of
+    --flavors, with the bonds and angles stiff ("4:1") or the bonds alone ("4:1:bonds", angles soft).
+
+Observables, each with a block-average error bar (the standard error of the block means): kinetic temperature of
+the whole system and of the protein (degrees of freedom less the constraints), RMS deviation of the bond lengths
+from their equilibrium lengths per element pair, RMS deviation of the angles from their equilibrium angles (angles
+with and without a hydrogen), backbone (N, CA, C) RMSD from the common start after superposition.  ns/day with 2
+threads is measured over the production run; ns/day with 1 thread over a further --timing ps in a new Context.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/villin/villin.py [--quick] [--out DIR]
+        [--start PS] [--equilibration PS] [--production PS] [--timing PS]
+
+Outputs: DIR/villin.json (every number and the RMSD series) and DIR/villin.png.
+"""
+import math
+import os
+import time
+
+import numpy as np
+import openmm as mm
+import openmm.app as app
+import openmm.unit as unit
+
+import openmmflavors
+from flavorbench import reporting
+from flavorbench.progress import Progress
+from flavorbench.runners import KB
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PDB = os.path.join(HERE, "villin.pdb")
+TEMPERATURE = 300.0  # K
+FRICTION = 1.0  # 1/ps
+BOND_GROUP, ANGLE_GROUP = 1, 2
+
+
+def make_system(forcefield, topology):
+    system = forcefield.createSystem(topology, nonbondedMethod=app.PME, nonbondedCutoff=1.0 * unit.nanometer,
+                                     constraints=app.HBonds, rigidWater=True, removeCMMotion=False)
+    for force in system.getForces():
+        if isinstance(force, mm.HarmonicBondForce):
+            force.setForceGroup(BOND_GROUP)
+        elif isinstance(force, mm.HarmonicAngleForce):
+            force.setForceGroup(ANGLE_GROUP)
+        else:
+            force.setForceGroup(0)
+    return system
+
+
+def peers(flavor_settings):
+    """(name, factory) for every peer; factory() returns the integrator."""
+    result = [
+        ("LangevinMiddle 2 fs", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 2e-3)),
+        ("MTSLangevin 4 fs / 4",
+         lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 4e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4)])),
+    ]
+    for delta, tau, bonds_only in flavor_settings:
+        stiff = {BOND_GROUP} if bonds_only else {BOND_GROUP, ANGLE_GROUP}
+
+        def factory(delta=delta, tau=tau, stiff=stiff):
+            integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, tau * unit.femtosecond, stiff)
+            integrator.setAveraging(openmmflavors.FlavorIntegrator.ArtificialProjected)
+            integrator.setTemperature(TEMPERATURE * unit.kelvin)
+            integrator.setFriction(FRICTION / unit.picosecond)
+            integrator.setRandomNumberSeed(1234)
+            return integrator
+
+        what = "bonds" if bonds_only else "bonds+angles"
+        result.append(("FLAVOR ArtificialProjected %s δ=%g fs τ=%g fs" % (what, delta, tau), factory))
+    return result
+
+
+def block_error(series, blocks):
+    """Mean and standard error of the block means."""
+    series = np.asarray(series, dtype=float)
+    usable = len(series) // blocks * blocks
+    if usable < blocks or blocks < 2:
+        return float(np.mean(series)), float("nan")
+    means = series[:usable].reshape(blocks, -1).mean(axis=1)
+    return float(np.mean(series)), float(np.std(means, ddof=1) / math.sqrt(blocks))
+
+
+class Geometry:
+    """Index arrays of the System's bonds, angles, constraints and backbone, and the per-frame observables."""
+
+    def __init__(self, system, topology):
+        atoms = list(topology.atoms())
+        element = [a.element.symbol if a.element is not None else "?" for a in atoms]
+        self.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton)
+                                for i in range(system.getNumParticles())])
+        water = {"HOH", "WAT"}
+        ions = {"Cl", "CL", "Na", "NA"}
+        self.protein = np.array([a.index for a in atoms if a.residue.name not in water | ions])
+        in_protein = np.zeros(len(atoms), bool)
+        in_protein[self.protein] = True
+        constraints = [system.getConstraintParameters(i)[:2] for i in range(system.getNumConstraints())]
+        self.dof = 3 * len(atoms) - len(constraints)
+        self.protein_dof = 3 * len(self.protein) - sum(1 for i, j in constraints if in_protein[i] and in_protein[j])
+        self.backbone = np.array([a.index for a in atoms if in_protein[a.index] and a.name in ("N", "CA", "C")])
+        bonds = next(f for f in system.getForces() if isinstance(f, mm.HarmonicBondForce))
+        angles = next(f for f in system.getForces() if isinstance(f, mm.HarmonicAngleForce))
+        b = [bonds.getBondParameters(i) for i in range(bonds.getNumBonds())]
+        self.bond_i = np.array([x[0] for x in b])
+        self.bond_j = np.array([x[1] for x in b])
+        self.bond_r0 = np.array([x[2].value_in_unit(unit.nanometer) for x in b])
+        self.bond_class = {}
+        for n, (i, j) in enumerate(zip(self.bond_i, self.bond_j)):
+            self.bond_class.setdefault("–".join(sorted((element[i], element[j]))), []).append(n)
+        self.bond_class = {k: np.array(v) for k, v in sorted(self.bond_class.items())}
+        a = [angles.getAngleParameters(i) for i in range(angles.getNumAngles())]
+        self.angle_ijk = np.array([x[:3] for x in a])
+        self.angle_t0 = np.degrees(np.array([x[3].value_in_unit(unit.radian) for x in a]))
+        has_h = np.array([any(element[p] == "H" for p in x[:3]) for x in a])
+        self.angle_class = {"with H": np.flatnonzero(has_h), "heavy atoms": np.flatnonzero(~has_h)}
+
+    def frame(self, q, v, reference_backbone):
+        """Per-frame values: T (whole system, protein), bond RMS deviation per class (nm), angle RMS deviation per
+        class (degrees), backbone RMSD (nm)."""
+        out = {}
+        ke2 = np.sum(v ** 2, axis=1) * self.masses
+        out["T"] = ke2.sum() / (self.dof * KB)
+        out["T_protein"] = ke2[self.protein].sum() / (self.protein_dof * KB)
+        dr = np.linalg.norm(q[self.bond_i] - q[self.bond_j], axis=1) - self.bond_r0
+        for name, idx in self.bond_class.items():
+            out["bond_rms " + name] = math.sqrt(np.mean(dr[idx] ** 2))
+        out["bond_rms all"] = math.sqrt(np.mean(dr ** 2))
+        out["bond_mean_dev all"] = float(np.mean(dr))
+        d1 = q[self.angle_ijk[:, 0]] - q[self.angle_ijk[:, 1]]
+        d2 = q[self.angle_ijk[:, 2]] - q[self.angle_ijk[:, 1]]
+        cos = np.sum(d1 * d2, axis=1) / (np.linalg.norm(d1, axis=1) * np.linalg.norm(d2, axis=1))
+        dt = np.degrees(np.arccos(np.clip(cos, -1, 1))) - self.angle_t0
+        for name, idx in self.angle_class.items():
+            out["angle_rms " + name] = math.sqrt(np.mean(dt[idx] ** 2))
+        out["angle_rms all"] = math.sqrt(np.mean(dt ** 2))
+        out["backbone_rmsd"] = kabsch_rmsd(q[self.backbone], reference_backbone)
+        return out
+
+
+def kabsch_rmsd(x, y):
+    """RMSD of x from y after the optimal superposition."""
+    x = x - x.mean(axis=0)
+    y = y - y.mean(axis=0)
+    u, s, vt = np.linalg.svd(x.T @ y)
+    d = np.sign(np.linalg.det(u @ vt))
+    s[-1] *= d
+    return math.sqrt(max(0.0, (np.sum(x ** 2) + np.sum(y ** 2) - 2 * np.sum(s)) / len(x)))
+
+
+def new_context(system, integrator, threads):
+    return mm.Context(system, integrator, mm.Platform.getPlatformByName("CPU"), {"Threads": str(threads)})
+
+
+def run_peer(name, factory, forcefield, topology, start_positions, geometry, args, frames):
+    system = make_system(forcefield, topology)
+    integrator = factory()
+    context = new_context(system, integrator, 2)
+    context.setPositions(start_positions)
+    context.setVelocitiesToTemperature(TEMPERATURE * unit.kelvin, 7)
+    step_fs = integrator.getStepSize().value_in_unit(unit.femtosecond)
+    reference_backbone = np.asarray(start_positions.value_in_unit(unit.nanometer))[geometry.backbone]
+    record = {"name": name, "step_fs": step_fs, "stable": True}
+    progress = Progress(name, args.equilibration + args.production + args.timing, fmt=".3f")
+    try:
+        steps = int(round(args.equilibration * 1000 / step_fs))
+        chunk = max(1, int(round(0.05 * 1000 / step_fs)))
+        done = 0
+        while done < steps:
+            n = min(chunk, steps - done)
+            integrator.step(n)
+            done += n
+            progress.update(done * step_fs / 1000, note="  equilibration")
+        steps = int(round(args.production * 1000 / step_fs))
+        interval = max(1, steps // frames)
+        series = {}
+        times = []
+        elapsed = 0.0
+        done = 0
+        while done < steps:
+            begin = time.perf_counter()
+            integrator.step(interval)
+            elapsed += time.perf_counter() - begin
+            done += interval
+            state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, enforcePeriodicBox=False)
+            q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+            v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
+            pe = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
+            if not np.all(np.isfinite(q)) or not math.isfinite(pe):
+                raise mm.OpenMMException("non-finite state")
+            for key, value in geometry.frame(q, v, reference_backbone).items():
+                series.setdefault(key, []).append(value)
+            series.setdefault("potential_energy", []).append(pe)
+            times.append(done * step_fs / 1000)
+            progress.update(args.equilibration + done * step_fs / 1000, note="  production")
+        record["ns_per_day_2_threads"] = done * step_fs * 1e-6 / elapsed * 86400
+        blocks = 5 if len(times) >= 10 else 2
+        record["blocks"] = blocks
+        for key, values in series.items():
+            mean, error = block_error(values, blocks)
+            record[key] = mean
+            record[key + "_error"] = error
+        record["backbone_rmsd_final"] = series["backbone_rmsd"][-1]
+        record["series"] = {"t_ps": times, "backbone_rmsd": series["backbone_rmsd"], "T": series["T"]}
+        # ns/day with 1 thread: a new Context at the last state.
+        state = context.getState(getPositions=True, getVelocities=True)
+        del context
+        integrator = factory()
+        context = new_context(system, integrator, 1)
+        context.setPositions(state.getPositions())
+        context.setVelocities(state.getVelocities())
+        context.setPeriodicBoxVectors(*state.getPeriodicBoxVectors())
+        integrator.step(1)
+        steps = max(2, int(round(args.timing * 1000 / step_fs)))
+        begin = time.perf_counter()
+        integrator.step(steps)
+        record["ns_per_day_1_thread"] = steps * step_fs * 1e-6 / (time.perf_counter() - begin) * 86400
+        progress.update(args.equilibration + args.production + args.timing, force=True, note="  1-thread timing")
+    except mm.OpenMMException as error:
+        record["stable"] = False
+        record["error"] = str(error)
+    return record
+
+
+def summary_line(r):
+    if not r["stable"]:
+        return "%-44s UNSTABLE: %s" % (r["name"], r["error"])
+    return ("%-44s %6.1f / %6.1f ns/day (1/2 thr)  T %.1f±%.1f  T_prot %.1f±%.1f  bond %.5f±%.5f nm  "
+            "angle %.2f±%.2f°  RMSD %.4f±%.4f nm" % (
+                r["name"], r["ns_per_day_1_thread"], r["ns_per_day_2_threads"], r["T"], r["T_error"],
+                r["T_protein"], r["T_protein_error"], r["bond_rms all"], r["bond_rms all_error"],
+                r["angle_rms all"], r["angle_rms all_error"], r["backbone_rmsd"], r["backbone_rmsd_error"]))
+
+
+def plot(data, path):
+    plt = reporting.pyplot()
+    records = data["peers"]
+    stable = [r for r in records if r["stable"]]
+    reference = records[0] if records[0]["stable"] else None
+    labels = [reporting.greek(r["name"]).replace(" δ", "\nδ") for r in stable]
+    y = np.arange(len(stable))
+    fig, axes = plt.subplots(2, 4, figsize=(22, 10))
+    axes = axes.ravel()
+    ref_label = "reference (LangevinMiddle 2 fs)"
+
+    def errorbar_panel(ax, keys, xlabel, show_labels):
+        colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+        offsets = np.linspace(-0.15, 0.15, len(keys)) if len(keys) > 1 else [0.0]
+        for n, (key, legend) in enumerate(keys):
+            values = [r[key] for r in stable]
+            errors = [r.get(key + "_error", 0.0) for r in stable]
+            ax.errorbar(values, y + offsets[n], xerr=errors, fmt="o", capsize=3, color=colors[n], label=legend)
+            if reference is not None and not key.startswith("ns_per_day"):
+                ax.axvline(reference[key], color=colors[n], ls="--", lw=0.8,
+                           label=ref_label + (": " + legend if legend else ""))
+        ax.set_yticks(y)
+        ax.set_yticklabels(labels if show_labels else [], fontsize=8)
+        ax.set_ylim(len(stable) - 0.5, -0.5)
+        ax.set_xlabel(xlabel)
+        ax.legend(fontsize=7, loc="best")
+
+    errorbar_panel(axes[0], [("ns_per_day_1_thread", "1 thread"), ("ns_per_day_2_threads", "2 threads")],
+                   "speed (ns/day, CPU platform)", True)
+    errorbar_panel(axes[1], [("T", "whole system")], "kinetic temperature (K)", False)
+    errorbar_panel(axes[2], [("T_protein", "protein")], "kinetic temperature of the protein (K)", False)
+    errorbar_panel(axes[3], [("bond_rms all", "all heavy-atom bonds")],
+                   "bond length RMS deviation from r0 (nm)", False)
+    bond_classes = [k[len("bond_rms "):] for k in stable[0] if k.startswith("bond_rms ") and
+                    not k.endswith("_error") and k != "bond_rms all"] if stable else []
+    errorbar_panel(axes[4], [("bond_rms " + c, c) for c in bond_classes],
+                   "bond length RMS deviation from r0 per element pair (nm)", True)
+    errorbar_panel(axes[5], [("angle_rms with H", "angles with H"), ("angle_rms heavy atoms", "heavy-atom angles")],
+                   "angle RMS deviation from θ0 (°)", False)
+    errorbar_panel(axes[6], [("backbone_rmsd", "mean over production")], "backbone RMSD from the start (nm)", False)
+    ax = axes[7]
+    for r in stable:
+        ax.plot(r["series"]["t_ps"], np.asarray(r["series"]["backbone_rmsd"]) * 10, label=reporting.greek(r["name"]))
+    ax.set_xlabel("production time (ps)")
+    ax.set_ylabel("backbone (N, CA, C) RMSD from the start (Å)")
+    ax.legend(fontsize=7)
+    unstable = [r["name"] for r in records if not r["stable"]]
+    fig.text(0.01, 0.005, "Error bars: standard error of %d block means over %g ps of production per peer "
+             "(after %g ps of equilibration); ns/day: one timing each, no error bar.  " % (
+                 stable[0]["blocks"] if stable else 0, data["production_ps"], data["equilibration_ps"]) +
+             ("Unstable: " + ", ".join(unstable) if unstable else "Every peer stayed stable."), fontsize=9)
+    fig.suptitle("Villin in TIP3P water (8,867 atoms, amber14, PME, X–H constrained, 300 K): FLAVOR "
+                 "ArtificialProjected against LangevinMiddle 2 fs and MTSLangevin 4 fs")
+    fig.tight_layout(rect=(0, 0.02, 1, 0.97))
+    reporting.save_figure(fig, path, dpi=80)
+
+
+def main():
+    p = reporting.parser(__doc__, "villin", quick_help="a few femtoseconds per peer (smoke test)")
+    p.add_argument("--equilibration", type=float, default=1.0, help="ps per peer before measuring")
+    p.add_argument("--production", type=float, default=4.0, help="ps per peer")
+    p.add_argument("--timing", type=float, default=0.4, help="ps per peer timed with 1 thread")
+    p.add_argument("--start", type=float, default=2.0, help="ps of common LangevinMiddle 2 fs before the peers")
+    p.add_argument("--flavors", default="4:1,4:1:bonds,4:0.5:bonds",
+                   help="delta:tau[:bonds] in fs, comma separated (':bonds': only the bonds stiff)")
+    args = p.parse_args()
+    flavor_settings = [(float(s.split(":")[0]), float(s.split(":")[1]), s.endswith(":bonds"))
+                       for s in args.flavors.split(",")]
+    if args.quick:
+        args.equilibration, args.production, args.timing, args.start = 0.008, 0.04, 0.008, 0.01
+        flavor_settings = flavor_settings[:1]
+    pdb = app.PDBFile(PDB)
+    forcefield = app.ForceField("amber14-all.xml", "amber14/tip3p.xml")
+    geometry = Geometry(make_system(forcefield, pdb.topology), pdb.topology)
+    # The common start: minimized, then --start ps of LangevinMiddle at 2 fs.
+    system = make_system(forcefield, pdb.topology)
+    integrator = mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 2e-3)
+    context = new_context(system, integrator, 2)
+    context.setPositions(pdb.positions)
+    progress = Progress("common start", args.start, fmt=".3f")
+    mm.LocalEnergyMinimizer.minimize(context, 10.0, 20 if args.quick else 500)
+    context.setVelocitiesToTemperature(TEMPERATURE * unit.kelvin, 3)
+    steps = int(round(args.start * 500))
+    for done in range(0, steps, 25):
+        integrator.step(min(25, steps - done))
+        progress.update(min(done + 25, steps) / 500, note="  LangevinMiddle 2 fs")
+    start = context.getState(getPositions=True, enforcePeriodicBox=False).getPositions(asNumpy=True)
+    del context, integrator
+    frames = 10 if args.quick else 80
+    records = []
+    for name, factory in peers(flavor_settings):
+        record = run_peer(name, factory, forcefield, pdb.topology, start, geometry, args, frames)
+        records.append(record)
+        print(summary_line(record), flush=True)
+    data = {"system": "villin N68H in TIP3P water (OpenMM examples/input.pdb)", "atoms": pdb.topology.getNumAtoms(),
+            "force_field": ["amber14-all.xml", "amber14/tip3p.xml"], "constraints": "HBonds, rigid water",
+            "nonbonded": "PME, cutoff 1.0 nm", "temperature_K": TEMPERATURE, "friction_per_ps": FRICTION,
+            "degrees_of_freedom": geometry.dof, "protein_degrees_of_freedom": geometry.protein_dof,
+            "heavy_bonds": len(geometry.bond_r0), "angles": len(geometry.angle_t0),
+            "backbone_atoms": len(geometry.backbone), "start_ps": args.start,
+            "equilibration_ps": args.equilibration, "production_ps": args.production, "timing_ps": args.timing,
+            "quick": args.quick, "peers": records}
+    os.makedirs(args.out, exist_ok=True)
+    reporting.save_outputs(args.out, "villin", data, lambda path: plot(data, path))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,33 @@
+"""Smoke test of examples/villin: --quick runs every peer on OpenMM's villin-in-water system (8,867 atoms, amber14,
+PME, X-H bonds constrained), exits 0 and writes its JSON (the keys the README's table reads) and PNG.  No timing
+is checked, and a FLAVOR peer may be recorded as unstable (with the library's message)."""
+import json
+import math
+import os
+
+import conftest
+
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCRIPT = os.path.join(REPO_ROOT, "examples", "villin", "villin.py")
+
+
+def test_quick_run_writes_json_and_png(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert (tmp_path / "villin.png").stat().st_size > 0
+    with open(tmp_path / "villin.json") as f:
+        data = json.load(f)
+    assert data["atoms"] == 8867 and data["quick"]
+    names = [peer["name"] for peer in data["peers"]]
+    assert names[:2] == ["LangevinMiddle 2 fs", "MTSLangevin 4 fs / 4"]
+    assert any(name.startswith("FLAVOR ArtificialProjected") for name in names)
+    for peer in data["peers"][:2]:
+        assert peer["stable"], peer
+    for peer in data["peers"]:
+        if not peer["stable"]:
+            assert peer["error"]
+            continue
+        for key in ("ns_per_day_1_thread", "ns_per_day_2_threads", "T", "T_protein", "bond_rms all",
+                    "angle_rms all", "angle_rms with H", "angle_rms heavy atoms", "backbone_rmsd"):
+            assert math.isfinite(peer[key]), (peer["name"], key)
+        assert 0 < peer["bond_rms all"] < 0.01 and 0 < peer["angle_rms all"] < 20

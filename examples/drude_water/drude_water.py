@@ -20,9 +20,10 @@ import numpy as np  # noqa: E402
 import openmm  # noqa: E402
 import openmm.app as app  # noqa: E402
 import openmm.unit as unit  # noqa: E402
+from flavorbench.runners import KB as BOLTZ  # noqa: E402
+from flavorbench.timeseries import block_error  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
 
-BOLTZ = 0.0083144626  # kJ/mol/K
 DRUDE_GROUP = 1
 E_NM_TO_DEBYE = 48.0321  # 1 e nm in debye
 
@@ -150,13 +151,6 @@ def make_integrator(kind, step_fs, seed):
     return integrator
 
 
-def block_stats(values, blocks):
-    values = np.asarray(values, dtype=float)
-    usable = len(values) // blocks * blocks
-    means = values[:usable].reshape(blocks, -1).mean(axis=1)
-    return float(means.mean()), float(means.std(ddof=1) / math.sqrt(blocks))
-
-
 def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
     integrator = make_integrator(kind, step_fs, seed)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
@@ -194,7 +188,7 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
     blocks = settings["blocks"]
     result = {"integrator": kind, "step_fs": step_fs, "steps": steps, "ns_per_day": ns_per_day}
     for name, values in series.items():
-        result[name] = block_stats(values, blocks if name != "induced_ratio" else min(blocks, len(values)))
+        result[name] = block_error(values, blocks if name != "induced_ratio" else min(blocks, len(values)))
     shell = 4 / 3 * math.pi * (edges[1:]**3 - edges[:-1]**3)
     density = analysis.molecules / box**3
     g = np.array(histograms) / (0.5 * analysis.molecules * density * shell)
@@ -202,7 +196,7 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
     block_g = g[:usable].reshape(blocks, -1, len(shell)).mean(axis=1)
     result["g_oo"] = block_g.mean(axis=0).tolist()
     result["g_oo_error"] = (block_g.std(axis=0, ddof=1) / math.sqrt(blocks)).tolist()
-    result["g_oo_peak"] = block_stats(block_g.max(axis=1), blocks)
+    result["g_oo_peak"] = block_error(block_g.max(axis=1), blocks)
     return result
 
 

@@ -34,11 +34,12 @@ import openmm.app as app
 import openmm.unit as unit
 
 import openmmflavors
+from flavorbench.runners import KB
+from flavorbench.timeseries import block_error
 
 TEMPERATURE = 300.0  # K
 FRICTION = 1.0  # 1/ps
 BOND_GROUP, ANGLE_GROUP = 1, 2
-KB = 0.0083144626  # kJ/mol/K
 
 
 def build_box(molecules):
@@ -88,16 +89,6 @@ def peers(flavor_settings):
         name = "FLAVOR %s%s δ=%g fs τ=%g fs" % (averaging, " +angles" if angles else "", delta, tau)
         result.append((name, False, factory))
     return result
-
-
-def block_error(series, blocks):
-    """Mean and standard error of the block means."""
-    series = np.asarray(series, dtype=float)
-    usable = len(series) // blocks * blocks
-    if usable < blocks or blocks < 2:
-        return float(np.mean(series)), float("nan")
-    means = series[:usable].reshape(blocks, -1).mean(axis=1)
-    return float(np.mean(series)), float(np.std(means, ddof=1) / math.sqrt(blocks))
 
 
 def frame_observables(positions, velocities, box, oxygens, masses, rdf_edges):

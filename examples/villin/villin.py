@@ -34,6 +34,7 @@ import openmm.unit as unit
 
 import openmmflavors
 from flavorbench import reporting
+from flavorbench.timeseries import block_error
 from flavorbench.progress import Progress
 from flavorbench.runners import KB
 
@@ -78,16 +79,6 @@ def peers(flavor_settings):
         what = "bonds" if bonds_only else "bonds+angles"
         result.append(("FLAVOR ArtificialProjected %s δ=%g fs τ=%g fs" % (what, delta, tau), factory))
     return result
-
-
-def block_error(series, blocks):
-    """Mean and standard error of the block means."""
-    series = np.asarray(series, dtype=float)
-    usable = len(series) // blocks * blocks
-    if usable < blocks or blocks < 2:
-        return float(np.mean(series)), float("nan")
-    means = series[:usable].reshape(blocks, -1).mean(axis=1)
-    return float(np.mean(series)), float(np.std(means, ddof=1) / math.sqrt(blocks))
 
 
 class Geometry:

@@ -35,6 +35,7 @@ import openmm.unit as unit
 
 import openmmflavors
 from flavorbench.runners import KB
+from flavorbench.systems import assign_force_groups
 from flavorbench.timeseries import block_error
 
 TEMPERATURE = 300.0  # K
@@ -53,14 +54,7 @@ def build_box(molecules):
 def make_system(forcefield, topology, rigid):
     system = forcefield.createSystem(topology, nonbondedMethod=app.PME, nonbondedCutoff=0.9 * unit.nanometer,
                                      rigidWater=rigid, constraints=None, removeCMMotion=False)
-    for force in system.getForces():
-        if isinstance(force, mm.HarmonicBondForce):
-            force.setForceGroup(BOND_GROUP)
-        elif isinstance(force, mm.HarmonicAngleForce):
-            force.setForceGroup(ANGLE_GROUP)
-        else:
-            force.setForceGroup(0)
-    return system
+    return assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
 
 
 def peers(flavor_settings):

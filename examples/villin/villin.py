@@ -37,6 +37,7 @@ from flavorbench import reporting
 from flavorbench.timeseries import block_error
 from flavorbench.progress import Progress
 from flavorbench.runners import KB
+from flavorbench.systems import assign_force_groups
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PDB = os.path.join(HERE, "villin.pdb")
@@ -48,14 +49,7 @@ BOND_GROUP, ANGLE_GROUP = 1, 2
 def make_system(forcefield, topology):
     system = forcefield.createSystem(topology, nonbondedMethod=app.PME, nonbondedCutoff=1.0 * unit.nanometer,
                                      constraints=app.HBonds, rigidWater=True, removeCMMotion=False)
-    for force in system.getForces():
-        if isinstance(force, mm.HarmonicBondForce):
-            force.setForceGroup(BOND_GROUP)
-        elif isinstance(force, mm.HarmonicAngleForce):
-            force.setForceGroup(ANGLE_GROUP)
-        else:
-            force.setForceGroup(0)
-    return system
+    return assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
 
 
 def peers(flavor_settings):

@@ -122,3 +122,11 @@ def two_mass_system(omega):
     system.addForce(soft)
     system.addForce(stiff)
     return system
+
+
+def assign_force_groups(system, groups_by_type):
+    """Puts every force of `system` in the group that `groups_by_type` gives for its class, and every other force in
+    group 0 (soft): e.g. {openmm.HarmonicBondForce: 1, openmm.HarmonicAngleForce: 2}."""
+    for force in system.getForces():
+        force.setForceGroup(groups_by_type.get(type(force), 0))
+    return system

@@ -1,0 +1,63 @@
+#ifndef OPENMM_FLAVORS_SPARSE_LDLT_H_
+#define OPENMM_FLAVORS_SPARSE_LDLT_H_
+
+#include "internal/windowsExportFlavors.h"
+#include <utility>
+#include <vector>
+
+namespace FlavorPlugin {
+
+/**
+ * A = L D L^T for a sparse symmetric positive semidefinite matrix whose pattern is fixed at construction: the
+ * fill-reducing ordering (approximate minimum degree), the elimination tree and the pattern of L are computed once,
+ * so factorize() and solve() do not allocate.  The factorization is up-looking (row k of L from a sparse triangular
+ * solve along the elimination tree).
+ *
+ * A pivot d_k <= dropTolerance * A_kk marks row k as linearly dependent on the rows eliminated before it: its
+ * column of L is set to zero and solve() returns x_k = 0.  For a consistent singular system (redundant constraints
+ * whose targets agree) that is a solution of A x = b; the other unknowns solve the system without the dependent rows.
+ */
+class OPENMM_EXPORT_FLAVORS SparseLDLT {
+public:
+    /**
+     * @param n            the order of A
+     * @param offDiagonal  the positions (i, j), i != j, of A's nonzeros off the diagonal, each symmetric pair once
+     * @param reorder      eliminate in a fill-reducing order; otherwise in the given one (row k is then tested for
+     *                     dependence on rows 0 .. k-1)
+     */
+    SparseLDLT(int n, const std::vector<std::pair<int, int>>& offDiagonal, bool reorder = true);
+    int size() const { return n; }
+    /** Sets A_ii. */
+    void setDiagonal(int i, double value) { values[diagonalSlot[i]] = value; }
+    /** Sets A_ij = A_ji for the k-th pair given to the constructor. */
+    void setOffDiagonal(int k, double value) { values[offDiagonalSlot[k]] = value; }
+    /** Factorizes the values set; returns how many rows were found dependent. */
+    int factorize(double dropTolerance);
+    /** Overwrites b (in the constructor's numbering) with the solution of A x = b. */
+    void solve(double* b) const;
+    /** Whether row i (the constructor's numbering) was found dependent by the last factorize(). */
+    bool isDependent(int i) const { return dependent[position[i]] != 0; }
+    /** Nonzeros of L below the diagonal (the fill the ordering left). */
+    int getFactorNonzeros() const { return factorStart[n]; }
+
+private:
+    int n;
+    // original index of row k of the permuted matrix, and its inverse
+    std::vector<int> order, position;
+    // The upper triangle of the permuted matrix by columns (rows <= column, the diagonal last), and where each
+    // entry set by the caller lives in it.
+    std::vector<int> columnStart, rowIndex, diagonalSlot, offDiagonalSlot;
+    std::vector<double> values;
+    // L strictly below the diagonal by columns, D, the elimination tree and the rows found dependent.
+    std::vector<int> factorStart, factorRow, parent;
+    std::vector<double> factorValue, pivot;
+    std::vector<char> dependent;
+    // Workspaces of factorize() and solve().
+    std::vector<int> count, pattern, flag;
+    std::vector<double> accumulator;
+    mutable std::vector<double> permuted;
+};
+
+} // namespace FlavorPlugin
+
+#endif

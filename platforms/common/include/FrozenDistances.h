@@ -2,9 +2,11 @@
 #define OPENMM_FLAVORS_FROZEN_DISTANCES_H_
 
 #include "ParticleFlows.h"
+#include "SparseLDLT.h"
 #include "internal/windowsExportFlavors.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
+#include <array>
 #include <memory>
 #include <string>
 #include <utility>
@@ -17,9 +19,21 @@ class ContextImpl;
 namespace FlavorPlugin {
 
 /**
+ * The 1-3 distances that hold the angles (i, centre, j) rigid without redundancy.  A centre with k bonded neighbours
+ * and its bonds are held rigid by 2k - 3 1-3 distances (3(k + 1) - 6 degrees of freedom); every further one is
+ * linearly dependent on them.  With the neighbours n0, n1, ... in order of first appearance, the distances (n0, n1),
+ * (n0, ni) and (n1, ni) for i >= 2 are kept; at k = 3 only (n0, n1) and (n0, n2): such centres are planar in most
+ * molecules (sp2 carbons and nitrogens), where the third distance is dependent on the others too.  The distances
+ * dropped change only at second order in the motions the others allow.
+ */
+OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>>
+nonredundantAngleDistances(const std::vector<std::array<int, 3>>& angles);
+
+/**
  * The distances that the stiff bonded forces of groups stiffGroups act on: each bond of a HarmonicBondForce or
- * CustomBondForce, the 1-3 distance of each angle of a HarmonicAngleForce, then the extra pairs, without repeats.
- * Stiff forces of other types are described in unsupported (one entry per force: its index and type).
+ * CustomBondForce, the 1-3 distances of the angles of the HarmonicAngleForces (nonredundantAngleDistances), then the
+ * extra pairs, without repeats.  Stiff forces of other types are described in unsupported (one entry per force: its
+ * index and type).
  */
 OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>> bondedFrozenPairs(const OpenMM::ContextImpl& context,
                                                                          int stiffGroups,
@@ -27,10 +41,22 @@ OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>> bondedFrozenPairs(const O
                                                                          std::vector<std::string>& unsupported);
 
 /**
+ * Which of the constraints pairs (the System's first, then frozen distances; most important first) to keep: row c of
+ * B = J M^-1 J^T (J: the unit directions at positions) is eliminated in order, and a frozen distance whose pivot is at
+ * most threshold times its diagonal entry (the squared sine of the angle between its direction and the span of those
+ * kept before it, in the mass metric) is left out.  Nearly planar rings and centres make whole sets of 1-3
+ * distances nearly dependent; keeping them would make B so ill conditioned that no iteration holds them.
+ */
+OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector<std::pair<int, int>>& pairs,
+                                                               const std::vector<char>& frozen,
+                                                               const std::vector<double>& inverseMasses,
+                                                               const std::vector<OpenMM::Vec3>& positions,
+                                                               double threshold);
+
+/**
  * The frozen drift and kick of the artificial FLAVOR for stiff bonded forces: the frozen distances are held as
- * temporary constraints next to the System's own (which stay on throughout), with SHAKE for positions and RATTLE's
- * velocity step, solved by Gauss-Seidel sweeps to the integrator's constraint tolerance, each cluster of coupled
- * constraints on its own through the platform's ParallelLoop.
+ * temporary constraints next to the System's own (which stay on throughout), each cluster of coupled constraints on
+ * its own through the platform's ParallelLoop.
  *
  *     drift(h):  store the rates of the frozen distances; remove the velocity components along every constraint
  *                (mass-orthogonal projection onto the constraint manifold's tangent space); drift with the frozen
@@ -39,18 +65,39 @@ OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>> bondedFrozenPairs(const O
  *     kick(h):   v += h P M^-1 F, with P the same projection (the soft impulse's component along the frozen
  *                distances and the System's constraints dropped).
  *
+ * Each cluster is solved as a whole, not constraint by constraint: a protein with its angles frozen is one cluster of
+ * well over a thousand coupled distances, where Gauss-Seidel sweeps (SHAKE) converge far too slowly.  The matrix
+ * B = J M^-1 J^T of the cluster (J: the unit constraint directions) is factorized (SparseLDLT) where a drift starts
+ * and after each of its RATTLE steps; positions follow Newton's iteration with B from the start of the step (the
+ * corrections along the directions there, as in SHAKE), velocities one solve with B where they are (refinement if B
+ * is from elsewhere), both to the integrator's constraint tolerance.  If Newton's iteration does not converge, the
+ * drift is repeated from its start in 2, 4, ... 16 RATTLE steps, each turning the directions less.  Frozen distances
+ * that are nearly dependent on the System's constraints and the frozen distances before them are left out at
+ * construction (independentConstraints), so B stays well conditioned; rows that become exactly dependent later are
+ * recognised by their pivots and dropped.
+ *
  * All buffers are sized at construction; the steps do not allocate.
  */
 class OPENMM_EXPORT_FLAVORS FrozenDistances : public RangeTask {
 public:
-    FrozenDistances(const OpenMM::System& system, const std::vector<std::pair<int, int>>& frozenPairs);
+    /**
+     * @param frozenPairs  the distances to freeze, most important first
+     * @param positions    where the set is checked for dependence: a frozen distance whose direction is (nearly) a
+     *                     combination of the System's constraints and the frozen distances before it is left out
+     *                     (it stays as it is to first order while the others hold); see independentConstraints()
+     */
+    FrozenDistances(const OpenMM::System& system, const std::vector<std::pair<int, int>>& frozenPairs,
+                    const std::vector<OpenMM::Vec3>& positions);
+    /** The frozen distances held (those of the constructor less the System's constraints and the dependent ones). */
     int getNumFrozen() const { return numFrozen; }
+    /** The frozen distances left out as dependent. */
+    int getNumDependent() const { return numDependent; }
     /** The connected components of the constraint graph (a particle without constraints is one of its own). */
     int getNumClusters() const { return (int)particleStart.size() - 1; }
-    /** The frozen drift over h, cluster by cluster through loop; throws if SHAKE does not converge. */
+    /** The frozen drift over h, cluster by cluster through loop; throws if the constraints cannot be held. */
     void drift(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
                const std::vector<double>& inverseMasses, double h, double tolerance, ParallelLoop& loop);
-    /** The frozen kick v += h P M^-1 F, cluster by cluster through loop. */
+    /** The frozen kick v += h P M^-1 F, cluster by cluster through loop; throws if the projection does not converge. */
     void kick(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
               const std::vector<OpenMM::Vec3>& forces, const std::vector<double>& inverseMasses, double h,
               double tolerance, ParallelLoop& loop);
@@ -58,24 +105,44 @@ public:
     void apply(int begin, int end) const override;
 
 private:
-    static constexpr int MaxSweeps = 1000;
+    static constexpr int MaxIterations = 100;
+    static constexpr int MaxSubsteps = 16;
+    static constexpr double MaxRelativeViolation = 0.1;
+    static constexpr double DependenceThreshold = 1e-2;
     void driftCluster(int k) const;
+    /** The frozen drift of cluster k over h as substeps RATTLE steps; false if an iteration did not converge. */
+    bool driftInSubsteps(int k, int substeps) const;
     void kickCluster(int k) const;
-    /** SHAKE: moves positions along the constraint directions at previousPositions until every length holds. */
+    /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
+    void factorize(int k) const;
+    /** Newton's iteration with the factorized B: moves positions along the stored directions until every length
+     * holds. */
     bool constrainPositions(int k) const;
-    /** Sets v so that every constraint's rate is its target (withTargets) or 0. */
-    void constrainVelocities(int k, OpenMM::Vec3* v, bool withTargets) const;
+    /** Sets v so that every constraint's rate along its current direction is its target (withTargets) or 0. */
+    bool constrainVelocities(int k, OpenMM::Vec3* v, bool withTargets, int maxIterations) const;
+    /** constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here. */
+    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v, bool withTargets) const;
     void checkConvergence();
-    int numFrozen;
+    int numFrozen, numDependent;
     // Cluster k owns particles[particleStart[k] .. particleStart[k+1]) and constraints
     // [constraintStart[k], constraintStart[k+1]) of pairs, lengths and frozen (1 for a frozen distance, 0 for a
     // System constraint).
     std::vector<int> particles, particleStart, constraintStart;
     std::vector<std::pair<int, int>> pairs;
     std::vector<char> frozen;
+    // The off-diagonal entries of each cluster's B: two constraints (global indices) sharing a particle, with the
+    // sign of the product of their directions there; entries [couplingStart[k], couplingStart[k+1]).
+    struct ClusterCoupling {
+        int first, second, particle;
+        double sign;
+    };
+    std::vector<ClusterCoupling> couplings;
+    std::vector<int> couplingStart;
+    mutable std::vector<SparseLDLT> solvers;
     // Written per cluster while the loop runs (each cluster its own entries).
-    mutable std::vector<double> lengths, targetRates;
-    mutable std::vector<OpenMM::Vec3> previousPositions, scratch;
+    mutable std::vector<double> lengths, targetRates, residuals;
+    mutable std::vector<OpenMM::Vec3> directions, previousPositions, startPositions, startVelocities, scratch;
+    mutable std::vector<char> factorized;
     mutable std::vector<char> failed;
     // The current call's data.
     OpenMM::Vec3* positions;

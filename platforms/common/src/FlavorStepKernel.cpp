@@ -84,21 +84,13 @@ void FlavorStepKernel::determineFrozenCoordinates(ContextImpl& context, const Fl
                                   "group; set it to false to integrate nonlinear stiff forces with the stiff kicks");
         vector<string> unsupported;
         vector<std::pair<int, int>> pairs = bondedFrozenPairs(context, parameters.stiffGroups, extra, unsupported);
-        if (!unsupported.empty() && extra.empty()) {
-            string list;
-            for (const string& u : unsupported)
-                list += (list.empty() ? "" : ", ") + u;
-            throw OpenMMException(
-                "FlavorIntegrator: the artificial averaging freezes the stiff degrees of freedom, but the stiff force "
-                "groups are not quadratic and the frozen coordinates of " +
-                list +
-                " cannot be determined (only HarmonicBondForce, CustomBondForce and HarmonicAngleForce have known "
-                "frozen distances).  Declare its frozen distances with FlavorIntegrator::addFrozenDistance(), move "
-                "it to a soft force group, or use the Nonintrusive averaging");
-        }
+        if (!unsupported.empty() && extra.empty())
+            throw OpenMMException(describeUnfreezableForces(unsupported));
         if (pairs == frozenPairs && frozenDistances)
             return;
-        frozenDistances = std::make_shared<FrozenDistances>(context.getSystem(), pairs);
+        vector<Vec3> positions;
+        context.getPositions(positions);
+        frozenDistances = std::make_shared<FrozenDistances>(context.getSystem(), pairs, positions);
         frozenPairs = pairs;
         runner->setFrozenDistances(frozenDistances);
     }

@@ -6,7 +6,9 @@
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <set>
 #include <utility>
 
@@ -24,6 +26,29 @@ pair<int, int> ordered(int a, int b) {
 
 } // namespace
 
+vector<pair<int, int>> FlavorPlugin::nonredundantAngleDistances(const vector<std::array<int, 3>>& angles) {
+    // The neighbours of each centre in order of first appearance.
+    std::map<int, vector<int>> neighbours;
+    for (const std::array<int, 3>& angle : angles)
+        for (int end : {angle[0], angle[2]}) {
+            vector<int>& list = neighbours[angle[1]];
+            if (std::find(list.begin(), list.end(), end) == list.end())
+                list.push_back(end);
+        }
+    vector<pair<int, int>> result;
+    for (const std::array<int, 3>& angle : angles) {
+        const vector<int>& list = neighbours[angle[1]];
+        const int k = (int)list.size();
+        const int a = (int)(std::find(list.begin(), list.end(), angle[0]) - list.begin());
+        const int b = (int)(std::find(list.begin(), list.end(), angle[2]) - list.begin());
+        const int low = std::min(a, b), high = std::max(a, b);
+        if (low > 1 || (k == 3 && low == 1 && high == 2))
+            continue;
+        result.push_back(ordered(angle[0], angle[2]));
+    }
+    return result;
+}
+
 vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& context, int stiffGroups,
                                                        const vector<pair<int, int>>& extra,
                                                        vector<string>& unsupported) {
@@ -35,6 +60,7 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
             result.push_back(ordered(a, b));
     };
     unsupported.clear();
+    vector<std::array<int, 3>> angles;
     for (int f = 0; f < system.getNumForces(); ++f) {
         const Force& force = system.getForce(f);
         if ((stiffGroups & (1 << force.getForceGroup())) == 0)
@@ -53,38 +79,91 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
                 custom->getBondParameters(b, p1, p2, parameters);
                 add(p1, p2);
             }
-        } else if (const HarmonicAngleForce* angles = dynamic_cast<const HarmonicAngleForce*>(&force)) {
-            for (int a = 0; a < angles->getNumAngles(); ++a) {
-                int p1, p2, p3;
-                double angle, k;
-                angles->getAngleParameters(a, p1, p2, p3, angle, k);
-                add(p1, p3);
+        } else if (const HarmonicAngleForce* angleForce = dynamic_cast<const HarmonicAngleForce*>(&force)) {
+            for (int a = 0; a < angleForce->getNumAngles(); ++a) {
+                std::array<int, 3> angle;
+                double theta, k;
+                angleForce->getAngleParameters(a, angle[0], angle[1], angle[2], theta, k);
+                angles.push_back(angle);
             }
         } else {
             unsupported.push_back("force " + std::to_string(f) + " (" + force.getName() + ", force group " +
                                   std::to_string(force.getForceGroup()) + ")");
         }
     }
+    for (const pair<int, int>& p : nonredundantAngleDistances(angles))
+        add(p.first, p.second);
     for (const pair<int, int>& p : extra)
         add(p.first, p.second);
     return result;
 }
 
-FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs)
+namespace {
+
+/** The off-diagonal pattern of B = J M^-1 J^T over pairs: each two constraints sharing a particle, with the particle
+ * and the sign of the product of their directions there. */
+struct Coupling {
+    int first, second, particle;
+    double sign;
+};
+
+vector<Coupling> couplingsOf(const vector<pair<int, int>>& pairs, int first, int last, int numParticles) {
+    vector<vector<int>> touching(numParticles);
+    vector<Coupling> result;
+    for (int c = first; c < last; ++c)
+        for (int end = 0; end < 2; ++end) {
+            const int particle = end == 0 ? pairs[c].first : pairs[c].second;
+            for (int d : touching[particle]) {
+                const bool sameEnd = (pairs[d].first == particle) == (end == 0);
+                result.push_back({d, c, particle, sameEnd ? 1.0 : -1.0});
+            }
+            touching[particle].push_back(c);
+        }
+    return result;
+}
+
+} // namespace
+
+vector<char> FlavorPlugin::independentConstraints(const vector<pair<int, int>>& pairs, const vector<char>& frozen,
+                                                  const vector<double>& inverseMasses, const vector<Vec3>& positions,
+                                                  double threshold) {
+    const int n = (int)pairs.size();
+    const vector<Coupling> couplings = couplingsOf(pairs, 0, n, (int)positions.size());
+    vector<pair<int, int>> offDiagonal;
+    for (const Coupling& coupling : couplings)
+        offDiagonal.emplace_back(coupling.first, coupling.second);
+    SparseLDLT rows(n, offDiagonal, false);
+    vector<Vec3> directions(n);
+    for (int c = 0; c < n; ++c) {
+        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
+        const double length = std::sqrt(r.dot(r));
+        directions[c] = length > 0 ? r / length : Vec3();
+        rows.setDiagonal(c, inverseMasses[pairs[c].first] + inverseMasses[pairs[c].second]);
+    }
+    for (size_t e = 0; e < couplings.size(); ++e)
+        rows.setOffDiagonal((int)e, couplings[e].sign * inverseMasses[couplings[e].particle] *
+                                        directions[couplings[e].first].dot(directions[couplings[e].second]));
+    rows.factorize(threshold);
+    vector<char> keep(n);
+    for (int c = 0; c < n; ++c)
+        keep[c] = !frozen[c] || !rows.isDependent(c);
+    return keep;
+}
+
+FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs,
+                                 const vector<Vec3>& positionsToCheck)
     : positions(nullptr), velocities(nullptr), forces(nullptr), inverseMasses(nullptr), h(0.0), tolerance(0.0),
       kicking(false) {
     const int n = system.getNumParticles();
-    vector<pair<int, int>> all;
-    vector<double> allLengths;
-    vector<bool> allFrozen;
+    vector<pair<int, int>> candidates;
+    vector<char> candidateFrozen;
     std::set<pair<int, int>> constrained;
     for (int c = 0; c < system.getNumConstraints(); ++c) {
         int p1, p2;
         double distance;
         system.getConstraintParameters(c, p1, p2, distance);
-        all.emplace_back(p1, p2);
-        allLengths.push_back(distance);
-        allFrozen.push_back(false);
+        candidates.emplace_back(p1, p2);
+        candidateFrozen.push_back(0);
         constrained.insert(ordered(p1, p2));
     }
     for (const pair<int, int>& p : frozenPairs) {
@@ -94,10 +173,33 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
                                   " involves a massless particle; massless particles do not move and cannot be "
                                   "frozen.  Move the force acting on it to a soft group");
         if (constrained.count(ordered(p.first, p.second)) == 0) {
-            all.push_back(p);
-            allLengths.push_back(0.0); // set from the positions before each drift
-            allFrozen.push_back(true);
+            candidates.push_back(p);
+            candidateFrozen.push_back(1);
         }
+    }
+    vector<double> particleInverseMasses(n);
+    for (int i = 0; i < n; ++i)
+        particleInverseMasses[i] = system.getParticleMass(i) == 0.0 ? 0.0 : 1.0 / system.getParticleMass(i);
+    const vector<char> keep = independentConstraints(candidates, candidateFrozen, particleInverseMasses,
+                                                     positionsToCheck, DependenceThreshold);
+    vector<pair<int, int>> all;
+    vector<double> allLengths;
+    vector<bool> allFrozen;
+    numDependent = 0;
+    for (size_t c = 0; c < candidates.size(); ++c) {
+        if (!keep[c]) {
+            ++numDependent;
+            continue;
+        }
+        all.push_back(candidates[c]);
+        allFrozen.push_back(candidateFrozen[c] != 0);
+        // The System's lengths; the frozen ones are set from the positions before each drift.
+        double length = 0.0;
+        if (c < (size_t)system.getNumConstraints()) {
+            int p1, p2;
+            system.getConstraintParameters((int)c, p1, p2, length);
+        }
+        allLengths.push_back(length);
     }
     numFrozen = 0;
     for (bool f : allFrozen)
@@ -141,10 +243,27 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
         particleStart.push_back((int)particles.size());
         constraintStart.push_back((int)pairs.size());
     }
+    // B's pattern: constraints sharing a particle are coupled through it.
+    couplingStart.push_back(0);
+    for (int k = 0; k < numClusters; ++k) {
+        const int first = constraintStart[k], last = constraintStart[k + 1];
+        vector<pair<int, int>> offDiagonal;
+        for (const Coupling& coupling : couplingsOf(pairs, first, last, n)) {
+            couplings.push_back({coupling.first, coupling.second, coupling.particle, coupling.sign});
+            offDiagonal.emplace_back(coupling.first - first, coupling.second - first);
+        }
+        couplingStart.push_back((int)couplings.size());
+        solvers.emplace_back(last - first, offDiagonal);
+    }
     targetRates.assign(pairs.size(), 0.0);
+    residuals.assign(pairs.size(), 0.0);
+    directions.resize(pairs.size());
     previousPositions.resize(n);
+    startPositions.resize(n);
+    startVelocities.resize(n);
     scratch.resize(n);
     failed.assign(numClusters, 0);
+    factorized.assign(numClusters, 0);
 }
 
 void FrozenDistances::drift(vector<Vec3>& q, vector<Vec3>& v, const vector<double>& w, double step, double tol,
@@ -169,6 +288,7 @@ void FrozenDistances::kick(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>&
     tolerance = tol;
     kicking = true;
     loop.run(*this, getNumClusters());
+    checkConvergence();
 }
 
 void FrozenDistances::checkConvergence() {
@@ -177,7 +297,7 @@ void FrozenDistances::checkConvergence() {
             std::fill(failed.begin(), failed.end(), 0);
             throw OpenMMException("FlavorIntegrator: the frozen distances could not be held to the constraint "
                                   "tolerance " +
-                                  std::to_string(tolerance) + " in " + std::to_string(MaxSweeps) +
+                                  std::to_string(tolerance) + " in " + std::to_string(MaxIterations) +
                                   " iterations; the simulation is unstable (reduce the mesostep)");
         }
 }
@@ -193,6 +313,11 @@ void FrozenDistances::apply(int begin, int end) const {
 
 void FrozenDistances::driftCluster(int k) const {
     const int firstConstraint = constraintStart[k], lastConstraint = constraintStart[k + 1];
+    if (lastConstraint == firstConstraint) {
+        for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
+            positions[particles[n]] += velocities[particles[n]] * h;
+        return;
+    }
     // Store the rates of the frozen distances and hold them at their current lengths.
     for (int c = firstConstraint; c < lastConstraint; ++c) {
         if (!frozen[c])
@@ -201,24 +326,50 @@ void FrozenDistances::driftCluster(int k) const {
         lengths[c] = std::sqrt(r.dot(r));
         targetRates[c] = r.dot(velocities[pairs[c].first] - velocities[pairs[c].second]) / lengths[c];
     }
-    constrainVelocities(k, velocities, false);
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
         const int i = particles[n];
-        previousPositions[i] = positions[i];
-        positions[i] += velocities[i] * h;
+        startPositions[i] = positions[i];
+        startVelocities[i] = velocities[i];
     }
-    if (lastConstraint == firstConstraint)
-        return;
-    if (!constrainPositions(k))
-        failed[k] = 1;
-    const double inverseTime = 1.0 / h;
-    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
-        const int i = particles[n];
-        velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
+    // The constrained free flight in RATTLE steps: one if its Newton iteration converges, otherwise 2, 4, ... from
+    // the start again (the flight turns the constraint directions less per step).
+    for (int substeps = 1; substeps <= MaxSubsteps; substeps *= 2) {
+        if (driftInSubsteps(k, substeps))
+            return;
+        for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+            const int i = particles[n];
+            positions[i] = startPositions[i];
+            velocities[i] = startVelocities[i];
+        }
     }
-    // Back onto the tangent space at the new positions (RATTLE), then the stored rates along the new directions:
-    // one solve with the targets does both.
-    constrainVelocities(k, velocities, true);
+    failed[k] = 1;
+}
+
+bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
+    const double step = h / substeps;
+    factorize(k);
+    if (!constrainVelocities(k, velocities, false, MaxIterations))
+        return false;
+    for (int s = 0; s < substeps; ++s) {
+        for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+            const int i = particles[n];
+            previousPositions[i] = positions[i];
+            positions[i] += velocities[i] * step;
+        }
+        if (!constrainPositions(k))
+            return false;
+        for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
+            const int i = particles[n];
+            velocities[i] = (positions[i] - previousPositions[i]) * (1.0 / step);
+        }
+        // Back onto the tangent space at the new positions (RATTLE); after the last step also the stored rates along
+        // the new directions: one solve with the targets does both.  The factorization here serves the next step and
+        // the kicks that follow the drift.
+        factorize(k);
+        if (!constrainVelocities(k, velocities, s == substeps - 1, MaxIterations))
+            return false;
+    }
+    return true;
 }
 
 void FrozenDistances::kickCluster(int k) const {
@@ -226,60 +377,111 @@ void FrozenDistances::kickCluster(int k) const {
         const int i = particles[n];
         scratch[i] = forces[i] * (h * inverseMasses[i]);
     }
-    constrainVelocities(k, scratch.data(), false);
+    if (constraintStart[k + 1] > constraintStart[k]) {
+        // The factorization of the last drift is close to B here; a new one only when none exists yet.
+        if (!factorized[k])
+            factorize(k);
+        if (!constrainVelocitiesRefactorizing(k, scratch.data(), false))
+            failed[k] = 1;
+    }
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
         const int i = particles[n];
         velocities[i] += scratch[i];
     }
 }
 
+void FrozenDistances::factorize(int k) const {
+    const int first = constraintStart[k];
+    SparseLDLT& solver = solvers[k];
+    for (int c = first; c < constraintStart[k + 1]; ++c) {
+        const int i = pairs[c].first, j = pairs[c].second;
+        Vec3 u = positions[i] - positions[j];
+        u *= 1.0 / std::sqrt(u.dot(u));
+        directions[c] = u;
+        solver.setDiagonal(c - first, inverseMasses[i] + inverseMasses[j]);
+    }
+    for (int e = couplingStart[k]; e < couplingStart[k + 1]; ++e) {
+        const ClusterCoupling& coupling = couplings[e];
+        solver.setOffDiagonal(e - couplingStart[k], coupling.sign * inverseMasses[coupling.particle] *
+                                                        directions[coupling.first].dot(directions[coupling.second]));
+    }
+    // A pivot this small relative to its diagonal is a direction already spanned by the rows before it.
+    solver.factorize(1e-10);
+    factorized[k] = 1;
+}
+
 bool FrozenDistances::constrainPositions(int k) const {
-    // SHAKE: Gauss-Seidel sweeps, each constraint corrected along its direction before the drift.
-    for (int sweep = 0; sweep < MaxSweeps; ++sweep) {
+    // Newton's iteration for |r_c|^2 = L_c^2 with corrections M^-1 J0^T lambda along the directions J0 at the start
+    // of the drift: B lambda = (L^2 - r^2) / (2 L) to first order.
+    const int first = constraintStart[k], last = constraintStart[k + 1];
+    double* lambda = &residuals[first];
+    for (int iteration = 0; iteration < MaxIterations; ++iteration) {
         bool converged = true;
-        for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
-            const int i = pairs[c].first, j = pairs[c].second;
-            const double wi = inverseMasses[i], wj = inverseMasses[j];
-            const Vec3 r = positions[i] - positions[j];
-            const Vec3 reference = previousPositions[i] - previousPositions[j];
+        double largest = 0.0;
+        for (int c = first; c < last; ++c) {
+            const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
             const double target = lengths[c] * lengths[c];
             const double difference = target - r.dot(r);
-            if (std::abs(difference) <= 2 * tolerance * target)
-                continue;
-            converged = false;
-            const double g = difference / (2 * (wi + wj) * r.dot(reference));
-            positions[i] += reference * (wi * g);
-            positions[j] -= reference * (wj * g);
+            // Rows found dependent hold when the others do; their residual is not theirs to remove.
+            // Written so that a NaN counts as not converged.
+            if (!(std::abs(difference) <= 2 * tolerance * target) && !solvers[k].isDependent(c - first))
+                converged = false;
+            lambda[c - first] = difference / (2 * lengths[c]);
+            largest = std::max(largest, std::abs(difference) / target);
         }
+        // Diverging (or NaN): give up early, the caller takes shorter steps.
+        if (!(largest < MaxRelativeViolation))
+            return false;
         if (converged)
             return true;
+        solvers[k].solve(lambda);
+        for (int c = first; c < last; ++c) {
+            const int i = pairs[c].first, j = pairs[c].second;
+            positions[i] += directions[c] * (inverseMasses[i] * lambda[c - first]);
+            positions[j] -= directions[c] * (inverseMasses[j] * lambda[c - first]);
+        }
     }
     return false;
 }
 
-void FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets) const {
+bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v, bool withTargets) const {
+    // Refinement with B from elsewhere converges while the directions are close; if not, B from here.
+    if (constrainVelocities(k, v, withTargets, MaxIterations / 10))
+        return true;
+    factorize(k);
+    return constrainVelocities(k, v, withTargets, MaxIterations);
+}
+
+bool FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets, int maxIterations) const {
     // RATTLE's velocity step with targets (the stored rates of the frozen distances, 0 for the System's constraints,
-    // or 0 for all): v_i += w_i d u, v_j -= w_j d u along each constraint's unit vector u, which solves
-    // (J M^-1 J^T) lambda = targets - J v by Gauss-Seidel sweeps.
-    for (int sweep = 0; sweep < MaxSweeps; ++sweep) {
+    // or 0 for all): (J M^-1 J^T) mu = targets - J v along the current unit directions J, by iterative refinement
+    // with the factorized B (exact in one iteration where B was factorized).
+    const int first = constraintStart[k], last = constraintStart[k + 1];
+    double* mu = &residuals[first];
+    for (int iteration = 0; iteration < maxIterations; ++iteration) {
         bool converged = true;
-        for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
+        for (int c = first; c < last; ++c) {
             const int i = pairs[c].first, j = pairs[c].second;
-            const double wi = inverseMasses[i], wj = inverseMasses[j];
             Vec3 u = positions[i] - positions[j];
             u *= 1.0 / std::sqrt(u.dot(u));
             const Vec3 relative = v[i] - v[j];
             const double target = withTargets ? targetRates[c] : 0.0;
             const double error = target - u.dot(relative);
             const double scale = std::sqrt(relative.dot(relative)) + std::abs(target);
-            if (std::abs(error) <= tolerance * scale)
-                continue;
-            converged = false;
-            const double d = error / (wi + wj);
-            v[i] += u * (wi * d);
-            v[j] -= u * (wj * d);
+            if (!(std::abs(error) <= tolerance * scale) && !solvers[k].isDependent(c - first))
+                converged = false;
+            mu[c - first] = error;
         }
         if (converged)
-            return;
+            return true;
+        solvers[k].solve(mu);
+        for (int c = first; c < last; ++c) {
+            const int i = pairs[c].first, j = pairs[c].second;
+            Vec3 u = positions[i] - positions[j];
+            u *= 1.0 / std::sqrt(u.dot(u));
+            v[i] += u * (inverseMasses[i] * mu[c - first]);
+            v[j] -= u * (inverseMasses[j] * mu[c - first]);
+        }
     }
+    return false;
 }

@@ -10,6 +10,7 @@
 #include "openmm/HarmonicAngleForce.h"
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/OpenMMException.h"
+#include "openmm/PeriodicTorsionForce.h"
 #include "openmm/VerletIntegrator.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include <algorithm>
@@ -464,6 +465,57 @@ TEST_P(FlavorArtificial, LangevinArtificialFlavorSamplesTheStiffCoordinatesWithT
     }
 }
 
+TEST_P(FlavorArtificial, AStiffForceThatCanNeverBeFrozenIsRejectedAtContextCreation) {
+    // A torsion is neither quadratic nor a known distance: known without positions, so rejected at Context creation,
+    // and by setAveraging and setStiffGroups on a Context that runs the Nonintrusive averaging, which stays usable.
+    std::unique_ptr<System> system(new System());
+    for (int i = 0; i < 4; ++i)
+        system->addParticle(12.0);
+    PeriodicTorsionForce* torsion = new PeriodicTorsionForce();
+    torsion->addTorsion(0, 1, 2, 3, 3, 0.0, 5.0);
+    torsion->setForceGroup(StiffGroup);
+    system->addForce(torsion);
+    CustomExternalForce* soft = new CustomExternalForce("x^2+y^2+z^2");
+    for (int i = 0; i < 4; ++i)
+        soft->addParticle(i);
+    soft->setForceGroup(SoftGroup);
+    system->addForce(soft);
+    const vector<Vec3> positions = {Vec3(0, 0.1, 0), Vec3(0, 0, 0), Vec3(0.15, 0, 0), Vec3(0.15, 0.1, 0.05)};
+    auto expectMessage = [](const OpenMMException& e) {
+        const std::string message = e.what();
+        for (const char* part : {"force 0 (PeriodicTorsionForce", "addFrozenDistance", "Nonintrusive"})
+            EXPECT_NE(std::string::npos, message.find(part)) << message;
+    };
+    {
+        FlavorIntegrator integrator(0.002, 0.0005, StiffMask);
+        integrator.setAveraging(FlavorIntegrator::ArtificialProjected);
+        try {
+            Context context(*system, integrator, platform(), properties());
+            FAIL() << "a stiff torsion was accepted by the artificial averaging";
+        } catch (const OpenMMException& e) {
+            expectMessage(e);
+        }
+    }
+    FlavorIntegrator integrator(0.002, 0.0005, StiffMask);
+    Context context(*system, integrator, platform(), properties());
+    context.setPositions(positions);
+    integrator.step(2);
+    try {
+        integrator.setAveraging(FlavorIntegrator::Artificial);
+        FAIL() << "setAveraging accepted a stiff torsion";
+    } catch (const OpenMMException& e) {
+        expectMessage(e);
+    }
+    EXPECT_EQ(FlavorIntegrator::Nonintrusive, integrator.getAveraging());
+    integrator.step(2);
+    EXPECT_EQ(4, context.getStepCount());
+    // With a frozen distance declared the user has said what freezes: accepted.
+    integrator.addFrozenDistance(0, 3);
+    integrator.setAveraging(FlavorIntegrator::Artificial);
+    integrator.step(1);
+    EXPECT_EQ(5, context.getStepCount());
+}
+
 TEST_P(FlavorArtificial, AStiffForceWithoutKnownFrozenCoordinatesIsRejectedAndTheContextStaysUsable) {
     std::unique_ptr<System> system(new System());
     system->addParticle(1.0);
@@ -625,6 +677,116 @@ TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStored
         EXPECT_NEAR(momentum1[d], momentum2[d], 1e-9);
         EXPECT_NEAR(centre1[d] / mass + (delta - tau) * momentum1[d] / mass, centre2[d] / mass, 1e-11);
     }
+}
+
+namespace {
+
+/**
+ * Neopentane, C(CH3)4, with every bond and every angle stiff: 16 bonds and the 1-3 distances of 30 angles on 17 atoms.
+ * Each carbon has four neighbours, whose six 1-3 distances and four bonds are one more than the nine degrees of
+ * freedom they fix: the full set is redundant.  The positions are slightly off the ideal tetrahedra.
+ */
+System* neopentane(vector<Vec3>& positions, vector<std::array<int, 3>>& angles) {
+    System* system = new System();
+    const double s = 1 / std::sqrt(3.0);
+    const Vec3 directions[4] = {Vec3(s, s, s), Vec3(s, -s, -s), Vec3(-s, s, -s), Vec3(-s, -s, s)};
+    std::mt19937 random(3);
+    std::uniform_real_distribution<double> jitter(-0.003, 0.003);
+    auto add = [&](double mass, Vec3 position) {
+        positions.push_back(position + Vec3(jitter(random), jitter(random), jitter(random)));
+        return system->addParticle(mass);
+    };
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    HarmonicAngleForce* angleForce = new HarmonicAngleForce();
+    const int centre = add(12.0, Vec3());
+    vector<int> methyls;
+    for (int i = 0; i < 4; ++i) {
+        const int carbon = add(12.0, directions[i] * 0.153);
+        bonds->addBond(centre, carbon, 0.153, 2.5e5);
+        vector<int> hydrogens;
+        for (int j = 0; j < 4; ++j)
+            if (j != i) {
+                hydrogens.push_back(add(1.0, directions[i] * 0.153 - directions[j] * 0.109));
+                bonds->addBond(carbon, hydrogens.back(), 0.109, 2.8e5);
+                angles.push_back({centre, carbon, hydrogens.back()});
+            }
+        for (int a = 0; a < 3; ++a)
+            for (int b = a + 1; b < 3; ++b)
+                angles.push_back({hydrogens[a], carbon, hydrogens[b]});
+        methyls.push_back(carbon);
+    }
+    for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b)
+            angles.push_back({methyls[a], centre, methyls[b]});
+    for (const std::array<int, 3>& angle : angles)
+        angleForce->addAngle(angle[0], angle[1], angle[2], 1.911, 400.0);
+    bonds->setForceGroup(StiffGroup);
+    angleForce->setForceGroup(StiffGroup);
+    system->addForce(bonds);
+    system->addForce(angleForce);
+    return system;
+}
+
+} // namespace
+
+TEST_P(FlavorArtificial, FrozenStageHoldsARedundantFrozenSetOfBondsAndAngles) {
+    // As above on neopentane: after the microstep D(tau) K_stiff(tau) (computed here), the frozen drift over
+    // delta - tau must keep all 46 frozen distances, the redundant ones the library leaves out included, at their
+    // values after the microstep and give them back their rates, while the molecule moves and its methyl groups turn.
+    const double delta = 0.004, tau = 1e-4, tolerance = 1e-10;
+    vector<Vec3> q0;
+    vector<std::array<int, 3>> angles;
+    std::unique_ptr<System> system(neopentane(q0, angles));
+    const int n = system->getNumParticles();
+    vector<Vec3> v0(n), q1(n), v1(n);
+    std::mt19937 random(8);
+    std::normal_distribution<double> gauss;
+    for (int i = 0; i < n; ++i) {
+        v0[i] = Vec3(gauss(random), gauss(random), gauss(random)) * std::sqrt(2.5 / system->getParticleMass(i));
+        q1[i] = q0[i] + v0[i] * tau;
+    }
+    {
+        VerletIntegrator probe(0.001);
+        Context forces(*system, probe, platform(), properties());
+        forces.setPositions(q1);
+        vector<Vec3> f = forces.getState(State::Forces, false, StiffMask).getForces();
+        for (int i = 0; i < n; ++i)
+            v1[i] = v0[i] + f[i] * (tau / system->getParticleMass(i));
+    }
+    CustomExternalForce* zeroSoftForce = new CustomExternalForce("0");
+    zeroSoftForce->setForceGroup(3);
+    system->addForce(zeroSoftForce);
+    FlavorIntegrator integrator(delta, tau, StiffMask);
+    integrator.setScheme(FlavorIntegrator::SymplecticEuler);
+    integrator.setAveraging(FlavorIntegrator::Artificial);
+    integrator.setIntegrationForceGroups(StiffMask | (1 << 3));
+    integrator.setConstraintTolerance(tolerance);
+    Context context(*system, integrator, platform(), properties());
+    context.setPositions(q0);
+    context.setVelocities(v0);
+    integrator.step(1);
+    const vector<Vec3> q2 = positionsOf(context), v2 = velocitiesOf(context);
+    vector<std::pair<int, int>> frozen;
+    for (int b = 0; b < 16; ++b)
+        frozen.emplace_back(0, 0);
+    HarmonicBondForce& bonds = dynamic_cast<HarmonicBondForce&>(system->getForce(0));
+    for (int b = 0; b < bonds.getNumBonds(); ++b) {
+        double length, k;
+        bonds.getBondParameters(b, frozen[b].first, frozen[b].second, length, k);
+    }
+    for (const std::array<int, 3>& angle : angles)
+        frozen.emplace_back(angle[0], angle[2]);
+    ASSERT_EQ(46u, frozen.size());
+    for (const std::pair<int, int>& pair : frozen) {
+        EXPECT_NEAR(distance(q1, pair.first, pair.second), distance(q2, pair.first, pair.second), 1e-9)
+            << pair.first << "-" << pair.second;
+        EXPECT_NEAR(rate(q1, v1, pair.first, pair.second), rate(q2, v2, pair.first, pair.second), 1e-7)
+            << pair.first << "-" << pair.second;
+    }
+    // Not a no-op: a hydrogen moved by more than a tenth of its drift, and a methyl group turned about its bond
+    // (the distance between hydrogens of two methyls changed).
+    EXPECT_GT((q2[2] - q1[2]).dot(q2[2] - q1[2]), 1e-2 * (delta - tau) * (delta - tau) * v1[2].dot(v1[2]));
+    EXPECT_GT(std::abs(distance(q2, 2, 6) - distance(q1, 2, 6)), 1e-5);
 }
 
 namespace {

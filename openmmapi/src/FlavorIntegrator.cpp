@@ -1,6 +1,7 @@
 #include "FlavorIntegrator.h"
 #include "FlavorKernels.h"
 #include "internal/ParameterChecks.h"
+#include "internal/StiffGroupChecks.h"
 #include "openmm/Context.h"
 #include "openmm/Force.h"
 #include "openmm/OpenMMException.h"
@@ -80,6 +81,8 @@ void FlavorIntegrator::setStiffGroups(int groups) {
         requireForceInGroups(Owner, context->getSystem(), groups);
         requireStiffGroupsIntegrated(Owner, "stiffGroups", groups, getIntegrationForceGroups());
         requireSoftForce(context->getSystem(), "stiffGroups", groups, getIntegrationForceGroups());
+        if (averaging != Nonintrusive)
+            rejectUnfreezableStiffForces(context->getSystem(), groups, !frozenDistances.empty());
     }
     stiffGroups = groups;
     stiffModesValid = false;
@@ -105,6 +108,8 @@ void FlavorIntegrator::setAveraging(Averaging newAveraging) {
         throwInvalidParameter(Owner, "averaging", std::to_string((int)newAveraging),
                               "averaging must be FlavorIntegrator::Nonintrusive (0), FlavorIntegrator::Artificial (1) "
                               "or FlavorIntegrator::ArtificialProjected (2)");
+    if (context != nullptr && newAveraging != Nonintrusive)
+        rejectUnfreezableStiffForces(context->getSystem(), stiffGroups, !frozenDistances.empty());
     averaging = newAveraging;
 }
 
@@ -186,6 +191,8 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, getIntegrationForceGroups());
     requireSoftForce(contextRef.getSystem(), "stiffGroups", stiffGroups, getIntegrationForceGroups());
     requireParticleIndices(frictionParticles, contextRef.getSystem().getNumParticles());
+    if (averaging != Nonintrusive)
+        rejectUnfreezableStiffForces(contextRef.getSystem(), stiffGroups, !frozenDistances.empty());
     for (const std::pair<int, int>& pair : frozenDistances)
         for (int p : {pair.first, pair.second})
             if (p >= contextRef.getSystem().getNumParticles())

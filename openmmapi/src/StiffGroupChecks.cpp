@@ -1,7 +1,17 @@
 #include "internal/StiffGroupChecks.h"
 #include "internal/UnionFind.h"
+#include "openmm/CMAPTorsionForce.h"
+#include "openmm/CustomAngleForce.h"
+#include "openmm/CustomGBForce.h"
+#include "openmm/CustomHbondForce.h"
+#include "openmm/CustomManyParticleForce.h"
+#include "openmm/CustomTorsionForce.h"
 #include "openmm/Force.h"
+#include "openmm/GBSAOBCForce.h"
+#include "openmm/NonbondedForce.h"
 #include "openmm/OpenMMException.h"
+#include "openmm/PeriodicTorsionForce.h"
+#include "openmm/RBTorsionForce.h"
 #include "openmm/System.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/internal/ForceImpl.h"
@@ -85,4 +95,36 @@ void FlavorPlugin::rejectConstrainedStiffParticles(const ContextImpl& context, c
                                   "constraint or " +
                                   alternative);
     }
+}
+
+string FlavorPlugin::describeUnfreezableForces(const vector<string>& forces) {
+    string list;
+    for (const string& force : forces)
+        list += (list.empty() ? "" : ", ") + force;
+    return "FlavorIntegrator: the artificial averaging freezes the stiff degrees of freedom, but the frozen "
+           "coordinates of " +
+           list +
+           " cannot be determined: the stiff force groups are not quadratic, and only HarmonicBondForce, "
+           "CustomBondForce and HarmonicAngleForce have known frozen distances.  Declare its frozen distances with "
+           "FlavorIntegrator::addFrozenDistance(), move it to a soft force group, or use the Nonintrusive averaging";
+}
+
+void FlavorPlugin::rejectUnfreezableStiffForces(const System& system, int stiffGroups, bool frozenDistancesDeclared) {
+    if (frozenDistancesDeclared)
+        return;
+    vector<string> unfreezable;
+    for (int f = 0; f < system.getNumForces(); ++f) {
+        const Force& force = system.getForce(f);
+        if ((stiffGroups & (1 << force.getForceGroup())) == 0)
+            continue;
+        if (dynamic_cast<const NonbondedForce*>(&force) || dynamic_cast<const PeriodicTorsionForce*>(&force) ||
+            dynamic_cast<const RBTorsionForce*>(&force) || dynamic_cast<const CMAPTorsionForce*>(&force) ||
+            dynamic_cast<const CustomTorsionForce*>(&force) || dynamic_cast<const CustomAngleForce*>(&force) ||
+            dynamic_cast<const GBSAOBCForce*>(&force) || dynamic_cast<const CustomGBForce*>(&force) ||
+            dynamic_cast<const CustomHbondForce*>(&force) || dynamic_cast<const CustomManyParticleForce*>(&force))
+            unfreezable.push_back("force " + std::to_string(f) + " (" + force.getName() + ", force group " +
+                                  std::to_string(force.getForceGroup()) + ")");
+    }
+    if (!unfreezable.empty())
+        throw OpenMMException(describeUnfreezableForces(unfreezable));
 }

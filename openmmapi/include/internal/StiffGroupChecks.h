@@ -7,7 +7,8 @@
 
 namespace OpenMM {
 class ContextImpl;
-}
+class System;
+} // namespace OpenMM
 
 namespace FlavorPlugin {
 
@@ -33,6 +34,21 @@ OPENMM_EXPORT_FLAVORS void rejectConstraintsInsideStiffComponents(const OpenMM::
 OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::ContextImpl& context,
                                                            const std::vector<bool>& stiff, const std::string& owner,
                                                            const std::string& alternative);
+
+/**
+ * Why the artificial averaging cannot freeze the stiff forces described in forces (each "force i (Type, force group
+ * g)"), and what to do instead.
+ */
+OPENMM_EXPORT_FLAVORS std::string describeUnfreezableForces(const std::vector<std::string>& forces);
+
+/**
+ * Throws (describeUnfreezableForces) if a force of the stiff groups is of a type that is never quadratic and has no
+ * known frozen distances (nonbonded, torsion and angle-function forces), unless frozen distances have been declared
+ * with FlavorIntegrator::addFrozenDistance().  Forces that may be quadratic (custom bond, external and compound
+ * forces, plugin forces) can only be told apart with positions, at the first step.
+ */
+OPENMM_EXPORT_FLAVORS void rejectUnfreezableStiffForces(const OpenMM::System& system, int stiffGroups,
+                                                        bool frozenDistancesDeclared);
 
 } // namespace FlavorPlugin
 

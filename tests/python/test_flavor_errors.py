@@ -219,3 +219,32 @@ def test_integrator_cannot_be_bound_twice(platform_name):
     integrator.step(2)
     assert np.all(np.isfinite(state_arrays(context)[0]))
     assert math.isclose(context.getState().getTime().value_in_unit(unit.picosecond), 0.04, rel_tol=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Stiff forces the artificial averaging cannot freeze
+
+
+def stiff_torsion_system():
+    system = openmm.System()
+    for _ in range(4):
+        system.addParticle(12.0)
+    torsion = openmm.PeriodicTorsionForce()
+    torsion.addTorsion(0, 1, 2, 3, 3, 0.0, 5.0)
+    torsion.setForceGroup(1)
+    system.addForce(torsion)
+    soft = openmm.CustomExternalForce("x^2+y^2+z^2")
+    for i in range(4):
+        soft.addParticle(i)
+    system.addForce(soft)
+    return system
+
+
+def test_a_stiff_torsion_is_rejected_at_context_creation_under_the_artificial_averaging():
+    integrator = FlavorIntegrator(2 * unit.femtosecond, 0.5 * unit.femtosecond, {1})
+    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
+    with pytest.raises(openmm.OpenMMException) as info:
+        openmm.Context(stiff_torsion_system(), integrator, openmm.Platform.getPlatformByName("Reference"))
+    message = str(info.value)
+    for part in ("force 0 (PeriodicTorsionForce", "addFrozenDistance", "Nonintrusive"):
+        assert part in message, message

@@ -23,6 +23,7 @@ threads is measured over the production run; ns/day with 1 thread over a further
 
 Outputs: DIR/villin.json (every number and the RMSD series) and DIR/villin.png.
 """
+import json
 import math
 import os
 import time
@@ -232,7 +233,7 @@ def plot(data, path):
     reference = records[0] if records[0]["stable"] else None
     labels = [reporting.greek(r["name"]).replace(" δ", "\nδ") for r in stable]
     y = np.arange(len(stable))
-    fig, axes = plt.subplots(2, 4, figsize=(22, 10))
+    fig, axes = plt.subplots(2, 4, figsize=(22, 13))
     axes = axes.ravel()
     ref_label = "reference (LangevinMiddle 2 fs)"
 
@@ -250,7 +251,8 @@ def plot(data, path):
         ax.set_yticklabels(labels if show_labels else [], fontsize=8)
         ax.set_ylim(len(stable) - 0.5, -0.5)
         ax.set_xlabel(xlabel)
-        ax.legend(fontsize=7, loc="best")
+        # Below the axes, so that no legend hides a point.
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2 if len(keys) > 1 else 1)
 
     errorbar_panel(axes[0], [("ns_per_day_1_thread", "1 thread"), ("ns_per_day_2_threads", "2 threads")],
                    "speed (ns/day, CPU platform)", True)
@@ -267,10 +269,10 @@ def plot(data, path):
     errorbar_panel(axes[6], [("backbone_rmsd", "mean over production")], "backbone RMSD from the start (nm)", False)
     ax = axes[7]
     for r in stable:
-        ax.plot(r["series"]["t_ps"], np.asarray(r["series"]["backbone_rmsd"]) * 10, label=reporting.greek(r["name"]))
+        ax.plot(r["series"]["t_ps"], r["series"]["backbone_rmsd"], label=reporting.greek(r["name"]))
     ax.set_xlabel("production time (ps)")
-    ax.set_ylabel("backbone (N, CA, C) RMSD from the start (Å)")
-    ax.legend(fontsize=7)
+    ax.set_ylabel("backbone (N, CA, C) RMSD from the start (nm)")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=1)
     unstable = [r["name"] for r in records if not r["stable"]]
     fig.text(0.01, 0.005, "Error bars: standard error of %d block means over %g ps of production per peer "
              "(after %g ps of equilibration); ns/day: one timing each, no error bar.  " % (
@@ -288,14 +290,21 @@ def main():
     p.add_argument("--production", type=float, default=4.0, help="ps per peer")
     p.add_argument("--timing", type=float, default=0.4, help="ps per peer timed with 1 thread")
     p.add_argument("--start", type=float, default=2.0, help="ps of common LangevinMiddle 2 fs before the peers")
-    p.add_argument("--flavors", default="4:1,4:1:bonds,4:0.5:bonds",
+    p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1",
                    help="delta:tau[:bonds] in fs, comma separated (':bonds': only the bonds stiff)")
+    p.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
+    if args.replot:
+        with open(args.replot) as f:
+            data = json.load(f)
+        os.makedirs(args.out, exist_ok=True)
+        plot(data, os.path.join(args.out, "villin.png"))
+        return
     flavor_settings = [(float(s.split(":")[0]), float(s.split(":")[1]), s.endswith(":bonds"))
                        for s in args.flavors.split(",")]
     if args.quick:
         args.equilibration, args.production, args.timing, args.start = 0.008, 0.04, 0.008, 0.01
-        flavor_settings = flavor_settings[:1]
+        flavor_settings = flavor_settings[-1:]
     pdb = app.PDBFile(PDB)
     forcefield = app.ForceField("amber14-all.xml", "amber14/tip3p.xml")
     geometry = Geometry(make_system(forcefield, pdb.topology), pdb.topology)

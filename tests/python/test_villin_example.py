@@ -1,6 +1,7 @@
 """Smoke test of examples/villin: --quick runs every peer on OpenMM's villin-in-water system (8,867 atoms, amber14,
-PME, X-H bonds constrained), exits 0 and writes its JSON (the keys the README's table reads) and PNG.  No timing
-is checked, and a FLAVOR peer may be recorded as unstable (with the library's message)."""
+PME, X-H bonds constrained), exits 0 and writes its JSON (the keys the README's table reads) and PNG.  The FLAVOR
+peer of --quick freezes the bonds and the angles: the protein's frozen set is one cluster of ~1,400 coupled
+distances, which must be held from the first step on.  No timing is checked."""
 import json
 import math
 import os
@@ -21,12 +22,9 @@ def test_quick_run_writes_json_and_png(tmp_path):
     names = [peer["name"] for peer in data["peers"]]
     assert names[:2] == ["LangevinMiddle 2 fs", "MTSLangevin 4 fs / 4"]
     assert any(name.startswith("FLAVOR ArtificialProjected") for name in names)
-    for peer in data["peers"][:2]:
-        assert peer["stable"], peer
+    assert any("bonds+angles" in name for name in names)
     for peer in data["peers"]:
-        if not peer["stable"]:
-            assert peer["error"]
-            continue
+        assert peer["stable"], peer
         for key in ("ns_per_day_1_thread", "ns_per_day_2_threads", "T", "T_protein", "bond_rms all",
                     "angle_rms all", "angle_rms with H", "angle_rms heavy atoms", "backbone_rmsd"):
             assert math.isfinite(peer[key]), (peer["name"], key)

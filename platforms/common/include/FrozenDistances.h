@@ -61,7 +61,9 @@ OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector
  *     drift(h):  store the rates of the frozen distances; remove the velocity components along every constraint
  *                (mass-orthogonal projection onto the constraint manifold's tangent space); drift with the frozen
  *                distances held at their current lengths and the System's at theirs; then give every constraint its
- *                rate along the new directions: the stored one for the frozen distances, 0 for the System's.
+ *                rate along the new directions: the stored one for the frozen distances, 0 for the System's, all
+ *                scaled by the one factor that keeps the kinetic energy along the constraints (1/2 rdot^T B^-1 rdot)
+ *                what it was at the start (1 where B did not change).
  *     kick(h):   v += h P M^-1 F, with P the same projection (the soft impulse's component along the frozen
  *                distances and the System's constraints dropped).
  *
@@ -112,6 +114,8 @@ private:
     void driftCluster(int k) const;
     /** The frozen drift of cluster k over h as substeps RATTLE steps; false if an iteration did not converge. */
     bool driftInSubsteps(int k, int substeps) const;
+    /** (1/2) rdot^T B^-1 rdot of the stored rates with B as last factorized; y receives B^-1 rdot. */
+    double normalKineticEnergy(int k, double* y) const;
     void kickCluster(int k) const;
     /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
     void factorize(int k) const;
@@ -140,7 +144,7 @@ private:
     std::vector<int> couplingStart;
     mutable std::vector<SparseLDLT> solvers;
     // Written per cluster while the loop runs (each cluster its own entries).
-    mutable std::vector<double> lengths, targetRates, residuals;
+    mutable std::vector<double> lengths, targetRates, residuals, normalWork;
     mutable std::vector<OpenMM::Vec3> directions, previousPositions, startPositions, startVelocities, scratch;
     mutable std::vector<char> factorized;
     mutable std::vector<char> failed;

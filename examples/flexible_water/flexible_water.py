@@ -192,7 +192,9 @@ def plot(records, path):
         ax.invert_yaxis()
     ax = axes[6]
     for r in stable:
-        ax.plot(r["g_OO"]["r"], r["g_OO"]["g"], label=r["name"], lw=1)
+        # One colour per peer (the default cycle repeats after ten).
+        ax.plot(r["g_OO"]["r"], r["g_OO"]["g"], label=r["name"], lw=1,
+                color=plt.get_cmap("tab20")(stable.index(r) % 20))
     ax.set_xlabel("r (nm)")
     ax.set_ylabel("g_OO(r)")
     ax.legend(fontsize=6)

@@ -251,6 +251,7 @@ def plot(data, path):
         ax.set_yticklabels(labels if show_labels else [], fontsize=8)
         ax.set_ylim(len(stable) - 0.5, -0.5)
         ax.set_xlabel(xlabel)
+        ax.locator_params(axis="x", nbins=5)
         # Below the axes, so that no legend hides a point.
         ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2 if len(keys) > 1 else 1)
 
@@ -290,7 +291,7 @@ def main():
     p.add_argument("--production", type=float, default=4.0, help="ps per peer")
     p.add_argument("--timing", type=float, default=0.4, help="ps per peer timed with 1 thread")
     p.add_argument("--start", type=float, default=2.0, help="ps of common LangevinMiddle 2 fs before the peers")
-    p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1",
+    p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1,4:0.5,3:0.5",
                    help="delta:tau[:bonds] in fs, comma separated (':bonds': only the bonds stiff)")
     p.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = p.parse_args()

@@ -18,6 +18,7 @@
 #include <array>
 #include <cmath>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -621,6 +622,48 @@ double distance(const vector<Vec3>& q, int i, int j) {
     return std::sqrt(r.dot(r));
 }
 
+/** The states around the frozen drift of one SymplecticEuler artificial step without soft forces. */
+struct FrozenStage {
+    vector<Vec3> q1, v1; // after the microstep D(tau) K_stiff(tau), computed here
+    vector<Vec3> q2, v2; // after the integrator's step: the microstep, then the frozen drift over delta - tau
+};
+
+/** Runs one step of FlavorIntegrator(delta, tau) on system (its stiff forces in StiffMask; a zero soft force is added
+ * in group 3) from q0, v0, and computes the microstep independently. */
+FrozenStage runFrozenStage(System& system, const vector<Vec3>& q0, const vector<Vec3>& v0, double delta, double tau,
+                           double tolerance, Platform& platform, const std::map<std::string, std::string>& properties) {
+    const int n = system.getNumParticles();
+    FrozenStage stage;
+    stage.q1.resize(n);
+    stage.v1.resize(n);
+    for (int i = 0; i < n; ++i)
+        stage.q1[i] = q0[i] + v0[i] * tau;
+    {
+        VerletIntegrator probe(0.001);
+        Context forces(system, probe, platform, properties);
+        forces.setPositions(stage.q1);
+        vector<Vec3> f = forces.getState(State::Forces, false, StiffMask).getForces();
+        for (int i = 0; i < n; ++i)
+            stage.v1[i] = v0[i] + f[i] * (tau / system.getParticleMass(i));
+    }
+    // A FLAVOR System needs a soft force: a zero one, in a group of its own.
+    CustomExternalForce* zeroSoftForce = new CustomExternalForce("0");
+    zeroSoftForce->setForceGroup(3);
+    system.addForce(zeroSoftForce);
+    FlavorIntegrator integrator(delta, tau, StiffMask);
+    integrator.setScheme(FlavorIntegrator::SymplecticEuler);
+    integrator.setAveraging(FlavorIntegrator::Artificial);
+    integrator.setIntegrationForceGroups(StiffMask | (1 << 3));
+    integrator.setConstraintTolerance(tolerance);
+    Context context(system, integrator, platform, properties);
+    context.setPositions(q0);
+    context.setVelocities(v0);
+    integrator.step(1);
+    stage.q2 = positionsOf(context);
+    stage.v2 = velocitiesOf(context);
+    return stage;
+}
+
 } // namespace
 
 TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStoredRates) {
@@ -629,32 +672,9 @@ TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStored
     // them back their rates, keep the System constraint, and move the molecule's centre of mass freely.
     const double delta = 0.01, tau = 1e-4, tolerance = 1e-10;
     std::unique_ptr<System> system(bondedMolecule());
-    const vector<Vec3> q0 = moleculePositions(), v0 = moleculeVelocities();
-    vector<Vec3> q1(5), v1(5);
-    for (int i = 0; i < 5; ++i)
-        q1[i] = q0[i] + v0[i] * tau;
-    {
-        VerletIntegrator probe(0.001);
-        Context forces(*system, probe, platform(), properties());
-        forces.setPositions(q1);
-        vector<Vec3> f = forces.getState(State::Forces, false, StiffMask).getForces();
-        for (int i = 0; i < 5; ++i)
-            v1[i] = v0[i] + f[i] * (tau / system->getParticleMass(i));
-    }
-    // A FLAVOR System needs a soft force: a zero one, in a group of its own.
-    CustomExternalForce* zeroSoftForce = new CustomExternalForce("0");
-    zeroSoftForce->setForceGroup(3);
-    system->addForce(zeroSoftForce);
-    FlavorIntegrator integrator(delta, tau, StiffMask);
-    integrator.setScheme(FlavorIntegrator::SymplecticEuler);
-    integrator.setAveraging(FlavorIntegrator::Artificial);
-    integrator.setIntegrationForceGroups(StiffMask | (1 << 3));
-    integrator.setConstraintTolerance(tolerance);
-    Context context(*system, integrator, platform(), properties());
-    context.setPositions(q0);
-    context.setVelocities(v0);
-    integrator.step(1);
-    const vector<Vec3> q2 = positionsOf(context), v2 = velocitiesOf(context);
+    const FrozenStage stage = runFrozenStage(*system, moleculePositions(), moleculeVelocities(), delta, tau, tolerance,
+                                             platform(), properties());
+    const vector<Vec3>&q1 = stage.q1, &v1 = stage.v1, &q2 = stage.q2, &v2 = stage.v2;
     for (auto pair : {std::make_pair(0, 1), std::make_pair(0, 2), std::make_pair(1, 2)}) {
         EXPECT_NEAR(distance(q1, pair.first, pair.second), distance(q2, pair.first, pair.second), 1e-9)
             << pair.first << "-" << pair.second;
@@ -742,34 +762,13 @@ TEST_P(FlavorArtificial, FrozenStageHoldsARedundantFrozenSetAndKeepsItsKineticEn
     vector<std::array<int, 3>> angles;
     std::unique_ptr<System> system(neopentane(q0, angles));
     const int n = system->getNumParticles();
-    vector<Vec3> v0(n), q1(n), v1(n);
+    vector<Vec3> v0(n);
     std::mt19937 random(8);
     std::normal_distribution<double> gauss;
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < n; ++i)
         v0[i] = Vec3(gauss(random), gauss(random), gauss(random)) * std::sqrt(2.5 / system->getParticleMass(i));
-        q1[i] = q0[i] + v0[i] * tau;
-    }
-    {
-        VerletIntegrator probe(0.001);
-        Context forces(*system, probe, platform(), properties());
-        forces.setPositions(q1);
-        vector<Vec3> f = forces.getState(State::Forces, false, StiffMask).getForces();
-        for (int i = 0; i < n; ++i)
-            v1[i] = v0[i] + f[i] * (tau / system->getParticleMass(i));
-    }
-    CustomExternalForce* zeroSoftForce = new CustomExternalForce("0");
-    zeroSoftForce->setForceGroup(3);
-    system->addForce(zeroSoftForce);
-    FlavorIntegrator integrator(delta, tau, StiffMask);
-    integrator.setScheme(FlavorIntegrator::SymplecticEuler);
-    integrator.setAveraging(FlavorIntegrator::Artificial);
-    integrator.setIntegrationForceGroups(StiffMask | (1 << 3));
-    integrator.setConstraintTolerance(tolerance);
-    Context context(*system, integrator, platform(), properties());
-    context.setPositions(q0);
-    context.setVelocities(v0);
-    integrator.step(1);
-    const vector<Vec3> q2 = positionsOf(context), v2 = velocitiesOf(context);
+    const FrozenStage stage = runFrozenStage(*system, q0, v0, delta, tau, tolerance, platform(), properties());
+    const vector<Vec3>&q1 = stage.q1, &v1 = stage.v1, &q2 = stage.q2, &v2 = stage.v2;
     vector<std::pair<int, int>> frozen;
     for (int b = 0; b < 16; ++b)
         frozen.emplace_back(0, 0);

@@ -55,10 +55,13 @@ public:
          * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is one soft kick
          * over the mesostep, a microstep of the fast Hamiltonian (kinetic energy and stiff potential), and a drift
          * for the rest of the mesostep with the stiff degrees of freedom frozen, the rates of the frozen coordinates
-         * stored and restored.  What freezes: for a quadratic stiff group, the nonzero modes of its stiffness
-         * matrix (an exact projection); otherwise the distances that the stiff bonded forces act on (each bond of a
-         * HarmonicBondForce or CustomBondForce, the 1-3 distance of each angle of a HarmonicAngleForce) and those
-         * added with addFrozenDistance(), held with the constraint solver next to the System's own constraints.
+         * stored and restored (with the kinetic energy they carried).  What freezes: for a quadratic stiff group,
+         * the nonzero modes of its stiffness matrix (an exact projection); otherwise the distances that the stiff
+         * bonded forces act on (each bond of a HarmonicBondForce or CustomBondForce, the 1-3 distances of the angles
+         * of a HarmonicAngleForce, 2k - 3 at a centre with k neighbours, less those nearly dependent on the others,
+         * as in planar rings) and those added with addFrozenDistance(), held by RATTLE steps next to the System's
+         * own constraints.  A stiff force that can never be frozen (nonbonded forces, torsions) is an error when
+         * the Context is created, unless frozen distances have been added.
          */
         Artificial = 1,
         /**

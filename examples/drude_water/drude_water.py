@@ -401,6 +401,10 @@ def main():
                         help="only measure the cost of carrying Drude particles through the constraint solve")
     parser.add_argument("--filter-bias", action="store_true",
                         help="only measure the mean displacement of a stiff mode and the FPU energy error against omega H")
+    parser.add_argument("--production", type=float, default=3.0, help="ps sampled per run (default 3)")
+    parser.add_argument("--burn-in", type=float, default=0.5, help="ps per run before sampling (default 0.5)")
+    parser.add_argument("--reference-steps", type=float, nargs="+", default=[0.5, 1.0],
+                        help="DrudeLangevinIntegrator steps in fs; the first is the reference (default 0.5 1)")
     args = parser.parse_args()
     if args.filter_bias:
         os.makedirs(args.out, exist_ok=True)
@@ -414,8 +418,8 @@ def main():
         settings = dict(molecules=125, equilibration_ps=0.05, burn_ps=0.01, production_ps=0.02, samples=4, blocks=2,
                         scf_frames=2, sim_steps=[1.0, 2.0, 4.0])
     else:
-        settings = dict(molecules=256, equilibration_ps=2.0, burn_ps=0.5, production_ps=3.0, samples=60, blocks=6,
-                        scf_frames=12, sim_steps=[1.0, 1.5, 2.0, 3.0, 4.0])
+        settings = dict(molecules=256, equilibration_ps=2.0, burn_ps=args.burn_in, production_ps=args.production,
+                        samples=60, blocks=6, scf_frames=12, sim_steps=[1.0, 1.5, 2.0, 3.0, 4.0])
     os.makedirs(args.out, exist_ok=True)
     system, topology, positions, box = build_water(settings["molecules"])
     analysis = Analysis(system)
@@ -431,7 +435,7 @@ def main():
     del context
     edges = np.linspace(0.2, min(0.8, 0.5 * box), 61)
     runs = {}
-    peers = [("DrudeLangevin", 0.5), ("DrudeLangevin", 1.0)]
+    peers = [("DrudeLangevin", h) for h in ([0.5, 1.0] if args.quick else args.reference_steps)]
     peers += [(kind, h) for kind in ("Strang", "Filtered") for h in settings["sim_steps"]]
     for seed, (kind, step_fs) in enumerate(peers, start=10):
         label = f"{kind}_{step_fs:g}fs"
@@ -441,7 +445,7 @@ def main():
             runs[label] = {"integrator": kind, "step_fs": step_fs, "failed": str(error)}
         print(label, json.dumps({k: v for k, v in runs[label].items() if not k.startswith("g_oo")}), flush=True)
     completed = {k: v for k, v in runs.items() if "failed" not in v}
-    reference = completed["DrudeLangevin_0.5fs"]
+    reference = completed["DrudeLangevin_%gfs" % peers[0][1]]
     observables = ["induced_ratio", "dipole", "pe_per_molecule", "g_oo_peak", "t_com", "t_drude"]
     for run in completed.values():
         run["within_error_of_reference"] = {

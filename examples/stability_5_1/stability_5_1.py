@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Stability domains of the nonintrusive and the artificial FLAVOR on system (5.1) (FLAVORS paper, Fig. 5.1(a) and
-(b), Theorem 5.1), found by running FlavorIntegrator.
+(b), Theorem 5.1), found by running FlavorIntegrator; with --errors their errors (Fig. 5.2).
 
     H = p_x^2/2 + p_y^2/2 + x^2/2 + omega^2/2 (y - x)^2,   omega = 1/sqrt(eps) = 1000
 
@@ -15,6 +15,10 @@ the spectral radius of the one-step matrix computed here with NumPy, eq. (5.5) f
     PYTHONPATH=build/python /usr/bin/python3 examples/stability_5_1/stability_5_1.py [--quick] [--out DIR]
 
 Outputs: DIR/stability_5_1.json and DIR/stability_5_1.png.
+
+With --errors, Fig. 5.2 instead: the error of both FLAVORs at T = 10 against the exact solution of (5.1) (its two
+normal modes, computed here), as a function of delta and tau/eps; the optimal tau/eps for each delta and the error
+there; the error against tau/eps at fixed delta.  Outputs DIR/errors_5_2.json and DIR/errors_5_2.png.
 """
 import argparse
 import json
@@ -62,6 +66,99 @@ def run_stable(system, platform, averaging, delta, tau, steps):
     return True
 
 
+def positions_after(system, platform, averaging, delta, tau, T):
+    """(x, y) after round(T / delta) SymplecticEuler mesosteps from the start of run_stable, or None if unstable."""
+    integrator = openmmflavors.FlavorIntegrator(delta, tau, {1})
+    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
+    integrator.setAveraging(averaging)
+    context = mm.Context(system, integrator, platform)
+    context.setPositions([mm.Vec3(0.8, 0, 0), mm.Vec3(0.8 + 1.1 / OMEGA, 0, 0)])
+    integrator.step(int(round(T / delta)))
+    x = context.getState(getPositions=True).getPositions(asNumpy=True)._value[:, 0]
+    return x if np.all(np.isfinite(x)) and np.max(np.abs(x)) < BOUND else None
+
+
+def exact_positions(t):
+    """(x, y) at time t: (5.1) is linear, q'' = -K q with K = [[1 + w^2, -w^2], [-w^2, w^2]] on (x, y)."""
+    k = np.array([[1 + OMEGA ** 2, -OMEGA ** 2], [-OMEGA ** 2, OMEGA ** 2]])
+    values, vectors = np.linalg.eigh(k)
+    frequencies = np.sqrt(values)
+    q0 = np.array([0.8, 0.8 + 1.1 / OMEGA])
+    return vectors @ (np.cos(frequencies * t) * (vectors.T @ q0))
+
+
+def errors_5_2(args):
+    T = 10.0
+    deltas = np.logspace(-2, 0, 5) if args.quick else np.logspace(-3, 0, 13)
+    ratios = np.logspace(-1, 3, 5) if args.quick else np.logspace(-1, 3, 17)  # tau / eps
+    system = make_system()
+    platform = mm.Platform.getPlatformByName("Reference")
+    exact = exact_positions(T)
+    result = {"omega": OMEGA, "T": T, "delta": list(deltas), "tau_over_eps": list(ratios),
+              "error": "Euclidean norm of (x, y) - exact at T", "averagings": {}}
+    for name, averaging in (("Nonintrusive", openmmflavors.FlavorIntegrator.Nonintrusive),
+                            ("Artificial", openmmflavors.FlavorIntegrator.Artificial)):
+        error = np.full((len(ratios), len(deltas)), np.nan)  # NaN: tau > delta or unstable
+        for i, ratio in enumerate(ratios):
+            for j, delta in enumerate(deltas):
+                if ratio * EPS <= delta:
+                    q = positions_after(system, platform, averaging, delta, ratio * EPS, T)
+                    if q is not None:
+                        error[i, j] = float(np.linalg.norm(q - exact))
+        best = [int(np.nanargmin(error[:, j])) if np.any(np.isfinite(error[:, j])) else -1 for j in range(len(deltas))]
+        result["averagings"][name] = {
+            "error": [[None if np.isnan(e) else e for e in row] for row in error],
+            "optimal_tau_over_eps": [float(ratios[b]) if b >= 0 else None for b in best],
+            "optimal_error": [float(error[b, j]) if b >= 0 else None for j, b in enumerate(best)]}
+        print("%-13s optimal tau/eps by delta: %s; error there: %s" % (
+            name, ", ".join("%.3g" % ratios[b] if b >= 0 else "-" for b in best),
+            ", ".join("%.2g" % error[b, j] if b >= 0 else "-" for j, b in enumerate(best))))
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "errors_5_2.json"), "w") as f:
+        json.dump(result, f, indent=1)
+    plot_errors(result, os.path.join(args.out, "errors_5_2.png"))
+
+
+def plot_errors(result, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+    deltas, ratios = np.array(result["delta"]), np.array(result["tau_over_eps"])
+    fig, axes = plt.subplots(3, 2, figsize=(12, 14))
+    for col, name in enumerate(("Nonintrusive", "Artificial")):
+        data = result["averagings"][name]
+        error = np.array([[np.nan if e is None else e for e in row] for row in data["error"]])
+        ax = axes[0, col]
+        mesh = ax.pcolormesh(deltas, ratios, error, norm=LogNorm(vmin=1e-6, vmax=1), shading="nearest")
+        fig.colorbar(mesh, ax=ax, label="error at T = %g" % result["T"])
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("mesostep δ")
+        ax.set_ylabel("τ/ε")
+        ax.set_title("(%s) %s FLAVOR: error (white: τ > δ or unstable)" % ("ab"[col], name))
+        ax = axes[1, col]
+        ax.loglog(deltas, [np.nan if v is None else v for v in data["optimal_tau_over_eps"]], "o-",
+                  label="optimal τ/ε")
+        ax.loglog(deltas, [np.nan if v is None else v for v in data["optimal_error"]], "s-", label="error there")
+        ax.set_xlabel("mesostep δ")
+        ax.set_ylabel("optimal τ/ε; error")
+        ax.set_title("(%s) %s FLAVOR: optimal τ/ε and its error" % ("cd"[col], name))
+        ax.legend(fontsize=8)
+        ax = axes[2, col]
+        for j in range(0, len(deltas), max(1, len(deltas) // 4)):
+            ax.loglog(ratios, error[:, j], "o-", ms=3, label="δ = %.3g" % deltas[j])
+        ax.set_xlabel("τ/ε")
+        ax.set_ylabel("error at T = %g" % result["T"])
+        ax.set_title("(%s) %s FLAVOR: error against τ/ε at fixed δ" % ("ef"[col], name))
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
+    fig.suptitle("Errors of the SymplecticEuler FLAVORs on system (5.1), ω = %g, against its exact solution "
+                 "(FLAVORS paper, Fig. 5.2)" % result["omega"])
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def one_step_matrix(artificial, delta, tau):
     """The one-step map on (y, x, p_y, p_x), composed from the flows (rightmost acts first)."""
     def kick(h, soft, stiff):
@@ -92,7 +189,11 @@ def main():
     parser.add_argument("--out", default="results/stability_5_1")
     parser.add_argument("--steps", type=int, default=400)
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    parser.add_argument("--errors", action="store_true", help="Fig. 5.2 (errors against delta and tau) instead")
     args = parser.parse_args()
+    if args.errors:
+        errors_5_2(args)
+        return
     if args.replot:
         with open(args.replot) as f:
             data = json.load(f)

@@ -1,7 +1,10 @@
 """Smoke test of examples/stability_5_1: --quick finds the stability domains of Fig. 5.1 by running, every verdict
 agrees with the one-step matrix, and the artificial FLAVOR's domain is the larger one."""
+import importlib.util
 import json
 import os
+import subprocess
+import sys
 
 import conftest
 
@@ -23,3 +26,24 @@ def test_quick_run_finds_both_domains(tmp_path):
     # Theorem 5.1 at small tau: the boundaries 2 and 2 sqrt(2), resolved by the coarse grid (step 0.49).
     assert 1.5 < domains["Nonintrusive"]["largest_stable_delta_at_smallest_tau"] <= 2.0
     assert 2.0 < domains["Artificial"]["largest_stable_delta_at_smallest_tau"] <= 2 * 2 ** 0.5
+
+
+def test_quick_error_run_converges_with_the_mesostep(tmp_path):
+    """--errors (Fig. 5.2): the error at the optimal microstep shrinks as the mesostep does, for both averagings, and
+    the artificial FLAVOR's error at a fixed mesostep hardly depends on the microstep."""
+    env = dict(os.environ)
+    package_root = os.path.dirname(os.path.dirname(importlib.util.find_spec("openmmflavors").origin))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in [package_root, env.get("PYTHONPATH", "")] if p)
+    env["MPLBACKEND"] = "Agg"
+    result = subprocess.run([sys.executable, SCRIPT, "--errors", "--quick", "--out", str(tmp_path)], env=env,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert (tmp_path / "errors_5_2.png").stat().st_size > 0
+    with open(tmp_path / "errors_5_2.json") as f:
+        data = json.load(f)
+    for name in ("Nonintrusive", "Artificial"):
+        best = data["averagings"][name]["optimal_error"]
+        assert best[0] < best[-1] / 10, (name, best)
+    # At the largest mesostep every microstep gives the artificial FLAVOR the same error to 10 %.
+    column = [row[-1] for row in data["averagings"]["Artificial"]["error"] if row[-1] is not None]
+    assert len(column) >= 3 and max(column) < 1.1 * min(column), column

@@ -16,6 +16,12 @@ flow at tau = 1e-4 (Fig. 6.7).
     PYTHONPATH=build/python /usr/bin/python3 examples/fpu_artificial/fpu_artificial.py [--quick] [--T T] [--out DIR]
 
 Outputs: DIR/fpu_artificial.json and DIR/fpu_artificial.png.
+
+With --long, the O(omega^2) time scale of Fig. 6.8 instead (T = omega^2 = 40,000): the artificial FLAVOR
+(SymplecticEuler, delta = 0.002, tau = 0.0005), the impulse method StochasticImpulseIntegrator Strang without friction
+at H = delta (the exact stiff flow: r-RESPA with an exact inner integrator) and VerletIntegrator at h = 1e-4 (a fine
+reference at h = 1e-5 would take 4e9 steps), sampled every 10 time units: I_1, I_2, I_3 and the total energy H.
+Outputs DIR/fpu_long.json and DIR/fpu_long.png.
 """
 import argparse
 import json
@@ -26,7 +32,7 @@ import time
 import numpy as np
 import openmm as mm
 
-from openmmflavors import FlavorIntegrator
+from openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator
 
 M, OMEGA = 3, 200.0
 
@@ -64,8 +70,16 @@ def stiff_energies(q, v):
     return 0.5 * (v1 ** 2 + OMEGA ** 2 * x1 ** 2)
 
 
-def run(integrator, dt, times, leapfrog):
-    """I_j at the given times; leapfrog: OpenMM's VerletIntegrator, whose velocities lag half a step."""
+def total_energy(q, v):
+    """H of (6.7) with q_0 = q_2m+1 = 0 (the walls x^4 on the end particles)."""
+    stiff = OMEGA ** 2 / 4 * np.sum((q[1::2] - q[0::2]) ** 2)
+    soft = np.sum((q[2::2] - q[1:-1:2]) ** 4) + q[0] ** 4 + q[-1] ** 4
+    return 0.5 * np.sum(v ** 2) + stiff + soft
+
+
+def run(integrator, dt, times, leapfrog, energy=None):
+    """I_j at the given times; leapfrog: OpenMM's VerletIntegrator, whose velocities lag half a step.  If energy is a
+    list, H is appended to it at each time."""
     context = mm.Context(fpu_system(), integrator, mm.Platform.getPlatformByName("Reference"))
     context.setPositions(start_positions())
 
@@ -91,6 +105,8 @@ def run(integrator, dt, times, leapfrog):
         if not np.all(np.isfinite(q)):
             break
         energies.append(stiff_energies(q, v))
+        if energy is not None:
+            energy.append(float(total_energy(q, v)))
     return np.array(energies), elapsed, steps
 
 
@@ -100,7 +116,11 @@ def main():
     parser.add_argument("--T", type=float, default=200.0, help="simulated time (default omega = 200)")
     parser.add_argument("--out", default="results/fpu_artificial")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    parser.add_argument("--long", action="store_true", help="Fig. 6.8: the O(omega^2) time scale (T = omega^2)")
     args = parser.parse_args()
+    if args.long:
+        long_time(args)
+        return
     if args.replot:
         with open(args.replot) as f:
             data = json.load(f)
@@ -142,6 +162,61 @@ def main():
     with open(os.path.join(args.out, "fpu_artificial.json"), "w") as f:
         json.dump(result, f, indent=1)
     plot(result, os.path.join(args.out, "fpu_artificial.png"))
+
+
+def long_time(args):
+    T = 20.0 if args.quick else OMEGA ** 2
+    times = list(np.arange(10.0 if not args.quick else 1.0, T + 1e-9, 10.0 if not args.quick else 1.0))
+    flavor = FlavorIntegrator(0.002, 5e-4, {1})
+    flavor.setScheme(FlavorIntegrator.SymplecticEuler)
+    flavor.setAveraging(FlavorIntegrator.Artificial)
+    settings = [("FLAVOR Artificial δ=0.002 τ=0.0005", flavor, 0.002, False),
+                ("SIM Strang H=0.002 (impulse method, exact stiff flow)",
+                 StochasticImpulseIntegrator(0.0, 0.0, 0.002, {1}), 0.002, False),
+                ("Verlet h=1e-4", mm.VerletIntegrator(1e-4), 1e-4, True)]
+    result = {"m": M, "omega": OMEGA, "T": T, "times": times, "runs": {}}
+    for name, integrator, dt, leapfrog in settings:
+        energy = []
+        energies, elapsed, steps = run(integrator, dt, times, leapfrog, energy)
+        total = energies.sum(axis=1) if len(energies) else np.zeros(0)
+        result["runs"][name] = {
+            "I": energies.tolist(), "H": energy, "wall_s": elapsed, "steps": steps, "step": dt,
+            "stable": len(energies) == len(times),
+            "I_total_range": [float(total.min()), float(total.max())] if len(total) else None,
+            "H_range": [min(energy), max(energy)] if energy else None}
+        print("%-55s %10d steps %8.1f s  sum I in [%.4f, %.4f]  H in [%.6f, %.6f]" % (
+            name, steps, elapsed, total.min(), total.max(), min(energy), max(energy)), flush=True)
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "fpu_long.json"), "w") as f:
+        json.dump(result, f, indent=1)
+    plot_long(result, os.path.join(args.out, "fpu_long.png"))
+
+
+def plot_long(result, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    times = np.array(result["times"])
+    fig, axes = plt.subplots(len(result["runs"]), 2, figsize=(16, 3.6 * len(result["runs"])), squeeze=False)
+    for row, (name, run) in enumerate(result["runs"].items()):
+        energies = np.array(run["I"])
+        ax = axes[row, 0]
+        for j in range(M):
+            ax.plot(times[:len(energies)], energies[:, j], lw=0.8, label="I_%d" % (j + 1))
+        ax.set_ylabel("stiff spring energy")
+        ax.set_title(name)
+        ax.legend(fontsize=8, loc="upper right")
+        ax = axes[row, 1]
+        ax.plot(times[:len(run["H"])], np.array(run["H"]) - run["H"][0], "k", lw=0.8)
+        ax.set_ylabel("H(t) − H(first sample)")
+        ax.set_title(name + ": total energy")
+    for ax in axes[-1]:
+        ax.set_xlabel("t (time units of (6.7))")
+    fig.suptitle("FPU chain (m = 3, ω = %g) over T = ω² = %g: energy exchange among the stiff springs and total energy "
+                 "(FLAVORS paper, Fig. 6.8)" % (result["omega"], result["T"]))
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
 
 
 def plot(result, path):

@@ -176,14 +176,15 @@ def assert_continuation_depends_on_random_state(context, before, after):
     assert np.max(np.abs(positions_again[-1] - positions[-1])) > 1e-4
 
 
-def run_quick(script, out, timeout=120):
-    """Run an example or benchmark script (full path) with --quick --out OUT in a child process."""
+def run_quick(script, out, timeout=120, extra=()):
+    """Run an example or benchmark script (full path) with --quick --out OUT (and the extra arguments) in a child
+    process."""
     env = dict(os.environ)
     # The child must find openmmflavors the way this process did.
     package_root = os.path.dirname(os.path.dirname(importlib.util.find_spec("openmmflavors").origin))
     env["PYTHONPATH"] = os.pathsep.join(p for p in [package_root, env.get("PYTHONPATH", "")] if p)
     # The scripts select Agg themselves; this also covers any pyplot import before that.
     env["MPLBACKEND"] = "Agg"
-    return subprocess.run([sys.executable, script, "--quick", "--out", str(out)], env=env, capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run([sys.executable, script, "--quick", "--out", str(out), *extra], env=env,
+                          capture_output=True, text=True, timeout=timeout)
 

@@ -1,10 +1,7 @@
 """Smoke test of examples/stability_5_1: --quick finds the stability domains of Fig. 5.1 by running, every verdict
 agrees with the one-step matrix, and the artificial FLAVOR's domain is the larger one."""
-import importlib.util
 import json
 import os
-import subprocess
-import sys
 
 import conftest
 
@@ -31,12 +28,7 @@ def test_quick_run_finds_both_domains(tmp_path):
 def test_quick_error_run_converges_with_the_mesostep(tmp_path):
     """--errors (Fig. 5.2): the error at the optimal microstep shrinks as the mesostep does, for both averagings, and
     the artificial FLAVOR's error at a fixed mesostep hardly depends on the microstep."""
-    env = dict(os.environ)
-    package_root = os.path.dirname(os.path.dirname(importlib.util.find_spec("openmmflavors").origin))
-    env["PYTHONPATH"] = os.pathsep.join(p for p in [package_root, env.get("PYTHONPATH", "")] if p)
-    env["MPLBACKEND"] = "Agg"
-    result = subprocess.run([sys.executable, SCRIPT, "--errors", "--quick", "--out", str(tmp_path)], env=env,
-                            capture_output=True, text=True, timeout=120)
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=["--errors"])
     assert result.returncode == 0, result.stderr[-3000:]
     assert (tmp_path / "errors_5_2.png").stat().st_size > 0
     with open(tmp_path / "errors_5_2.json") as f:

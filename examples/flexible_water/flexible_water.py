@@ -34,6 +34,7 @@ import openmm.app as app
 import openmm.unit as unit
 
 import openmmflavors
+from flavorbench import reporting
 from flavorbench.runners import KB
 from flavorbench.systems import assign_force_groups
 from flavorbench.timeseries import block_error
@@ -232,10 +233,7 @@ def main():
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = parser.parse_args()
     if args.replot:
-        with open(args.replot) as f:
-            data = json.load(f)
-        os.makedirs(args.out, exist_ok=True)
-        plot(data["peers"], os.path.join(args.out, "flexible_water.png"))
+        reporting.replot(args.replot, args.out, "flexible_water", lambda data, path: plot(data["peers"], path))
         return
     if args.quick:
         args.equilibration, args.production, args.start = 0.005, 0.02, 0.1

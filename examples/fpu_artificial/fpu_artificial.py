@@ -32,6 +32,7 @@ import time
 import numpy as np
 import openmm as mm
 
+from flavorbench import reporting
 from openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator
 
 M, OMEGA = 3, 200.0
@@ -122,10 +123,7 @@ def main():
         long_time(args)
         return
     if args.replot:
-        with open(args.replot) as f:
-            data = json.load(f)
-        os.makedirs(args.out, exist_ok=True)
-        plot(data, os.path.join(args.out, "fpu_artificial.png"))
+        reporting.replot(args.replot, args.out, "fpu_artificial", plot)
         return
     T = 5.0 if args.quick else args.T
     times = list(np.arange(0.5, T + 1e-9, 0.5))
@@ -186,10 +184,7 @@ def long_time(args):
             "H_range": [min(energy), max(energy)] if energy else None}
         print("%-55s %10d steps %8.1f s  sum I in [%.4f, %.4f]  H in [%.6f, %.6f]" % (
             name, steps, elapsed, total.min(), total.max(), min(energy), max(energy)), flush=True)
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "fpu_long.json"), "w") as f:
-        json.dump(result, f, indent=1)
-    plot_long(result, os.path.join(args.out, "fpu_long.png"))
+    reporting.save_outputs(args.out, "fpu_long", result, lambda path: plot_long(result, path))
 
 
 def plot_long(result, path):

@@ -29,6 +29,7 @@ import numpy as np
 import openmm as mm
 
 import openmmflavors
+from flavorbench import reporting
 
 OMEGA = 1000.0
 EPS = 1 / OMEGA ** 2
@@ -50,12 +51,18 @@ def make_system():
     return system
 
 
-def run_stable(system, platform, averaging, delta, tau, steps):
+def flavor_context(system, platform, averaging, delta, tau):
+    """A SymplecticEuler FlavorIntegrator and its Context at the start x = 0.8, y = x + 1.1/omega, at rest."""
     integrator = openmmflavors.FlavorIntegrator(delta, tau, {1})
     integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
     integrator.setAveraging(averaging)
     context = mm.Context(system, integrator, platform)
     context.setPositions([mm.Vec3(0.8, 0, 0), mm.Vec3(0.8 + 1.1 / OMEGA, 0, 0)])
+    return integrator, context
+
+
+def run_stable(system, platform, averaging, delta, tau, steps):
+    integrator, context = flavor_context(system, platform, averaging, delta, tau)
     done = 0
     while done < steps:
         integrator.step(min(50, steps - done))
@@ -68,11 +75,7 @@ def run_stable(system, platform, averaging, delta, tau, steps):
 
 def positions_after(system, platform, averaging, delta, tau, T):
     """(x, y) after round(T / delta) SymplecticEuler mesosteps from the start of run_stable, or None if unstable."""
-    integrator = openmmflavors.FlavorIntegrator(delta, tau, {1})
-    integrator.setScheme(openmmflavors.FlavorIntegrator.SymplecticEuler)
-    integrator.setAveraging(averaging)
-    context = mm.Context(system, integrator, platform)
-    context.setPositions([mm.Vec3(0.8, 0, 0), mm.Vec3(0.8 + 1.1 / OMEGA, 0, 0)])
+    integrator, context = flavor_context(system, platform, averaging, delta, tau)
     integrator.step(int(round(T / delta)))
     x = context.getState(getPositions=True).getPositions(asNumpy=True)._value[:, 0]
     return x if np.all(np.isfinite(x)) and np.max(np.abs(x)) < BOUND else None
@@ -113,10 +116,7 @@ def errors_5_2(args):
         print("%-13s optimal tau/eps by delta: %s; error there: %s" % (
             name, ", ".join("%.3g" % ratios[b] if b >= 0 else "-" for b in best),
             ", ".join("%.2g" % error[b, j] if b >= 0 else "-" for j, b in enumerate(best))))
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "errors_5_2.json"), "w") as f:
-        json.dump(result, f, indent=1)
-    plot_errors(result, os.path.join(args.out, "errors_5_2.png"))
+    reporting.save_outputs(args.out, "errors_5_2", result, lambda path: plot_errors(result, path))
 
 
 def plot_errors(result, path):
@@ -195,11 +195,8 @@ def main():
         errors_5_2(args)
         return
     if args.replot:
-        with open(args.replot) as f:
-            data = json.load(f)
-        os.makedirs(args.out, exist_ok=True)
-        plot(data, np.array(data["delta"]), np.array(data["tau_over_eps"]),
-             os.path.join(args.out, "stability_5_1.png"))
+        reporting.replot(args.replot, args.out, "stability_5_1",
+                         lambda data, path: plot(data, np.array(data["delta"]), np.array(data["tau_over_eps"]), path))
         return
     n_delta, n_tau = (8, 6) if args.quick else (44, 36)
     deltas = np.linspace(0.1, 3.5, n_delta)

@@ -23,7 +23,6 @@ threads is measured over the production run; ns/day with 1 thread over a further
 
 Outputs: DIR/villin.json (every number and the RMSD series) and DIR/villin.png.
 """
-import json
 import math
 import os
 import time
@@ -296,10 +295,7 @@ def main():
     p.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
     if args.replot:
-        with open(args.replot) as f:
-            data = json.load(f)
-        os.makedirs(args.out, exist_ok=True)
-        plot(data, os.path.join(args.out, "villin.png"))
+        reporting.replot(args.replot, args.out, "villin", plot)
         return
     flavor_settings = [(float(s.split(":")[0]), float(s.split(":")[1]), s.endswith(":bonds"))
                        for s in args.flavors.split(",")]

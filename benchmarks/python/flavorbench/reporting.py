@@ -51,6 +51,14 @@ def save_outputs(out, name, data, plot):
     print(f"\nwrote {json_path} and {png_path}")
 
 
+def replot(json_path, out, name, plot):
+    """Redraw <out>/<name>.png with plot(data, path) from the JSON of an earlier run (the scenes' --replot)."""
+    with open(json_path) as f:
+        data = json.load(f)
+    os.makedirs(out, exist_ok=True)
+    plot(data, os.path.join(out, f"{name}.png"))
+
+
 def greek(label):
     """A run's label in the charts' notation: "d=0.1 t=0.01" (FLAVOR's mesostep and microstep) as "δ = 0.1, τ = 0.01",
     "H=", "h=" as "H = ", "h = " (the JSON and the tables keep the labels as they are)."""

@@ -92,8 +92,6 @@ public:
                     const std::vector<OpenMM::Vec3>& positions);
     /** The frozen distances held (those of the constructor less the System's constraints and the dependent ones). */
     int getNumFrozen() const { return numFrozen; }
-    /** The frozen distances left out as dependent. */
-    int getNumDependent() const { return numDependent; }
     /** The connected components of the constraint graph (a particle without constraints is one of its own). */
     int getNumClusters() const { return (int)particleStart.size() - 1; }
     /** The frozen drift over h, cluster by cluster through loop; throws if the constraints cannot be held. */
@@ -127,7 +125,7 @@ private:
     /** constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here. */
     bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v, bool withTargets) const;
     void checkConvergence();
-    int numFrozen, numDependent;
+    int numFrozen;
     // Cluster k owns particles[particleStart[k] .. particleStart[k+1]) and constraints
     // [constraintStart[k], constraintStart[k+1]) of pairs, lengths and frozen (1 for a frozen distance, 0 for a
     // System constraint).

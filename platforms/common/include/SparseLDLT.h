@@ -37,8 +37,6 @@ public:
     void solve(double* b) const;
     /** Whether row i (the constructor's numbering) was found dependent by the last factorize(). */
     bool isDependent(int i) const { return dependent[position[i]] != 0; }
-    /** Nonzeros of L below the diagonal (the fill the ordering left). */
-    int getFactorNonzeros() const { return factorStart[n]; }
 
 private:
     int n;

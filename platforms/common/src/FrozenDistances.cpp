@@ -185,12 +185,9 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     vector<pair<int, int>> all;
     vector<double> allLengths;
     vector<bool> allFrozen;
-    numDependent = 0;
     for (size_t c = 0; c < candidates.size(); ++c) {
-        if (!keep[c]) {
-            ++numDependent;
+        if (!keep[c])
             continue;
-        }
         all.push_back(candidates[c]);
         allFrozen.push_back(candidateFrozen[c] != 0);
         // The System's lengths; the frozen ones are set from the positions before each drift.

@@ -10,7 +10,6 @@ import itertools
 import json
 import math
 import os
-import time
 
 import matplotlib
 
@@ -21,7 +20,7 @@ import openmm  # noqa: E402
 import openmm.app as app  # noqa: E402
 import openmm.unit as unit  # noqa: E402
 from flavorbench.runners import KB as BOLTZ  # noqa: E402
-from flavorbench.timeseries import block_error  # noqa: E402
+from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
 
 DRUDE_GROUP = 1
@@ -161,20 +160,14 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
     stride = max(1, int(round(settings["production_ps"] * 1000 / step_fs / samples)))
     series = {"pe_per_molecule": [], "dipole": [], "t_com": [], "t_drude": [], "induced_ratio": []}
     histograms = []
-    stepping = 0.0
     scf_every = max(1, samples // settings["scf_frames"])
-    for s in range(samples):
-        start = time.perf_counter()
-        integrator.step(stride)
-        stepping += time.perf_counter() - start
-        st = context.getState(getPositions=True, getVelocities=True, getEnergy=True, enforcePeriodicBox=False)
-        x = st.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        v = st.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
+    production = ProductionFrames(context, integrator, samples * stride, samples)
+    for s, frame in enumerate(production):
+        x, st = frame.positions, frame.state
         box = st.getPeriodicBoxVectors(asNumpy=True).value_in_unit(unit.nanometer)[0][0]
-        series["pe_per_molecule"].append(st.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-                                         / analysis.molecules)
+        series["pe_per_molecule"].append(frame.potential_energy / analysis.molecules)
         series["dipole"].append(analysis.molecular_dipole(x, box))
-        t_com, t_drude = analysis.temperatures(v)
+        t_com, t_drude = analysis.temperatures(frame.velocities)
         series["t_com"].append(t_com)
         series["t_drude"].append(t_drude)
         histograms.append(analysis.oo_histogram(x, box, edges))
@@ -183,8 +176,8 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
             d_scf = analysis.drude_displacements(scf.drude_positions(st.getPositions(), st.getPeriodicBoxVectors()),
                                                  box)
             series["induced_ratio"].append(float(np.sum(d * d_scf) / np.sum(d_scf * d_scf)))
-    steps = samples * stride
-    ns_per_day = steps * step_fs * 1e-6 / stepping * 86400
+    steps = production.steps_done
+    ns_per_day = production.ns_per_day(step_fs)
     blocks = settings["blocks"]
     result = {"integrator": kind, "step_fs": step_fs, "steps": steps, "ns_per_day": ns_per_day}
     for name, values in series.items():

@@ -24,9 +24,7 @@ Outputs: DIR/flexible_water.json (every number) and DIR/flexible_water.png.
 """
 import argparse
 import json
-import math
 import os
-import time
 
 import numpy as np
 import openmm as mm
@@ -37,7 +35,7 @@ import openmmflavors
 from flavorbench import reporting
 from flavorbench.runners import KB
 from flavorbench.systems import assign_force_groups
-from flavorbench.timeseries import block_error
+from flavorbench.timeseries import ProductionFrames, add_block_errors
 
 TEMPERATURE = 300.0  # K
 FRICTION = 1.0  # 1/ps
@@ -129,34 +127,17 @@ def run_peer(name, rigid, factory, forcefield, topology, start_positions, equili
     record = {"name": name, "step_fs": step_fs, "rigid": rigid, "stable": True}
     try:
         integrator.step(int(round(equilibration_ps * 1000 / step_fs)))
-        steps = int(round(production_ps * 1000 / step_fs))
-        interval = max(1, steps // frames)
+        production = ProductionFrames(context, integrator, int(round(production_ps * 1000 / step_fs)), frames)
         series = {key: [] for key in ("oh_mean", "oh_sd", "angle_mean", "angle_sd", "T_O", "T_H", "pe_per_molecule")}
         g_sum = np.zeros(len(rdf_edges) - 1)
-        elapsed = 0.0
-        done = 0
-        while done < steps:
-            start = time.perf_counter()
-            integrator.step(interval)
-            elapsed += time.perf_counter() - start
-            done += interval
-            state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, enforcePeriodicBox=False)
-            q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-            v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
-            pe = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-            if not np.all(np.isfinite(q)) or not math.isfinite(pe):
-                raise mm.OpenMMException("non-finite state")
-            values = frame_observables(q, v, box, oxygens, masses, rdf_edges)
+        for frame in production:
+            values = frame_observables(frame.positions, frame.velocities, box, oxygens, masses, rdf_edges)
             for key, value in zip(("oh_mean", "oh_sd", "angle_mean", "angle_sd", "T_O", "T_H"), values[:6]):
                 series[key].append(value)
-            series["pe_per_molecule"].append(pe / n_molecules)
+            series["pe_per_molecule"].append(frame.potential_energy / n_molecules)
             g_sum += values[6]
-        record["ns_per_day"] = done * step_fs * 1e-6 / elapsed * 86400
-        blocks = 5 if len(series["oh_mean"]) >= 10 else 2
-        for key, values in series.items():
-            mean, error = block_error(values, blocks)
-            record[key] = mean
-            record[key + "_error"] = error
+        record["ns_per_day"] = production.ns_per_day(step_fs)
+        add_block_errors(record, series, 5 if len(series["oh_mean"]) >= 10 else 2)
         g = g_sum / len(series["oh_mean"])
         record["g_OO"] = {"r": list(0.5 * (rdf_edges[1:] + rdf_edges[:-1])), "g": list(g)}
         record["g_OO_peak"] = float(g.max())

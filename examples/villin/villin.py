@@ -34,7 +34,7 @@ import openmm.unit as unit
 
 import openmmflavors
 from flavorbench import reporting
-from flavorbench.timeseries import block_error
+from flavorbench.timeseries import ProductionFrames, add_block_errors
 from flavorbench.progress import Progress
 from flavorbench.runners import KB
 from flavorbench.systems import assign_force_groups
@@ -164,35 +164,19 @@ def run_peer(name, factory, forcefield, topology, start_positions, geometry, arg
             integrator.step(n)
             done += n
             progress.update(done * step_fs / 1000, note="  equilibration")
-        steps = int(round(args.production * 1000 / step_fs))
-        interval = max(1, steps // frames)
+        production = ProductionFrames(context, integrator, int(round(args.production * 1000 / step_fs)), frames)
         series = {}
         times = []
-        elapsed = 0.0
-        done = 0
-        while done < steps:
-            begin = time.perf_counter()
-            integrator.step(interval)
-            elapsed += time.perf_counter() - begin
-            done += interval
-            state = context.getState(getPositions=True, getVelocities=True, getEnergy=True, enforcePeriodicBox=False)
-            q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-            v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
-            pe = state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole)
-            if not np.all(np.isfinite(q)) or not math.isfinite(pe):
-                raise mm.OpenMMException("non-finite state")
-            for key, value in geometry.frame(q, v, reference_backbone).items():
+        for frame in production:
+            for key, value in geometry.frame(frame.positions, frame.velocities, reference_backbone).items():
                 series.setdefault(key, []).append(value)
-            series.setdefault("potential_energy", []).append(pe)
-            times.append(done * step_fs / 1000)
-            progress.update(args.equilibration + done * step_fs / 1000, note="  production")
-        record["ns_per_day_2_threads"] = done * step_fs * 1e-6 / elapsed * 86400
+            series.setdefault("potential_energy", []).append(frame.potential_energy)
+            times.append(production.steps_done * step_fs / 1000)
+            progress.update(args.equilibration + production.steps_done * step_fs / 1000, note="  production")
+        record["ns_per_day_2_threads"] = production.ns_per_day(step_fs)
         blocks = 5 if len(times) >= 10 else 2
         record["blocks"] = blocks
-        for key, values in series.items():
-            mean, error = block_error(values, blocks)
-            record[key] = mean
-            record[key + "_error"] = error
+        add_block_errors(record, series, blocks)
         record["backbone_rmsd_final"] = series["backbone_rmsd"][-1]
         record["series"] = {"t_ps": times, "backbone_rmsd": series["backbone_rmsd"], "T": series["T"]}
         # ns/day with 1 thread: a new Context at the last state.

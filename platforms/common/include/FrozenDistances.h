@@ -41,6 +41,15 @@ OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>> bondedFrozenPairs(const O
                                                                          std::vector<std::string>& unsupported);
 
 /**
+ * An off-diagonal entry of B = J M^-1 J^T: two constraints (indices into a list of pairs) sharing a particle, and the
+ * sign of the product of their directions there (+1 if the particle is the same end of both).
+ */
+struct ConstraintCoupling {
+    int first, second, particle;
+    double sign;
+};
+
+/**
  * Which of the constraints pairs (the System's first, then frozen distances; most important first) to keep: row c of
  * B = J M^-1 J^T (J: the unit directions at positions) is eliminated in order, and a frozen distance whose pivot is at
  * most threshold times its diagonal entry (the squared sine of the angle between its direction and the span of those
@@ -115,6 +124,9 @@ private:
     /** (1/2) rdot^T B^-1 rdot of the stored rates with B as last factorized; y receives B^-1 rdot. */
     double normalKineticEnergy(int k, double* y) const;
     void kickCluster(int k) const;
+    /** x_i += w_i u_c a_c, x_j -= w_j u_c a_c for each constraint c = (i, j) of cluster k (a numbered from its first).
+     */
+    void addAlongConstraints(int k, OpenMM::Vec3* x, const OpenMM::Vec3* u, const double* a) const;
     /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
     void factorize(int k) const;
     /** Newton's iteration with the factorized B: moves positions along the stored directions until every length
@@ -132,18 +144,17 @@ private:
     std::vector<int> particles, particleStart, constraintStart;
     std::vector<std::pair<int, int>> pairs;
     std::vector<char> frozen;
-    // The off-diagonal entries of each cluster's B: two constraints (global indices) sharing a particle, with the
-    // sign of the product of their directions there; entries [couplingStart[k], couplingStart[k+1]).
-    struct ClusterCoupling {
-        int first, second, particle;
-        double sign;
-    };
-    std::vector<ClusterCoupling> couplings;
+    // The off-diagonal entries of each cluster's B, [couplingStart[k], couplingStart[k+1]) (global constraint
+    // indices).
+    std::vector<ConstraintCoupling> couplings;
     std::vector<int> couplingStart;
     mutable std::vector<SparseLDLT> solvers;
     // Written per cluster while the loop runs (each cluster its own entries).
     mutable std::vector<double> lengths, targetRates, residuals, normalWork;
-    mutable std::vector<OpenMM::Vec3> directions, previousPositions, startPositions, startVelocities, scratch;
+    // directions: the unit constraint directions of the last factorization; currentDirections: of the last velocity
+    // solve.
+    mutable std::vector<OpenMM::Vec3> directions, currentDirections, previousPositions, startPositions, startVelocities,
+        scratch;
     mutable std::vector<char> factorized;
     mutable std::vector<char> failed;
     // The current call's data.

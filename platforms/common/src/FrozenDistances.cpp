@@ -100,16 +100,10 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
 
 namespace {
 
-/** The off-diagonal pattern of B = J M^-1 J^T over pairs: each two constraints sharing a particle, with the particle
- * and the sign of the product of their directions there. */
-struct Coupling {
-    int first, second, particle;
-    double sign;
-};
-
-vector<Coupling> couplingsOf(const vector<pair<int, int>>& pairs, int first, int last, int numParticles) {
+/** The couplings among constraints [first, last) of pairs, ordered by their second constraint. */
+vector<ConstraintCoupling> couplingsOf(const vector<pair<int, int>>& pairs, int first, int last, int numParticles) {
     vector<vector<int>> touching(numParticles);
-    vector<Coupling> result;
+    vector<ConstraintCoupling> result;
     for (int c = first; c < last; ++c)
         for (int end = 0; end < 2; ++end) {
             const int particle = end == 0 ? pairs[c].first : pairs[c].second;
@@ -122,27 +116,42 @@ vector<Coupling> couplingsOf(const vector<pair<int, int>>& pairs, int first, int
     return result;
 }
 
+/**
+ * Sets b to B = J M^-1 J^T of constraints [first, last) of pairs (rows numbered from first) with the unit directions
+ * at positions, stored in directions[first, last); couplings are B's off-diagonal entries in the order b was built
+ * with.  A constraint of length 0 gets direction 0.
+ */
+void assembleB(SparseLDLT& b, const vector<pair<int, int>>& pairs, int first, int last,
+               const ConstraintCoupling* couplings, int numCouplings, const Vec3* positions,
+               const double* inverseMasses, Vec3* directions) {
+    for (int c = first; c < last; ++c) {
+        const int i = pairs[c].first, j = pairs[c].second;
+        const Vec3 r = positions[i] - positions[j];
+        const double length = std::sqrt(r.dot(r));
+        directions[c] = length > 0 ? r / length : Vec3();
+        b.setDiagonal(c - first, inverseMasses[i] + inverseMasses[j]);
+    }
+    for (int e = 0; e < numCouplings; ++e) {
+        const ConstraintCoupling& coupling = couplings[e];
+        b.setOffDiagonal(e, coupling.sign * inverseMasses[coupling.particle] *
+                                directions[coupling.first].dot(directions[coupling.second]));
+    }
+}
+
 } // namespace
 
 vector<char> FlavorPlugin::independentConstraints(const vector<pair<int, int>>& pairs, const vector<char>& frozen,
                                                   const vector<double>& inverseMasses, const vector<Vec3>& positions,
                                                   double threshold) {
     const int n = (int)pairs.size();
-    const vector<Coupling> couplings = couplingsOf(pairs, 0, n, (int)positions.size());
+    const vector<ConstraintCoupling> couplings = couplingsOf(pairs, 0, n, (int)positions.size());
     vector<pair<int, int>> offDiagonal;
-    for (const Coupling& coupling : couplings)
+    for (const ConstraintCoupling& coupling : couplings)
         offDiagonal.emplace_back(coupling.first, coupling.second);
     SparseLDLT rows(n, offDiagonal, false);
     vector<Vec3> directions(n);
-    for (int c = 0; c < n; ++c) {
-        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
-        const double length = std::sqrt(r.dot(r));
-        directions[c] = length > 0 ? r / length : Vec3();
-        rows.setDiagonal(c, inverseMasses[pairs[c].first] + inverseMasses[pairs[c].second]);
-    }
-    for (size_t e = 0; e < couplings.size(); ++e)
-        rows.setOffDiagonal((int)e, couplings[e].sign * inverseMasses[couplings[e].particle] *
-                                        directions[couplings[e].first].dot(directions[couplings[e].second]));
+    assembleB(rows, pairs, 0, n, couplings.data(), (int)couplings.size(), positions.data(), inverseMasses.data(),
+              directions.data());
     rows.factorize(threshold);
     vector<char> keep(n);
     for (int c = 0; c < n; ++c)
@@ -240,22 +249,24 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
         particleStart.push_back((int)particles.size());
         constraintStart.push_back((int)pairs.size());
     }
-    // B's pattern: constraints sharing a particle are coupled through it.
+    // B's pattern: constraints sharing a particle are coupled through it, and so lie in one cluster; listed by their
+    // second constraint, the couplings come cluster by cluster.
+    couplings = couplingsOf(pairs, 0, (int)pairs.size(), n);
     couplingStart.push_back(0);
     for (int k = 0; k < numClusters; ++k) {
         const int first = constraintStart[k], last = constraintStart[k + 1];
         vector<pair<int, int>> offDiagonal;
-        for (const Coupling& coupling : couplingsOf(pairs, first, last, n)) {
-            couplings.push_back({coupling.first, coupling.second, coupling.particle, coupling.sign});
-            offDiagonal.emplace_back(coupling.first - first, coupling.second - first);
-        }
-        couplingStart.push_back((int)couplings.size());
+        size_t e = couplingStart.back();
+        for (; e < couplings.size() && couplings[e].second < last; ++e)
+            offDiagonal.emplace_back(couplings[e].first - first, couplings[e].second - first);
+        couplingStart.push_back((int)e);
         solvers.emplace_back(last - first, offDiagonal);
     }
     targetRates.assign(pairs.size(), 0.0);
     residuals.assign(pairs.size(), 0.0);
     normalWork.assign(pairs.size(), 0.0);
     directions.resize(pairs.size());
+    currentDirections.resize(pairs.size());
     previousPositions.resize(n);
     startPositions.resize(n);
     startVelocities.resize(n);
@@ -391,14 +402,11 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
         double* y = &normalWork[constraintStart[k]];
         const double endEnergy = normalKineticEnergy(k, y);
         if (endEnergy > 0.0) {
+            // directions: those of the last factorization, here.
             const double scale = std::sqrt(startEnergy / endEnergy) - 1.0;
-            for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
-                const int i = pairs[c].first, j = pairs[c].second;
-                Vec3 u = positions[i] - positions[j];
-                u *= scale * y[c - constraintStart[k]] / std::sqrt(u.dot(u));
-                velocities[i] += u * inverseMasses[i];
-                velocities[j] -= u * inverseMasses[j];
-            }
+            for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
+                y[c - constraintStart[k]] *= scale;
+            addAlongConstraints(k, velocities, directions.data(), y);
         }
     }
     return true;
@@ -422,21 +430,19 @@ void FrozenDistances::kickCluster(int k) const {
     }
 }
 
-void FrozenDistances::factorize(int k) const {
-    const int first = constraintStart[k];
-    SparseLDLT& solver = solvers[k];
-    for (int c = first; c < constraintStart[k + 1]; ++c) {
+void FrozenDistances::addAlongConstraints(int k, Vec3* x, const Vec3* u, const double* a) const {
+    for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
         const int i = pairs[c].first, j = pairs[c].second;
-        Vec3 u = positions[i] - positions[j];
-        u *= 1.0 / std::sqrt(u.dot(u));
-        directions[c] = u;
-        solver.setDiagonal(c - first, inverseMasses[i] + inverseMasses[j]);
+        const double amount = a[c - constraintStart[k]];
+        x[i] += u[c] * (inverseMasses[i] * amount);
+        x[j] -= u[c] * (inverseMasses[j] * amount);
     }
-    for (int e = couplingStart[k]; e < couplingStart[k + 1]; ++e) {
-        const ClusterCoupling& coupling = couplings[e];
-        solver.setOffDiagonal(e - couplingStart[k], coupling.sign * inverseMasses[coupling.particle] *
-                                                        directions[coupling.first].dot(directions[coupling.second]));
-    }
+}
+
+void FrozenDistances::factorize(int k) const {
+    SparseLDLT& solver = solvers[k];
+    assembleB(solver, pairs, constraintStart[k], constraintStart[k + 1], couplings.data() + couplingStart[k],
+              couplingStart[k + 1] - couplingStart[k], positions, inverseMasses, directions.data());
     // A pivot this small relative to its diagonal is a direction already spanned by the rows before it.
     solver.factorize(1e-10);
     factorized[k] = 1;
@@ -467,11 +473,7 @@ bool FrozenDistances::constrainPositions(int k) const {
         if (converged)
             return true;
         solvers[k].solve(lambda);
-        for (int c = first; c < last; ++c) {
-            const int i = pairs[c].first, j = pairs[c].second;
-            positions[i] += directions[c] * (inverseMasses[i] * lambda[c - first]);
-            positions[j] -= directions[c] * (inverseMasses[j] * lambda[c - first]);
-        }
+        addAlongConstraints(k, positions, directions.data(), lambda);
     }
     return false;
 }
@@ -490,15 +492,16 @@ bool FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets, int 
     // with the factorized B (exact in one iteration where B was factorized).
     const int first = constraintStart[k], last = constraintStart[k + 1];
     double* mu = &residuals[first];
+    for (int c = first; c < last; ++c) {
+        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
+        currentDirections[c] = r / std::sqrt(r.dot(r));
+    }
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
         bool converged = true;
         for (int c = first; c < last; ++c) {
-            const int i = pairs[c].first, j = pairs[c].second;
-            Vec3 u = positions[i] - positions[j];
-            u *= 1.0 / std::sqrt(u.dot(u));
-            const Vec3 relative = v[i] - v[j];
+            const Vec3 relative = v[pairs[c].first] - v[pairs[c].second];
             const double target = withTargets ? targetRates[c] : 0.0;
-            const double error = target - u.dot(relative);
+            const double error = target - currentDirections[c].dot(relative);
             const double scale = std::sqrt(relative.dot(relative)) + std::abs(target);
             if (!(std::abs(error) <= tolerance * scale) && !solvers[k].isDependent(c - first))
                 converged = false;
@@ -507,13 +510,7 @@ bool FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets, int 
         if (converged)
             return true;
         solvers[k].solve(mu);
-        for (int c = first; c < last; ++c) {
-            const int i = pairs[c].first, j = pairs[c].second;
-            Vec3 u = positions[i] - positions[j];
-            u *= 1.0 / std::sqrt(u.dot(u));
-            v[i] += u * (inverseMasses[i] * mu[c - first]);
-            v[j] -= u * (inverseMasses[j] * mu[c - first]);
-        }
+        addAlongConstraints(k, v, currentDirections.data(), mu);
     }
     return false;
 }

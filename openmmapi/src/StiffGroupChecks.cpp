@@ -97,6 +97,12 @@ void FlavorPlugin::rejectConstrainedStiffParticles(const ContextImpl& context, c
     }
 }
 
+string FlavorPlugin::describeForce(const System& system, int f) {
+    const Force& force = system.getForce(f);
+    return "force " + std::to_string(f) + " (" + force.getName() + ", force group " +
+           std::to_string(force.getForceGroup()) + ")";
+}
+
 string FlavorPlugin::describeUnfreezableForces(const vector<string>& forces) {
     string list;
     for (const string& force : forces)
@@ -122,8 +128,7 @@ void FlavorPlugin::rejectUnfreezableStiffForces(const System& system, int stiffG
             dynamic_cast<const CustomTorsionForce*>(&force) || dynamic_cast<const CustomAngleForce*>(&force) ||
             dynamic_cast<const GBSAOBCForce*>(&force) || dynamic_cast<const CustomGBForce*>(&force) ||
             dynamic_cast<const CustomHbondForce*>(&force) || dynamic_cast<const CustomManyParticleForce*>(&force))
-            unfreezable.push_back("force " + std::to_string(f) + " (" + force.getName() + ", force group " +
-                                  std::to_string(force.getForceGroup()) + ")");
+            unfreezable.push_back(describeForce(system, f));
     }
     if (!unfreezable.empty())
         throw OpenMMException(describeUnfreezableForces(unfreezable));

@@ -35,6 +35,9 @@ OPENMM_EXPORT_FLAVORS void rejectConstrainedStiffParticles(const OpenMM::Context
                                                            const std::vector<bool>& stiff, const std::string& owner,
                                                            const std::string& alternative);
 
+/** "force f (its name, force group g)", how the messages about stiff forces name a force of the System. */
+OPENMM_EXPORT_FLAVORS std::string describeForce(const OpenMM::System& system, int f);
+
 /**
  * Why the artificial averaging cannot freeze the stiff forces described in forces (each "force i (Type, force group
  * g)"), and what to do instead.

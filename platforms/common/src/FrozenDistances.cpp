@@ -1,4 +1,5 @@
 #include "FrozenDistances.h"
+#include "internal/StiffGroupChecks.h"
 #include "internal/UnionFind.h"
 #include "openmm/CustomBondForce.h"
 #include "openmm/HarmonicAngleForce.h"
@@ -87,8 +88,7 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
                 angles.push_back(angle);
             }
         } else {
-            unsupported.push_back("force " + std::to_string(f) + " (" + force.getName() + ", force group " +
-                                  std::to_string(force.getForceGroup()) + ")");
+            unsupported.push_back(describeForce(system, f));
         }
     }
     for (const pair<int, int>& p : nonredundantAngleDistances(angles))

@@ -195,7 +195,7 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
 
 def plot(data, path):
     runs = data["runs"]
-    reference = runs["DrudeLangevin_0.5fs"]
+    reference = runs[data["reference"]]
     labels = list(runs)
     panels = [("induced_ratio", "induced dipole / self-consistent"), ("dipole", "mean molecular dipole (D)"),
               ("pe_per_molecule", "potential energy per molecule (kJ/mol)"), ("g_oo_peak", "first peak of g_OO"),
@@ -207,7 +207,7 @@ def plot(data, path):
             run = runs[label]
             ax.errorbar(index, run[key][0], yerr=run[key][1], fmt="o", color=colors[run["integrator"]])
         ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
-                   label="reference ±1 s.e. (DrudeLangevin, H = 0.5 fs)")
+                   label="reference ±1 s.e. (DrudeLangevin, H = %g fs)" % reference["step_fs"])
         ax.set_xticks(range(len(labels)))
         ax.set_xticklabels([f"{runs[lb]['integrator']}\nH = {runs[lb]['step_fs']:g} fs" for lb in labels],
                            rotation=90, fontsize=7)
@@ -438,7 +438,8 @@ def main():
             runs[label] = {"integrator": kind, "step_fs": step_fs, "failed": str(error)}
         print(label, json.dumps({k: v for k, v in runs[label].items() if not k.startswith("g_oo")}), flush=True)
     completed = {k: v for k, v in runs.items() if "failed" not in v}
-    reference = completed["DrudeLangevin_%gfs" % peers[0][1]]
+    reference_label = "DrudeLangevin_%gfs" % peers[0][1]
+    reference = completed[reference_label]
     observables = ["induced_ratio", "dipole", "pe_per_molecule", "g_oo_peak", "t_com", "t_drude"]
     for run in completed.values():
         run["within_error_of_reference"] = {
@@ -449,7 +450,7 @@ def main():
             "parameters": dict(settings, box_nm=box, temperature_K=300, friction_per_ps=5,
                                drude_temperature_K=1, drude_friction_per_ps=20),
             "criterion": "within_error_of_reference: |run - reference| <= 2 sqrt(se_run^2 + se_ref^2)",
-            "g_oo_r_nm": (0.5 * (edges[1:] + edges[:-1])).tolist(), "runs": runs}
+            "reference": reference_label, "g_oo_r_nm": (0.5 * (edges[1:] + edges[:-1])).tolist(), "runs": runs}
     with open(os.path.join(args.out, "drude_water.json"), "w") as f:
         json.dump(data, f, indent=1)
     data["failed_runs"] = [run for run in runs.values() if "failed" in run]

@@ -131,7 +131,7 @@ def plot_errors(result, path):
         error = np.array([[np.nan if e is None else e for e in row] for row in data["error"]])
         ax = axes[0, col]
         mesh = ax.pcolormesh(deltas, ratios, error, norm=LogNorm(vmin=1e-6, vmax=1), shading="nearest")
-        fig.colorbar(mesh, ax=ax, label="error at T = %g" % result["T"])
+        fig.colorbar(mesh, ax=ax, label="error |(x, y) − exact| at T = %g (reduced units)" % result["T"])
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("mesostep δ")
@@ -142,14 +142,14 @@ def plot_errors(result, path):
                   label="optimal τ/ε")
         ax.loglog(deltas, [np.nan if v is None else v for v in data["optimal_error"]], "s-", label="error there")
         ax.set_xlabel("mesostep δ")
-        ax.set_ylabel("optimal τ/ε; error")
+        ax.set_ylabel("optimal τ/ε (circles); error at T = %g (squares)" % result["T"])
         ax.set_title("(%s) %s FLAVOR: optimal τ/ε and its error" % ("cd"[col], name))
         ax.legend(fontsize=8)
         ax = axes[2, col]
         for j in range(0, len(deltas), max(1, len(deltas) // 4)):
             ax.loglog(ratios, error[:, j], "o-", ms=3, label="δ = %.3g" % deltas[j])
         ax.set_xlabel("τ/ε")
-        ax.set_ylabel("error at T = %g" % result["T"])
+        ax.set_ylabel("error |(x, y) − exact| at T = %g" % result["T"])
         ax.set_title("(%s) %s FLAVOR: error against τ/ε at fixed δ" % ("ef"[col], name))
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
     fig.suptitle("Errors of the SymplecticEuler FLAVORs on system (5.1), ω = %g, against its exact solution "

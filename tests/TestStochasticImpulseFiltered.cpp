@@ -1,11 +1,12 @@
 // The Filtered splitting: a constant soft force gives every stiff mode its exact mean displacement (where Strang gives
 // (omega H/2) cot(omega H/2) of it), second order on a smooth problem, no resonance spike at omega H = 2 pi on the FPU
-// chain.
+// chain, and processed velocities (exact for a steadily changing force, forgotten when the state is set).
 
 #include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/CustomCompoundBondForce.h"
 #include <cmath>
 #include <memory>
 
@@ -64,12 +65,11 @@ std::pair<double, double> driftFrom(const TetheredParticle& p, StochasticImpulse
 
 TEST_P(ImpulseFiltered, ConstantSoftForceGivesTheExactMeanDisplacement) {
     // omega H from 0.1 to 10 with H = 0.01 ps.  Filtered: the exact equilibrium (F/k, 0) is a fixed point without
-    // friction, and with friction (gamma = omega/5, temperature 0) every start converges to a state whose position is
-    // F/k (its velocity between steps is not zero: the kicks are not the flow's); the mean of a noisy run is the same
-    // by linearity.  The method says where it cannot: its filter has a pole where the damped mode turns by an odd
-    // multiple of pi per step (omega H = pi, 3 pi here; skipped), and at omega H = 2 pi k without friction the filter
-    // vanishes and every state is a fixed point (only the friction case is checked there).  Strang's fixed point is
-    // (F/k) (omega H/2) cot(omega H/2), with zero velocity (it has none at omega H = pi k).
+    // friction, and with friction (gamma = omega/5, temperature 0) every start converges to the state (F/k, 0); the
+    // mean of a noisy run is the same by linearity.  The method says where it cannot: its filter has a pole where the
+    // damped mode turns by an odd multiple of pi per step (omega H = pi, 3 pi here; skipped), and at omega H = 2 pi k
+    // without friction the filter vanishes and every state is a fixed point (only the friction case is checked there).
+    // Strang's fixed point is (F/k) (omega H/2) cot(omega H/2), with zero velocity (it has none at omega H = pi k).
     const double H = 0.01;
     for (double xi : {0.1, 0.5, 1.0, 2.0, 3.0, Pi, 4.0, 5.0, 2 * Pi - 0.3, 2 * Pi, 7.0, 8.0, 3 * Pi, 10.0}) {
         const double omega = xi / H;
@@ -91,6 +91,11 @@ TEST_P(ImpulseFiltered, ConstantSoftForceGivesTheExactMeanDisplacement) {
             const int steps = (int)std::ceil(280 / xi);
             const auto converged = driftFrom(p, damped, platform(), properties(), Vec3(), exact, omega, steps);
             EXPECT_LT(converged.first, 1e-9) << "Filtered with friction, omega H = " << xi;
+            // Its velocity at the step's end is processed to the exact 0 below omega H = 0.9 pi (unprocessed it is
+            // lambda F with lambda omega^2 = 0.04 to 2.3 at omega H = 0.1 to 2.8 here).
+            if (xi < 0.9 * Pi) {
+                EXPECT_LT(converged.second, 1e-9) << "Filtered with friction, omega H = " << xi;
+            }
         }
         if (std::abs(std::remainder(xi, Pi)) > 1e-12) {
             const double bias = 0.5 * xi / std::tan(0.5 * xi);
@@ -216,4 +221,80 @@ TEST_P(ImpulseFiltered, NoResonanceSpikeOnTheFpuChainAtOmegaHTwoPi) {
         else
             EXPECT_GT(nearResonance, 5 * away) << "near 2 pi " << nearResonance << ", away " << away;
     }
+}
+
+TEST_P(ImpulseFiltered, SteadilyGrowingSoftForceGivesTheExactVelocity) {
+    // A tethered particle (m = 2, omega = 1036/ps, friction 20/ps at 0 K) pulled by a soft force c r_d(t) towards a
+    // driver particle that drifts at constant velocity V (mass 1e12, no friction: its speed changes by 1e-9 of itself),
+    // so the force grows steadily, G = c V.  The exact motion settles on x = (c r_d - gamma m G/k)/k, v = G/k.  The
+    // Filtered step's positions follow it; its unprocessed velocities at the step's end would be c' G/k with c' =
+    // 1.20 and 2.36 at omega H = 1.04 and 2.07 (plus lambda F with friction).  Processed, they are G/k.
+    const double mass = 2.0, omega = 1036.0, k = mass * omega * omega, gamma = 20.0, coupling = 3e4;
+    const Vec3 driverVelocity(1.0, -0.4, 0.2), growth = driverVelocity * coupling;
+    System system;
+    system.addParticle(mass);
+    system.addParticle(1e12);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*k*(x^2+y^2+z^2)");
+    tether->addGlobalParameter("k", k);
+    tether->addParticle(0);
+    tether->setForceGroup(StiffGroup);
+    system.addForce(tether);
+    CustomCompoundBondForce* pull = new CustomCompoundBondForce(2, "-c*(x1*x2+y1*y2+z1*z2)");
+    pull->addGlobalParameter("c", coupling);
+    pull->addBond({0, 1});
+    system.addForce(pull);
+    for (double H : {0.001, 0.002}) {
+        SCOPED_TRACE(H);
+        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
+        integrator.setSplitting(StochasticImpulseIntegrator::Filtered);
+        integrator.setStiffModeTemperature(0.0);
+        integrator.setStiffModeFriction(gamma);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions({Vec3(), Vec3()});
+        context.setVelocities({Vec3(), driverVelocity});
+        integrator.step((int)std::lround(3.0 / H));
+        const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
+        const Vec3 exactV = growth / k, dv = v[0] - exactV;
+        EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-6 * std::sqrt(exactV.dot(exactV)));
+        // Positions: within 1% of a step's change of F/k.
+        const Vec3 exactX = (q[1] * coupling - growth * (gamma * mass / k)) / k, dx = q[0] - exactX;
+        EXPECT_LT(std::sqrt(dx.dot(dx)), 0.01 * H * std::sqrt(exactV.dot(exactV)));
+    }
+}
+
+TEST_P(ImpulseFiltered, SettingTheStateStartsTheNextStepAfresh) {
+    // The velocity processing carries the last step's change of the soft force into the next step.  After
+    // setPositions and setVelocities that history is forgotten: the next step is the step a new Context takes from
+    // that state.  Without friction, so the random streams play no part.
+    const double omega = 300.0;
+    System system;
+    system.addParticle(2.0);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*k*(x^2+y^2+z^2)");
+    tether->addGlobalParameter("k", 2.0 * omega * omega);
+    tether->addParticle(0);
+    tether->setForceGroup(StiffGroup);
+    system.addForce(tether);
+    CustomExternalForce* soft = new CustomExternalForce("1e4*(x^4+y^4+z^4)-30*x+12*y");
+    soft->addParticle(0);
+    system.addForce(soft);
+    const Vec3 q(0.05, -0.02, 0.03), v(1.0, 2.0, -0.5);
+    StochasticImpulseIntegrator used(0.0, 0.0, 0.005, StiffMask), fresh(0.0, 0.0, 0.005, StiffMask);
+    used.setSplitting(StochasticImpulseIntegrator::Filtered);
+    fresh.setSplitting(StochasticImpulseIntegrator::Filtered);
+    Context usedContext(system, used, platform(), properties()), freshContext(system, fresh, platform(), properties());
+    usedContext.setPositions({Vec3(0.1, 0.0, 0.0)});
+    usedContext.setVelocities({Vec3(0.0, 3.0, 0.0)});
+    used.step(20);
+    usedContext.setPositions({q});
+    usedContext.setVelocities({v});
+    freshContext.setPositions({q});
+    freshContext.setVelocities({v});
+    used.step(1);
+    fresh.step(1);
+    // The new Context measures its stiff modes at q, the used one measured them at its first position: they agree to
+    // rounding (with the history kept, the step differs by 7e-5 nm and 1.4e-3 nm/ps).
+    const Vec3 dq = positionsOf(freshContext)[0] - positionsOf(usedContext)[0];
+    const Vec3 dv = velocitiesOf(freshContext)[0] - velocitiesOf(usedContext)[0];
+    EXPECT_LT(std::sqrt(dq.dot(dq)), 1e-13);
+    EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-11);
 }

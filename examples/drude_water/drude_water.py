@@ -398,6 +398,10 @@ def main():
     parser.add_argument("--burn-in", type=float, default=0.5, help="ps per run before sampling (default 0.5)")
     parser.add_argument("--reference-steps", type=float, nargs="+", default=[0.5, 1.0],
                         help="DrudeLangevinIntegrator steps in fs; the first is the reference (default 0.5 1)")
+    parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.0, 1.5, 2.0, 3.0, 4.0],
+                        help="StochasticImpulseIntegrator steps in fs (default 1 1.5 2 3 4)")
+    parser.add_argument("--splittings", nargs="+", choices=["Strang", "Filtered"], default=["Strang", "Filtered"],
+                        help="StochasticImpulseIntegrator splittings (default Strang Filtered)")
     args = parser.parse_args()
     if args.filter_bias:
         os.makedirs(args.out, exist_ok=True)
@@ -412,7 +416,7 @@ def main():
                         scf_frames=2, sim_steps=[1.0, 2.0, 4.0])
     else:
         settings = dict(molecules=256, equilibration_ps=2.0, burn_ps=args.burn_in, production_ps=args.production,
-                        samples=60, blocks=6, scf_frames=12, sim_steps=[1.0, 1.5, 2.0, 3.0, 4.0])
+                        samples=60, blocks=6, scf_frames=12, sim_steps=args.sim_steps)
     os.makedirs(args.out, exist_ok=True)
     system, topology, positions, box = build_water(settings["molecules"])
     analysis = Analysis(system)
@@ -429,7 +433,8 @@ def main():
     edges = np.linspace(0.2, min(0.8, 0.5 * box), 61)
     runs = {}
     peers = [("DrudeLangevin", h) for h in ([0.5, 1.0] if args.quick else args.reference_steps)]
-    peers += [(kind, h) for kind in ("Strang", "Filtered") for h in settings["sim_steps"]]
+    peers += [(kind, h) for kind in (("Strang", "Filtered") if args.quick else args.splittings)
+              for h in settings["sim_steps"]]
     for seed, (kind, step_fs) in enumerate(peers, start=10):
         label = f"{kind}_{step_fs:g}fs"
         try:

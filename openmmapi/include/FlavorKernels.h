@@ -111,6 +111,11 @@ public:
      * before the integrator reads its part.
      */
     virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
+    /**
+     * Forget what the next step would take from the last one (constraint shares, velocity processing): the Context's
+     * positions or velocities were set.
+     */
+    virtual void forgetStepHistory() = 0;
 };
 
 } // namespace FlavorPlugin

@@ -136,6 +136,9 @@ void StochasticImpulseIntegrator::stateChanged(State::DataType changed) {
         stiffModesValid = false;
     if (stepKernel != nullptr && changed != State::Energy)
         stepKernel->saveContextState(*context, changed == State::Parameters);
+    // A state set from outside starts the next step afresh, as the first one.
+    if (stepKernel != nullptr && (changed == State::Positions || changed == State::Velocities))
+        stepKernel->forgetStepHistory();
 }
 
 double StochasticImpulseIntegrator::computeKineticEnergy() {

@@ -38,7 +38,15 @@ namespace FlavorPlugin {
  * A constrained particle of a stiff component (the core of a Drude pair in rigid water) carries its component through
  * the constraint solve: it enters the solve with the inverse of its component's total mass, and every other particle
  * of the component moves by the correction of its carrier, so the component's internal (stiff) coordinates are left
- * exactly as the stiff flow made them.
+ * exactly as the stiff flow made them.  The true constraint force acts on the carrier alone, and a share of it (its
+ * carried particles' mass over the component's) moves the internal coordinates; that share enters the next step as a
+ * soft force pair (on each carried particle and, opposite, on its carrier) from the constraint impulses of this
+ * step, so the kicks, filtered or not, treat it like every other soft force.
+ *
+ * Filtered steps report processed velocities in the stiff modes: the closing kick subtracts beta times the change of
+ * the soft force over the step (StiffModes::computeVelocityProcessing) and the next step adds it back before it
+ * flows, so positions are those of the unprocessed scheme while velocities follow a steadily changing force exactly.
+ * Both the shares and the processing are part of the integrator's checkpoint.
  */
 class OPENMM_EXPORT_FLAVORS FlowStepRunner {
 public:
@@ -93,6 +101,12 @@ public:
      * first call), and its parameters too when withParameters is true, for a failed loadCheckpoint() to put back.
      */
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
+    /**
+     * Forgets what the next step would take from the last one (the constraint shares of carried components, the
+     * velocity processing of Filtered steps): called when positions or velocities are set, after which the next step
+     * starts as the first one does.  Between loadCheckpoint() and the next step it keeps the loaded history.
+     */
+    void forgetStepHistory();
 
 private:
     struct ForceSlot {
@@ -104,9 +118,19 @@ private:
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
     /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
-    /** Constrains positions (reference: the positions before the move) or velocities, carrying stiff components. */
-    void constrainPositions(OpenMM::ContextImpl& context, double tolerance);
+    /**
+     * Constrains positions (reference: the positions before the move) or velocities, carrying stiff components.  A
+     * carrier's correction, times its component's mass and impulsePerCorrection (the impulse per unit correction: 1
+     * for velocities), adds to its constraint impulse of this step.
+     */
+    void constrainPositions(OpenMM::ContextImpl& context, double tolerance, double impulsePerCorrection);
     void constrainVelocities(OpenMM::ContextImpl& context, double tolerance);
+    /** Adds each carrier's correction (now minus carrierBefore) times its mass and scale to its step's impulse. */
+    void addCarrierImpulses(const std::vector<OpenMM::Vec3>& corrected, double impulsePerCorrection);
+    /** Turns the constraint impulses of a step of length stepSize into the shares of the next step, and resets them. */
+    void updateConstraintShares(double stepSize);
+    /** Kicks the particles of carried components by h times their constraint shares. */
+    void kickConstraintShares(OpenMM::ContextImpl& context, double h);
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                       double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
     /** Adds the force response of pass passIndex to the forces of the flow's slot (FilteredKick). */
@@ -154,6 +178,20 @@ private:
     std::vector<double> carriedInverseMasses;
     std::vector<std::pair<int, int>> carriedParticles;
     std::vector<OpenMM::Vec3> carrierBefore;
+    // Per carried pair: its carrier's constraint impulse so far in this step.
+    std::vector<OpenMM::Vec3> carrierImpulses;
+    // The carried particles and their carriers, each once, and the particles of stiff components.
+    std::vector<int> shareParticles, stiffParticles;
+    // The step history, per particle (checkpointed, forgotten when the Context's state is set): the constraint share
+    // forces that the kicks of the next step add (zero outside carried components), and, for Filtered steps, the
+    // change of the soft force on stiff particles over the last step, whose velocity processing the next step undoes.
+    std::vector<OpenMM::Vec3> shareForces, forceDifferences;
+    // Whether the history was read from a checkpoint since the last step (forgetStepHistory() then keeps it).
+    bool historyLoaded = false;
+    // The soft forces on stiff particles where the current Filtered step began.
+    std::vector<OpenMM::Vec3> openingForces;
+    // For each FilteredStiffFlow or FilteredKick pass, its velocity processing (StiffModes::computeVelocityProcessing).
+    std::vector<StiffModes::ForceResponse> processingResponses;
     int thermostatsPerStep;
     std::uint64_t seed, nextStream;
     CounterRandom random;

@@ -27,6 +27,7 @@ public:
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
+    void forgetStepHistory() override;
 
 private:
     void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);

@@ -28,6 +28,11 @@ struct PreparedFlow {
      * start of the flow makes in a zero mode, Phi_vv/Phi_xv (1/h without friction).
      */
     double constraintVelocityScale;
+    /**
+     * StiffFlow, FilteredStiffFlow: the impulse per unit mass that a position correction at the start of the flow
+     * stands for in a zero mode, 1/Phi_xv (1/h without friction).
+     */
+    double constraintImpulseScale;
 };
 
 /**

@@ -62,6 +62,8 @@ public:
 
     const StiffModes::ForceResponse* response = nullptr;
     const OpenMM::Vec3* forces = nullptr;
+    /** When not null, forces added to forces (the constraint shares of carried components). */
+    const OpenMM::Vec3* extraForces = nullptr;
     OpenMM::Vec3* positions = nullptr;
     OpenMM::Vec3* velocities = nullptr;
 

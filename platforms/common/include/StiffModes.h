@@ -114,10 +114,23 @@ public:
      * Computes the force responses of the Filtered splitting over a step h > 0 (see SubFlow::FilteredStiffFlow and
      * FilteredKick): a half kick h/2 scaled in each stiff mode (friction stiffGamma) by kappa, with
      * kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v, and plain in the zero modes (friction gamma).  The opening response
-     * (closing = false) is the flow's image of the half kick, (Phi_xv, Phi_vv) kappa h/2, added after the flow with
-     * the forces where it began; the closing one is (0, kappa h/2).
+     * (closing = false) is the flow's image of the half kick, (Phi_xv, Phi_vv) (kappa h/2 + lambda), added after the
+     * flow with the forces where it began; the closing one is (0, kappa h/2 - lambda).  lambda f is the velocity that
+     * the constant-force fixed point has at the step's end with friction (0 without): moving it from the closing to
+     * the next opening kick processes the velocities to the exact 0 and leaves positions unchanged (modes with
+     * omega h < 0.9 pi only; lambda has poles at omega h = k pi).
      */
     void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, ForceResponse& response) const;
+    /**
+     * Computes the velocity processing of the Filtered splitting over a step h > 0.  Under a soft force that grows
+     * steadily, f_n = f_0 + n s h, the Filtered step's positions are exact (x_n = f_n/omega^2) but its velocities at
+     * the step ends are c s/omega^2 with c = kappa / sinc^2(omega h/2), not s/omega^2 (2.36 times it at omega h =
+     * 2.07).  The closing response (0, -beta) with beta = (c - 1)/(omega^2 h), applied to the force change over the
+     * step, makes them exact; the opening one, (Phi_xv, Phi_vv) beta, puts it back in the flow's image before the next
+     * step, so positions are unchanged.  c is computed with the friction stiffGamma (the step's particular solution
+     * for a linearly growing force, lambda f removed).  Zero modes and modes with omega h >= 0.9 pi: none.
+     */
+    void computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const;
 
 private:
     std::vector<Component> components;

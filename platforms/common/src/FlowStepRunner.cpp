@@ -5,6 +5,7 @@
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferenceConstraints.h"
 #include "openmm/reference/ReferencePlatform.h"
+#include <algorithm>
 #include <cmath>
 #include <istream>
 #include <ostream>
@@ -67,6 +68,9 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
             }
     }
     thermostated.assign(numParticles, 1.0);
+    shareForces.assign(numParticles, Vec3());
+    openingForces.assign(numParticles, Vec3());
+    forceDifferences.assign(numParticles, Vec3());
 }
 
 FlowStepRunner::~FlowStepRunner() = default;
@@ -138,6 +142,30 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
             constraintSystem->setParticleMass(i, masses[i]);
         carrierBefore.resize(carriedParticles.size());
     }
+    carrierImpulses.assign(carriedParticles.size(), Vec3());
+    shareParticles.clear();
+    for (const auto& pair : carriedParticles)
+        for (int p : {pair.first, pair.second})
+            if (std::find(shareParticles.begin(), shareParticles.end(), p) == shareParticles.end())
+                shareParticles.push_back(p);
+    stiffParticles.clear();
+    if (modes)
+        for (int i = 0; i < numParticles; ++i)
+            if (modes->isStiffParticle(i))
+                stiffParticles.push_back(i);
+    // The modes are measured again after parameter changes and checkpoints: the history of particles that are still
+    // carried or stiff stays.
+    vector<bool> keepShare(numParticles, false), keepDifference(numParticles, false);
+    for (int p : shareParticles)
+        keepShare[p] = true;
+    for (int p : stiffParticles)
+        keepDifference[p] = true;
+    for (int i = 0; i < numParticles; ++i) {
+        if (!keepShare[i])
+            shareForces[i] = Vec3();
+        if (!keepDifference[i])
+            forceDifferences[i] = Vec3();
+    }
     stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
     forceResponseTask = modes ? std::make_unique<ForceResponseTask>(*modes) : nullptr;
     frozenFlowTask = modes ? std::make_unique<FrozenFlowTask>(*modes) : nullptr;
@@ -164,6 +192,7 @@ void FlowStepRunner::prepare() {
     preparedPasses.clear();
     stiffFlows.assign(plan.passes.size(), StiffModes::Propagator());
     forceResponses.assign(plan.passes.size(), StiffModes::ForceResponse());
+    processingResponses.assign(plan.passes.size(), StiffModes::ForceResponse());
     const double modeKT = stiffKT < 0 ? kT : stiffKT, modeFriction = stiffFriction < 0 ? friction : stiffFriction;
     thermostatsPerStep = 0;
     for (size_t passIndex = 0; passIndex < plan.passes.size(); ++passIndex) {
@@ -171,7 +200,7 @@ void FlowStepRunner::prepare() {
         vector<PreparedFlow> prepared;
         for (size_t k = 0; k < pass.flows.size(); ++k) {
             const SubFlow& flow = pass.flows[k];
-            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0, 0.0};
+            PreparedFlow p{flow.kind, flow.h, pass.slots[k], 1.0, 0.0, 0, 0.0, 0.0};
             if (flow.kind == SubFlow::Thermostat) {
                 const VelocityFlow ou = computeVelocityFlow(friction, flow.h);
                 p.decay = ou.decay;
@@ -182,13 +211,16 @@ void FlowStepRunner::prepare() {
                 p.streamOffset = thermostatsPerStep++;
                 // Constrained particles are free particles or carry their component as a rigid body: zero modes.
                 const ModeFlow zeroMode = computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
-                p.constraintVelocityScale = zeroMode.vv / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
+                p.constraintImpulseScale = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
+                p.constraintVelocityScale = zeroMode.vv * p.constraintImpulseScale;
                 if (stiffModes)
                     stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex]);
             }
-            if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick))
-                stiffModes->computeForceResponse(flow.h, friction, modeFriction, flow.kind == SubFlow::FilteredKick,
-                                                 forceResponses[passIndex]);
+            if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick)) {
+                const bool closing = flow.kind == SubFlow::FilteredKick;
+                stiffModes->computeForceResponse(flow.h, friction, modeFriction, closing, forceResponses[passIndex]);
+                stiffModes->computeVelocityProcessing(flow.h, modeFriction, closing, processingResponses[passIndex]);
+            }
             if (flow.kind == SubFlow::HarmonicFlow && stiffModes)
                 stiffModes->computePropagator(flow.h, 0.0, kT, 0.0, kT, stiffFlows[passIndex]);
             prepared.push_back(p);
@@ -233,6 +265,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     vector<Vec3>& velocities = *data.velocities;
     if (!forcesValid)
         invalidateForces();
+    historyLoaded = false;
     const Vec3* kickForces = nullptr;
     double kickStep = 0.0;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
@@ -297,8 +330,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
             invalidateForces();
         if (hasConstraints) {
             // With constraints every pass holds one sub-flow (compileStepPlan).
+            if (flows[0].kind == SubFlow::Kick)
+                kickConstraintShares(context, flows[0].h);
             if (drifts) {
-                constrainPositions(context, constraintTolerance);
+                constrainPositions(context, constraintTolerance, 1.0 / driftTime);
                 const double inverseTime = 1.0 / driftTime;
                 for (int i = 0; i < numParticles; ++i)
                     if (inverseMasses[i] != 0.0)
@@ -309,6 +344,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         }
     }
     nextStream += thermostatsPerStep;
+    updateConstraintShares(stepSize);
     if (hasVirtualSites)
         context.computeVirtualSites();
     data.time += stepSize;
@@ -339,9 +375,17 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
         ForceResponseTask& response = *forceResponseTask;
         response.response = &forceResponses[passIndex];
         response.forces = slots[flow.slot].forces.data();
+        response.extraForces = shareParticles.empty() ? nullptr : shareForces.data();
         response.positions = positions.data();
         response.velocities = data.velocities->data();
         loop->run(response, stiffModes->getNumComponents());
+        // Undo the velocity processing of the last closing kick (in the flow's image, as the opening kick).
+        response.response = &processingResponses[passIndex];
+        response.forces = forceDifferences.data();
+        response.extraForces = nullptr;
+        loop->run(response, stiffModes->getNumComponents());
+        for (int p : stiffParticles)
+            openingForces[p] = slots[flow.slot].forces[p];
     }
     invalidateForces();
     if (hasConstraints) {
@@ -350,7 +394,7 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
         // in a zero mode an impulse dv0 moves the position by Phi_xv dv0 and the velocity by Phi_vv dv0.  The
         // projection after it removes what is left along the constraints.
         unconstrainedPositions = positions;
-        constrainPositions(context, constraintTolerance);
+        constrainPositions(context, constraintTolerance, flow.constraintImpulseScale);
         vector<Vec3>& velocities = *data.velocities;
         for (int i = 0; i < numParticles; ++i)
             if (inverseMasses[i] != 0.0)
@@ -368,14 +412,23 @@ void FlowStepRunner::runFilteredKick(ContextImpl& context, size_t passIndex, con
     ForceResponseTask& response = *forceResponseTask;
     response.response = &forceResponses[passIndex];
     response.forces = slots[flow.slot].forces.data();
+    response.extraForces = shareParticles.empty() ? nullptr : shareForces.data();
     response.positions = data.positions->data();
     response.velocities = data.velocities->data();
+    loop->run(response, stiffModes->getNumComponents());
+    // Velocity processing: the stiff modes' velocities less beta times the change of the soft force over the step.
+    const vector<Vec3>& forces = slots[flow.slot].forces;
+    for (int p : stiffParticles)
+        forceDifferences[p] = forces[p] - openingForces[p];
+    response.response = &processingResponses[passIndex];
+    response.forces = forceDifferences.data();
+    response.extraForces = nullptr;
     loop->run(response, stiffModes->getNumComponents());
     if (hasConstraints)
         constrainVelocities(context, constraintTolerance);
 }
 
-void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance) {
+void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance, double impulsePerCorrection) {
     ReferencePlatform::PlatformData& data = platformData(context);
     vector<Vec3>& positions = *data.positions;
     if (!carriedConstraints) {
@@ -385,6 +438,7 @@ void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance) 
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         carrierBefore[k] = positions[carriedParticles[k].second];
     carriedConstraints->apply(previousPositions, positions, carriedInverseMasses, tolerance);
+    addCarrierImpulses(positions, impulsePerCorrection);
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         positions[carriedParticles[k].first] += positions[carriedParticles[k].second] - carrierBefore[k];
 }
@@ -399,8 +453,47 @@ void FlowStepRunner::constrainVelocities(ContextImpl& context, double tolerance)
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         carrierBefore[k] = velocities[carriedParticles[k].second];
     carriedConstraints->applyToVelocities(*data.positions, velocities, carriedInverseMasses, tolerance);
+    addCarrierImpulses(velocities, 1.0);
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         velocities[carriedParticles[k].first] += velocities[carriedParticles[k].second] - carrierBefore[k];
+}
+
+void FlowStepRunner::addCarrierImpulses(const vector<Vec3>& corrected, double impulsePerCorrection) {
+    for (size_t k = 0; k < carriedParticles.size(); ++k) {
+        const int carrier = carriedParticles[k].second;
+        carrierImpulses[k] +=
+            (corrected[carrier] - carrierBefore[k]) * (impulsePerCorrection / carriedInverseMasses[carrier]);
+    }
+}
+
+void FlowStepRunner::updateConstraintShares(double stepSize) {
+    if (carriedParticles.empty())
+        return;
+    // The carrier's mean constraint force over the step is J / stepSize; carrying gave the carried particle the
+    // share m_p / M of it, which the true dynamics gives the carrier.
+    for (int p : shareParticles)
+        shareForces[p] = Vec3();
+    for (size_t k = 0; k < carriedParticles.size(); ++k) {
+        const int carried = carriedParticles[k].first, carrier = carriedParticles[k].second;
+        const Vec3 share = carrierImpulses[k] * (-masses[carried] * carriedInverseMasses[carrier] / stepSize);
+        shareForces[carried] += share;
+        shareForces[carrier] -= share;
+        carrierImpulses[k] = Vec3();
+    }
+}
+
+void FlowStepRunner::forgetStepHistory() {
+    // OpenMM announces the positions and velocities of a checkpoint after the integrator has read its part.
+    if (historyLoaded)
+        return;
+    std::fill(shareForces.begin(), shareForces.end(), Vec3());
+    std::fill(forceDifferences.begin(), forceDifferences.end(), Vec3());
+}
+
+void FlowStepRunner::kickConstraintShares(ContextImpl& context, double h) {
+    vector<Vec3>& velocities = *platformData(context).velocities;
+    for (int p : shareParticles)
+        velocities[p] += shareForces[p] * (h * inverseMasses[p]);
 }
 
 void FlowStepRunner::runFrozenFlow(ContextImpl& context, const PreparedFlow& flow, double constraintTolerance) {
@@ -465,10 +558,11 @@ double FlowStepRunner::kineticEnergy(ContextImpl& context) const {
 namespace {
 
 // The integrator's part of a checkpoint: Tag, the integrator's name (length, then characters), the format version,
-// the seed and the stream counter, EndTag.
+// the seed and the stream counter, (version 2) the number of carried pairs and their constraint shares, EndTag.
+// Version 1 checkpoints (no shares) still load, with zero shares.
 const char CheckpointTag[] = "openmm-flavors integrator state\n";
 const char CheckpointEndTag[] = "end of openmm-flavors integrator state\n";
-const std::uint32_t CheckpointVersion = 1;
+const std::uint32_t CheckpointVersion = 2;
 const std::uint32_t MaxNameLength = 64;
 
 template <class T> bool readValue(std::istream& stream, T& value) {
@@ -484,6 +578,41 @@ bool readBytes(std::istream& stream, std::string& text, size_t length) {
     return stream.gcount() == (std::streamsize)length;
 }
 
+// A per-particle history vector as its count of nonzero entries, then (index, x, y, z) for each.
+void writeHistory(std::ostream& stream, const vector<Vec3>& values) {
+    std::uint32_t count = 0;
+    for (const Vec3& value : values)
+        count += (value != Vec3());
+    stream.write((const char*)&count, sizeof(count));
+    for (size_t i = 0; i < values.size(); ++i) {
+        if (values[i] == Vec3())
+            continue;
+        const std::int32_t particle = (std::int32_t)i;
+        stream.write((const char*)&particle, sizeof(particle));
+        for (int d = 0; d < 3; ++d) {
+            const double component = values[i][d];
+            stream.write((const char*)&component, sizeof(component));
+        }
+    }
+}
+
+bool readHistory(std::istream& stream, int numParticles, vector<std::pair<int, Vec3>>& entries) {
+    std::uint32_t count = 0;
+    if (!readValue(stream, count) || count > (std::uint32_t)numParticles)
+        return false;
+    entries.resize(count);
+    for (auto& entry : entries) {
+        std::int32_t particle = -1;
+        if (!readValue(stream, particle) || particle < 0 || particle >= numParticles)
+            return false;
+        entry.first = particle;
+        for (int d = 0; d < 3; ++d)
+            if (!readValue(stream, entry.second[d]))
+                return false;
+    }
+    return true;
+}
+
 } // namespace
 
 void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& integratorName) const {
@@ -494,6 +623,8 @@ void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& i
     stream.write((const char*)&CheckpointVersion, sizeof(CheckpointVersion));
     stream.write((const char*)&seed, sizeof(seed));
     stream.write((const char*)&nextStream, sizeof(nextStream));
+    writeHistory(stream, shareForces);
+    writeHistory(stream, forceDifferences);
     stream.write(CheckpointEndTag, sizeof(CheckpointEndTag) - 1);
 }
 
@@ -502,6 +633,7 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
     std::string tag, name, endTag;
     std::uint32_t nameLength = 0, version = 0;
     std::uint64_t storedSeed = 0, storedStream = 0;
+    vector<std::pair<int, Vec3>> storedShares, storedDifferences;
     const bool hasTag = readBytes(stream, tag, sizeof(CheckpointTag) - 1);
     if (!hasTag && stream.gcount() == 0)
         problem = "it holds no data of this integrator (it was made with another integrator, e.g. OpenMM's "
@@ -515,12 +647,17 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
         problem = "it was made with " + name;
     else if (!readValue(stream, version))
         problem = "it is truncated (no format version)";
-    else if (version != CheckpointVersion)
-        problem = "it has format version " + std::to_string(version) + "; this build reads version " +
+    else if (version != 1 && version != CheckpointVersion)
+        problem = "it has format version " + std::to_string(version) + "; this build reads versions 1 to " +
                   std::to_string(CheckpointVersion);
-    else if (!readValue(stream, storedSeed) || !readValue(stream, storedStream) ||
-             !readBytes(stream, endTag, sizeof(CheckpointEndTag) - 1))
+    else if (!readValue(stream, storedSeed) || !readValue(stream, storedStream))
         problem = "it is truncated (the random streams are incomplete)";
+    else if (version >= 2 && (!readHistory(stream, numParticles, storedShares) ||
+                              !readHistory(stream, numParticles, storedDifferences)))
+        problem = "it is truncated or corrupt (the step history (constraint shares and force differences) is "
+                  "incomplete or names particles this System does not have)";
+    else if (!readBytes(stream, endTag, sizeof(CheckpointEndTag) - 1))
+        problem = "it is truncated (no end tag)";
     else if (endTag != std::string(CheckpointEndTag, sizeof(CheckpointEndTag) - 1))
         problem = "it is corrupt (no end tag after the random streams)";
     if (!problem.empty()) {
@@ -532,6 +669,13 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
     }
     setRandomSeed(storedSeed);
     nextStream = storedStream;
+    historyLoaded = false;
+    forgetStepHistory();
+    historyLoaded = true;
+    for (const auto& entry : storedShares)
+        shareForces[entry.first] = entry.second;
+    for (const auto& entry : storedDifferences)
+        forceDifferences[entry.first] = entry.second;
     invalidateForces();
 }
 

@@ -87,3 +87,7 @@ void ImpulseStepKernel::loadCheckpoint(ContextImpl& context, std::istream& strea
 void ImpulseStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
     runner->saveContextState(context, withParameters);
 }
+
+void ImpulseStepKernel::forgetStepHistory() {
+    runner->forgetStepHistory();
+}

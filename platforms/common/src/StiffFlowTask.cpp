@@ -281,8 +281,10 @@ void ForceResponseTask::apply(int begin, int end) const {
         // else row 3 p + d, one column), as in StiffFlowTask: in both layouts element 3 p + d.
         for (int p = 0; p < comp.numParticles; ++p) {
             const double scale = 1.0 / modes.getSqrtMass(particles[p]);
+            const OpenMM::Vec3 force =
+                extraForces ? forces[particles[p]] + extraForces[particles[p]] : forces[particles[p]];
             for (int d = 0; d < 3; ++d)
-                particleForce[3 * p + d] = scale * forces[particles[p]][d];
+                particleForce[3 * p + d] = scale * force[d];
         }
         for (int k = 0; k < D; ++k)
             for (int col = 0; col < C; ++col) {

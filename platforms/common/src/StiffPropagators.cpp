@@ -98,6 +98,45 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
     }
 }
 
+namespace {
+
+// Modes with omega h beyond this keep unprocessed velocities (lambda and beta have poles at omega h = k pi).
+constexpr double ProcessingLimit = 0.9 * M_PI;
+
+/** The kicks of one stiff mode in a Filtered step of length h (see StiffModes::computeForceResponse). */
+struct FilteredModeKicks {
+    ModeFlow flow;
+    /** kappa h/2: each half kick of the unprocessed step. */
+    double halfKick;
+    /** The constant-force velocity lambda f and the ramp processing beta of the step's end velocity. */
+    double lambda, beta;
+};
+
+FilteredModeKicks filteredModeKicks(double w, double gamma, double h) {
+    FilteredModeKicks kicks;
+    const ModeFlow& f = kicks.flow = computeModeFlow(w, gamma, h);
+    // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2.
+    const double a = kicks.halfKick = 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
+    kicks.lambda = kicks.beta = 0.0;
+    if (w * h >= ProcessingLimit)
+        return kicks;
+    // With friction the fixed point's velocity at the step's end is lambda f, not 0 (the velocity row of the fixed
+    // point).
+    kicks.lambda = (f.vx / (w * w) + a * (1.0 + f.vv)) / (1.0 - f.vv);
+    // Under a force f_n = n h (unit slope), with lambda f removed, the step's end velocity is a constant C (the
+    // particular solution y_n = A + B n); the true one is 1/omega^2.  beta removes the difference per unit change of
+    // the force over the step.
+    const double slope = f.xv * (kicks.lambda + a) * h / (1.0 - f.xx);
+    const double rhsA = -slope, rhsC = (a - kicks.lambda) * h;
+    // (1 - Phi_xx) A - Phi_xv C = -B;  -Phi_vx A + (1 - Phi_vv) C = (a - lambda) h.
+    const double det = (1.0 - f.xx) * (1.0 - f.vv) - f.xv * f.vx;
+    const double C = ((1.0 - f.xx) * rhsC + f.vx * rhsA) / det;
+    kicks.beta = (C - 1.0 / (w * w)) / h;
+    return kicks;
+}
+
+} // namespace
+
 void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
                                       ForceResponse& response) const {
     response.offset.resize(components.size());
@@ -112,17 +151,40 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
         double* out = &response.data[response.offset[c]];
         for (int k = 0; k < comp.rows(); ++k) {
             const double w = omega[comp.firstMode + comp.columns() * k];
-            const ModeFlow f = computeModeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
             if (w > 0.0) {
-                // Half kicks scaled by kappa, the one factor that makes the constant-force fixed point of
-                // K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2: kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v.
-                const double kappaHalfStep = 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
-                out[2 * k] = closing ? 0.0 : kappaHalfStep * f.xv;
-                out[2 * k + 1] = closing ? kappaHalfStep : kappaHalfStep * f.vv;
+                // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one
+                // of the next step puts back.
+                const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
+                const double opening = kicks.halfKick + kicks.lambda;
+                out[2 * k] = closing ? 0.0 : opening * kicks.flow.xv;
+                out[2 * k + 1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
             } else {
+                const ModeFlow f = computeModeFlow(w, gamma, h);
                 out[2 * k] = closing ? 0.0 : 0.5 * h * f.xv;
                 out[2 * k + 1] = closing ? 0.5 * h : 0.5 * h * f.vv;
             }
+        }
+    }
+}
+
+void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const {
+    response.offset.resize(components.size());
+    size_t size = 0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        response.offset[c] = size;
+        size += 2 * (size_t)components[c].rows();
+    }
+    response.data.assign(size, 0.0);
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        double* out = &response.data[response.offset[c]];
+        for (int k = 0; k < comp.rows(); ++k) {
+            const double w = omega[comp.firstMode + comp.columns() * k];
+            if (!(w > 0.0))
+                continue;
+            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
+            out[2 * k] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
+            out[2 * k + 1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
         }
     }
 }

@@ -136,6 +136,8 @@ private:
     /** Adds the force response of pass passIndex to the forces of the flow's slot (FilteredKick). */
     void runFilteredKick(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                          double constraintTolerance);
+    /** Points a Filtered kick's response task at the velocity processing of pass passIndex. */
+    void setProcessing(ForceResponseTask& task, size_t passIndex, bool closing);
     /** Runs a FrozenDrift or FrozenKick pass. */
     void runFrozenFlow(OpenMM::ContextImpl& context, const PreparedFlow& flow, double constraintTolerance);
 
@@ -180,12 +182,14 @@ private:
     std::vector<OpenMM::Vec3> carrierBefore;
     // Per carried pair: its carrier's constraint impulse so far in this step.
     std::vector<OpenMM::Vec3> carrierImpulses;
-    // The carried particles and their carriers, each once, and the particles of stiff components.
-    std::vector<int> shareParticles, stiffParticles;
+    // The carried particles and their carriers, each once.
+    std::vector<int> shareParticles;
     // The step history, per particle (checkpointed, forgotten when the Context's state is set): the constraint share
     // forces that the kicks of the next step add (zero outside carried components), and, for Filtered steps, the
     // change of the soft force on stiff particles over the last step, whose velocity processing the next step undoes.
     std::vector<OpenMM::Vec3> shareForces, forceDifferences;
+    // Whether the virtual sites are where the current positions put them (invalidateForces() clears it).
+    bool virtualSitesPlaced = false;
     // Whether the history was read from a checkpoint since the last step (forgetStepHistory() then keeps it).
     bool historyLoaded = false;
     // The soft forces on stiff particles where the current Filtered step began.

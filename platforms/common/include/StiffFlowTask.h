@@ -64,13 +64,23 @@ public:
     const OpenMM::Vec3* forces = nullptr;
     /** When not null, forces added to forces (the constraint shares of carried components). */
     const OpenMM::Vec3* extraForces = nullptr;
+    /**
+     * When not null, the velocity processing of a Filtered kick, applied in stiff components to the change of the
+     * forces over the step: the opening kick (closing false) reads the changes and records forces in openingForces,
+     * the closing one computes the changes (forces - openingForces) and records them.
+     */
+    const StiffModes::ForceResponse* processing = nullptr;
+    bool closing = false;
+    OpenMM::Vec3* openingForces = nullptr;
+    OpenMM::Vec3* forceChanges = nullptr;
     OpenMM::Vec3* positions = nullptr;
     OpenMM::Vec3* velocities = nullptr;
 
 private:
     const StiffModes& modes;
     std::vector<std::size_t> scratchOffset;
-    // Per component: the force in particle and in mode coordinates, then the two responses, D x C each.
+    // Per component: the force in particle and in mode coordinates, the two responses, then the force change in
+    // particle and in mode coordinates, D x C each.
     mutable std::vector<double> scratch;
 };
 

@@ -148,22 +148,15 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
         for (int p : {pair.first, pair.second})
             if (std::find(shareParticles.begin(), shareParticles.end(), p) == shareParticles.end())
                 shareParticles.push_back(p);
-    stiffParticles.clear();
-    if (modes)
-        for (int i = 0; i < numParticles; ++i)
-            if (modes->isStiffParticle(i))
-                stiffParticles.push_back(i);
     // The modes are measured again after parameter changes and checkpoints: the history of particles that are still
     // carried or stiff stays.
-    vector<bool> keepShare(numParticles, false), keepDifference(numParticles, false);
+    vector<bool> keepShare(numParticles, false);
     for (int p : shareParticles)
         keepShare[p] = true;
-    for (int p : stiffParticles)
-        keepDifference[p] = true;
     for (int i = 0; i < numParticles; ++i) {
         if (!keepShare[i])
             shareForces[i] = Vec3();
-        if (!keepDifference[i])
+        if (!modes || !modes->isStiffParticle(i))
             forceDifferences[i] = Vec3();
     }
     stiffFlowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
@@ -245,14 +238,16 @@ void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
 void FlowStepRunner::invalidateForces() {
     for (ForceSlot& slot : slots)
         slot.valid = false;
+    virtualSitesPlaced = false;
 }
 
 void FlowStepRunner::ensureForces(ContextImpl& context, int slotIndex) {
     ForceSlot& slot = slots[slotIndex];
     if (slot.valid)
         return;
-    if (hasVirtualSites)
+    if (hasVirtualSites && !virtualSitesPlaced)
         context.computeVirtualSites();
+    virtualSitesPlaced = true;
     context.calcForcesAndEnergy(true, false, slot.groups);
     // Take the platform's force buffer instead of copying it; the platform refills whatever buffer it holds.
     std::swap(*platformData(context).forces, slot.forces);
@@ -345,8 +340,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     }
     nextStream += thermostatsPerStep;
     updateConstraintShares(stepSize);
-    if (hasVirtualSites)
+    // Positions that forces were evaluated at already have their virtual sites.
+    if (hasVirtualSites && !virtualSitesPlaced)
         context.computeVirtualSites();
+    virtualSitesPlaced = true;
     data.time += stepSize;
     data.stepCount++;
     forcesValid = true;
@@ -376,16 +373,11 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
         response.response = &forceResponses[passIndex];
         response.forces = slots[flow.slot].forces.data();
         response.extraForces = shareParticles.empty() ? nullptr : shareForces.data();
+        // It also undoes the velocity processing of the last closing kick, in the flow's image.
+        setProcessing(response, passIndex, false);
         response.positions = positions.data();
         response.velocities = data.velocities->data();
         loop->run(response, stiffModes->getNumComponents());
-        // Undo the velocity processing of the last closing kick (in the flow's image, as the opening kick).
-        response.response = &processingResponses[passIndex];
-        response.forces = forceDifferences.data();
-        response.extraForces = nullptr;
-        loop->run(response, stiffModes->getNumComponents());
-        for (int p : stiffParticles)
-            openingForces[p] = slots[flow.slot].forces[p];
     }
     invalidateForces();
     if (hasConstraints) {
@@ -413,19 +405,20 @@ void FlowStepRunner::runFilteredKick(ContextImpl& context, size_t passIndex, con
     response.response = &forceResponses[passIndex];
     response.forces = slots[flow.slot].forces.data();
     response.extraForces = shareParticles.empty() ? nullptr : shareForces.data();
+    // With the velocity processing: beta times the change of the soft force over the step off the stiff modes.
+    setProcessing(response, passIndex, true);
     response.positions = data.positions->data();
     response.velocities = data.velocities->data();
     loop->run(response, stiffModes->getNumComponents());
-    // Velocity processing: the stiff modes' velocities less beta times the change of the soft force over the step.
-    const vector<Vec3>& forces = slots[flow.slot].forces;
-    for (int p : stiffParticles)
-        forceDifferences[p] = forces[p] - openingForces[p];
-    response.response = &processingResponses[passIndex];
-    response.forces = forceDifferences.data();
-    response.extraForces = nullptr;
-    loop->run(response, stiffModes->getNumComponents());
     if (hasConstraints)
         constrainVelocities(context, constraintTolerance);
+}
+
+void FlowStepRunner::setProcessing(ForceResponseTask& task, size_t passIndex, bool closing) {
+    task.processing = &processingResponses[passIndex];
+    task.closing = closing;
+    task.openingForces = openingForces.data();
+    task.forceChanges = forceDifferences.data();
 }
 
 void FlowStepRunner::constrainPositions(ContextImpl& context, double tolerance, double impulsePerCorrection) {

@@ -261,7 +261,7 @@ ForceResponseTask::ForceResponseTask(const StiffModes& modes) : modes(modes) {
     size_t size = 0;
     for (int c = 0; c < modes.getNumComponents(); ++c) {
         scratchOffset[c] = size;
-        size += 4 * 3 * (size_t)modes.getComponent(c).numParticles;
+        size += 6 * 3 * (size_t)modes.getComponent(c).numParticles;
     }
     scratch.assign(size, 0.0);
 }
@@ -273,25 +273,41 @@ void ForceResponseTask::apply(int begin, int end) const {
         const int D = comp.rows(), C = comp.columns(), size = D * C;
         const double* u = modes.getEigenvectors(c);
         const double* r = &response->data[response->offset[c]];
+        const bool processed = processing != nullptr && comp.stiff;
+        const double* q = processed ? &processing->data[processing->offset[c]] : nullptr;
         double* particleForce = &scratch[scratchOffset[c]];
         double* modeForce = particleForce + size;
         double* dx = modeForce + size;
         double* dv = dx + size;
+        double* particleChange = dv + size;
+        double* modeChange = particleChange + size;
         // Row i, column col of a row-major D x C block holds coordinate d of particle p (isotropic: row p, column d;
         // else row 3 p + d, one column), as in StiffFlowTask: in both layouts element 3 p + d.
         for (int p = 0; p < comp.numParticles; ++p) {
-            const double scale = 1.0 / modes.getSqrtMass(particles[p]);
-            const OpenMM::Vec3 force =
-                extraForces ? forces[particles[p]] + extraForces[particles[p]] : forces[particles[p]];
-            for (int d = 0; d < 3; ++d)
+            const int particle = particles[p];
+            const double scale = 1.0 / modes.getSqrtMass(particle);
+            const OpenMM::Vec3 force = extraForces ? forces[particle] + extraForces[particle] : forces[particle];
+            OpenMM::Vec3 change;
+            if (processed && closing) {
+                change = forceChanges[particle] = forces[particle] - openingForces[particle];
+            } else if (processed) {
+                change = forceChanges[particle];
+                openingForces[particle] = forces[particle];
+            }
+            for (int d = 0; d < 3; ++d) {
                 particleForce[3 * p + d] = scale * force[d];
+                particleChange[3 * p + d] = scale * change[d];
+            }
         }
         for (int k = 0; k < D; ++k)
             for (int col = 0; col < C; ++col) {
-                double sum = 0;
-                for (int i = 0; i < D; ++i)
+                double sum = 0, sumChange = 0;
+                for (int i = 0; i < D; ++i) {
                     sum += u[(size_t)k * D + i] * particleForce[i * C + col];
+                    sumChange += u[(size_t)k * D + i] * particleChange[i * C + col];
+                }
                 modeForce[k * C + col] = sum;
+                modeChange[k * C + col] = sumChange;
             }
         for (int i = 0; i < D; ++i)
             for (int col = 0; col < C; ++col) {
@@ -300,6 +316,11 @@ void ForceResponseTask::apply(int begin, int end) const {
                     const double projected = u[(size_t)k * D + i] * modeForce[k * C + col];
                     sx += r[2 * k] * projected;
                     sv += r[2 * k + 1] * projected;
+                    if (processed) {
+                        const double projectedChange = u[(size_t)k * D + i] * modeChange[k * C + col];
+                        sx += q[2 * k] * projectedChange;
+                        sv += q[2 * k + 1] * projectedChange;
+                    }
                 }
                 dx[i * C + col] = sx;
                 dv[i * C + col] = sv;

@@ -158,6 +158,8 @@ private:
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.
     std::vector<bool> kickFusedIntoNext;
+    // For each pass, whether the next one is a kick, whose velocity projection then covers this pass's velocities too.
+    std::vector<bool> kickProjectsNext;
     std::shared_ptr<const StiffModes> stiffModes;
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
     std::unique_ptr<FrozenFlowTask> frozenFlowTask;

@@ -77,6 +77,8 @@ public:
     OpenMM::Vec3* velocities = nullptr;
 
 private:
+    /** apply() for a component of one particle, whose response r (and processing q) act on it directly. */
+    void applySingle(int particle, const double* r, const double* q) const;
     const StiffModes& modes;
     std::vector<std::size_t> scratchOffset;
     // Per component: the force in particle and in mode coordinates, the two responses, then the force change in

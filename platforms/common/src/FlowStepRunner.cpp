@@ -220,6 +220,13 @@ void FlowStepRunner::prepare() {
         }
         preparedPasses.push_back(prepared);
     }
+    // A stiff flow whose next pass is a kick leaves its velocities to that kick's projection: the projection is linear
+    // at fixed positions, so projecting once after the kick is the same as before and after it.
+    kickProjectsNext.assign(plan.passes.size(), false);
+    for (size_t p = 0; p + 1 < plan.passes.size(); ++p) {
+        const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
+        kickProjectsNext[p] = next == SubFlow::Kick || next == SubFlow::FilteredKick;
+    }
     // With constraints a kick is followed by a velocity constraint, so it stays a pass of its own.
     kickFusedIntoNext.assign(plan.passes.size(), false);
     for (size_t p = 0; p + 1 < plan.passes.size(); ++p)
@@ -391,7 +398,8 @@ void FlowStepRunner::runStiffFlow(ContextImpl& context, size_t passIndex, const 
         for (int i = 0; i < numParticles; ++i)
             if (inverseMasses[i] != 0.0)
                 velocities[i] += (positions[i] - unconstrainedPositions[i]) * flow.constraintVelocityScale;
-        constrainVelocities(context, constraintTolerance);
+        if (!kickProjectsNext[passIndex])
+            constrainVelocities(context, constraintTolerance);
     }
 }
 

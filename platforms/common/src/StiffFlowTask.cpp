@@ -275,6 +275,11 @@ void ForceResponseTask::apply(int begin, int end) const {
         const double* r = &response->data[response->offset[c]];
         const bool processed = processing != nullptr && comp.stiff;
         const double* q = processed ? &processing->data[processing->offset[c]] : nullptr;
+        if (D == 1 && C == 3) {
+            // One particle, isotropic: its one mode per direction is the particle itself (u = +-1).
+            applySingle(particles[0], r, q);
+            continue;
+        }
         double* particleForce = &scratch[scratchOffset[c]];
         double* modeForce = particleForce + size;
         double* dx = modeForce + size;
@@ -333,4 +338,23 @@ void ForceResponseTask::apply(int begin, int end) const {
             }
         }
     }
+}
+
+void ForceResponseTask::applySingle(int particle, const double* r, const double* q) const {
+    const double inverseMass = 1.0 / (modes.getSqrtMass(particle) * modes.getSqrtMass(particle));
+    const OpenMM::Vec3 force = extraForces ? forces[particle] + extraForces[particle] : forces[particle];
+    OpenMM::Vec3 dx = force * (r[0] * inverseMass), dv = force * (r[1] * inverseMass);
+    if (q != nullptr) {
+        OpenMM::Vec3 change;
+        if (closing) {
+            change = forceChanges[particle] = forces[particle] - openingForces[particle];
+        } else {
+            change = forceChanges[particle];
+            openingForces[particle] = forces[particle];
+        }
+        dx += change * (q[0] * inverseMass);
+        dv += change * (q[1] * inverseMass);
+    }
+    positions[particle] += dx;
+    velocities[particle] += dv;
 }

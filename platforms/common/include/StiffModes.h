@@ -4,6 +4,7 @@
 #include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
 #include <cstddef>
+#include <functional>
 #include <vector>
 
 namespace FlavorPlugin {
@@ -133,6 +134,9 @@ public:
     void computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const;
 
 private:
+    /** Lays out response per mode (two values each) and fills each mode's pair with modeResponse(omega, pair). */
+    void fillModeResponses(ForceResponse& response,
+                           const std::function<void(double omega, double* out)>& modeResponse) const;
     std::vector<Component> components;
     std::vector<int> particleList;
     std::vector<double> sqrtMass, eigenvectors, omega, modeForce;

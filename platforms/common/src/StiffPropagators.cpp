@@ -137,8 +137,8 @@ FilteredModeKicks filteredModeKicks(double w, double gamma, double h) {
 
 } // namespace
 
-void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
-                                      ForceResponse& response) const {
+void StiffModes::fillModeResponses(ForceResponse& response,
+                                   const std::function<void(double omega, double* out)>& modeResponse) const {
     response.offset.resize(components.size());
     size_t size = 0;
     for (size_t c = 0; c < components.size(); ++c) {
@@ -148,43 +148,35 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
     response.data.assign(size, 0.0);
     for (size_t c = 0; c < components.size(); ++c) {
         const Component& comp = components[c];
-        double* out = &response.data[response.offset[c]];
-        for (int k = 0; k < comp.rows(); ++k) {
-            const double w = omega[comp.firstMode + comp.columns() * k];
-            if (w > 0.0) {
-                // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one
-                // of the next step puts back.
-                const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
-                const double opening = kicks.halfKick + kicks.lambda;
-                out[2 * k] = closing ? 0.0 : opening * kicks.flow.xv;
-                out[2 * k + 1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
-            } else {
-                const ModeFlow f = computeModeFlow(w, gamma, h);
-                out[2 * k] = closing ? 0.0 : 0.5 * h * f.xv;
-                out[2 * k + 1] = closing ? 0.5 * h : 0.5 * h * f.vv;
-            }
-        }
+        for (int k = 0; k < comp.rows(); ++k)
+            modeResponse(omega[comp.firstMode + comp.columns() * k], &response.data[response.offset[c] + 2 * k]);
     }
 }
 
-void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const {
-    response.offset.resize(components.size());
-    size_t size = 0;
-    for (size_t c = 0; c < components.size(); ++c) {
-        response.offset[c] = size;
-        size += 2 * (size_t)components[c].rows();
-    }
-    response.data.assign(size, 0.0);
-    for (size_t c = 0; c < components.size(); ++c) {
-        const Component& comp = components[c];
-        double* out = &response.data[response.offset[c]];
-        for (int k = 0; k < comp.rows(); ++k) {
-            const double w = omega[comp.firstMode + comp.columns() * k];
-            if (!(w > 0.0))
-                continue;
+void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
+                                      ForceResponse& response) const {
+    fillModeResponses(response, [&](double w, double* out) {
+        if (w > 0.0) {
+            // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one of the
+            // next step puts back.
             const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
-            out[2 * k] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
-            out[2 * k + 1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
+            const double opening = kicks.halfKick + kicks.lambda;
+            out[0] = closing ? 0.0 : opening * kicks.flow.xv;
+            out[1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
+        } else {
+            const ModeFlow f = computeModeFlow(w, gamma, h);
+            out[0] = closing ? 0.0 : 0.5 * h * f.xv;
+            out[1] = closing ? 0.5 * h : 0.5 * h * f.vv;
         }
-    }
+    });
+}
+
+void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const {
+    fillModeResponses(response, [&](double w, double* out) {
+        if (!(w > 0.0))
+            return;
+        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
+        out[0] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
+        out[1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
+    });
 }

@@ -162,15 +162,10 @@ TEST_P(FlavorLangevin, EquipartitionAndConfigurationalTemperature) {
         if (mode.scheme == FlavorIntegrator::Verlet)
             checked.push_back(&configurationalRatio);
         for (auto* series : checked) {
-            double mean = 0, variance = 0;
-            for (double x : *series)
-                mean += x / blocks;
-            for (double x : *series)
-                variance += (x - mean) * (x - mean) / (blocks - 1);
-            double standardError = std::sqrt(variance / blocks);
-            EXPECT_NEAR(1.0, mean, 5 * standardError + 0.005)
+            const BlockMean m = blockMean(*series);
+            EXPECT_NEAR(1.0, m.mean, 5 * m.standardError + 0.005)
                 << (series == &kineticRatio ? "kinetic" : "configurational") << " temperature, scheme " << mode.scheme
-                << " stiff friction " << mode.stiffFriction << " (standard error " << standardError << ")";
+                << " stiff friction " << mode.stiffFriction << " (standard error " << m.standardError << ")";
         }
     }
 }

@@ -231,12 +231,8 @@ TEST_P(ImpulseConstraints, RigidDrudeWaterHasTheBathTemperatureAtLargeSteps) {
             drude.push_back(td);
         }
         for (auto* series : {&rigid, &drude}) {
-            double mean = 0, variance = 0;
-            for (double x : *series)
-                mean += x / blocks;
-            for (double x : *series)
-                variance += (x - mean) * (x - mean) / (blocks - 1);
-            EXPECT_NEAR(1.0, mean, 5 * std::sqrt(variance / blocks) + 0.01)
+            const BlockMean m = blockMean(*series);
+            EXPECT_NEAR(1.0, m.mean, 5 * m.standardError + 0.01)
                 << (series == &rigid ? "rigid-body" : "Drude") << " temperature ratio";
         }
     }

@@ -72,6 +72,21 @@ inline double relativeDifference(const std::vector<OpenMM::Vec3>& a, const std::
     return std::sqrt(diff / norm);
 }
 
+/** The mean of block means and its standard error (the blocks taken as independent). */
+struct BlockMean {
+    double mean, standardError;
+};
+
+inline BlockMean blockMean(const std::vector<double>& blocks) {
+    const double n = (double)blocks.size();
+    double mean = 0, variance = 0;
+    for (double x : blocks)
+        mean += x / n;
+    for (double x : blocks)
+        variance += (x - mean) * (x - mean) / (n - 1);
+    return {mean, std::sqrt(variance / n)};
+}
+
 } // namespace FlavorTests
 
 #endif

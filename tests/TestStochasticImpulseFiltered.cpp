@@ -7,8 +7,10 @@
 #include "TestSystems.h"
 #include "openmm/Context.h"
 #include "openmm/CustomCompoundBondForce.h"
+#include <algorithm>
 #include <cmath>
 #include <memory>
+#include <string>
 
 using namespace FlavorPlugin;
 using namespace FlavorTests;
@@ -297,4 +299,53 @@ TEST_P(ImpulseFiltered, SettingTheStateStartsTheNextStepAfresh) {
     const Vec3 dv = velocitiesOf(freshContext)[0] - velocitiesOf(usedContext)[0];
     EXPECT_LT(std::sqrt(dq.dot(dq)), 1e-13);
     EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-11);
+}
+
+TEST_P(ImpulseFiltered, ASoftForceStiffAlongAModeIsStableExactlyBelowItsThreshold) {
+    // A tethered particle (omega = 1000/ps, no friction) whose soft force is itself a spring r k along the stiff mode.
+    // The Filtered step's transfer matrix has trace 2 (cos xi - r (1 - cos xi)): stable while tan^2(xi/2) < 1/r, and
+    // Strang's 2 cos xi - r xi sin xi: stable while r < 2 (1 + cos xi)/(xi sin xi).  For r = 0.3 both thresholds are
+    // found by bisection here; 200 steps 2% below a threshold stay within 20 times the start, 2% above they grow past
+    // 1000 times it.
+    const double omega = 1000.0, mass = 1.0, r = 0.3, k = mass * omega * omega;
+    System system;
+    system.addParticle(mass);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*k*(x^2+y^2+z^2)");
+    tether->addGlobalParameter("k", k);
+    tether->addParticle(0);
+    tether->setForceGroup(StiffGroup);
+    system.addForce(tether);
+    CustomExternalForce* soft = new CustomExternalForce("0.5*rk*(x^2+y^2+z^2)");
+    soft->addGlobalParameter("rk", r * k);
+    soft->addParticle(0);
+    system.addForce(soft);
+    auto threshold = [](auto stable) {
+        double lo = 0.1, hi = Pi - 1e-9;
+        for (int i = 0; i < 100; ++i)
+            (stable(0.5 * (lo + hi)) ? lo : hi) = 0.5 * (lo + hi);
+        return lo;
+    };
+    const double filteredLimit = threshold([&](double xi) { return std::pow(std::tan(0.5 * xi), 2) < 1 / r; });
+    const double strangLimit = threshold([&](double xi) { return r < 2 * (1 + std::cos(xi)) / (xi * std::sin(xi)); });
+    EXPECT_NEAR(2 * std::atan(1 / std::sqrt(r)), filteredLimit, 1e-9);
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
+        const double limit = splitting == StochasticImpulseIntegrator::Filtered ? filteredLimit : strangLimit;
+        for (double factor : {0.98, 1.02}) {
+            SCOPED_TRACE(std::string(splitting == StochasticImpulseIntegrator::Filtered ? "Filtered" : "Strang") +
+                         " at " + std::to_string(factor) + " of omega H = " + std::to_string(limit));
+            StochasticImpulseIntegrator integrator(0.0, 0.0, factor * limit / omega, StiffMask);
+            integrator.setSplitting(splitting);
+            Context context(system, integrator, platform(), properties());
+            context.setPositions({Vec3(1e-3, 0, 0)});
+            double largest = 0;
+            for (int step = 0; step < 200 && largest < 1.0; ++step) {
+                integrator.step(1);
+                largest = std::max(largest, std::abs(positionsOf(context)[0][0]));
+            }
+            if (factor < 1)
+                EXPECT_LT(largest, 20 * 1e-3);
+            else
+                EXPECT_GE(largest, 1.0);
+        }
+    }
 }

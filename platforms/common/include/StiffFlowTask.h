@@ -79,6 +79,8 @@ public:
 private:
     /** apply() for a component of one particle, whose response r (and processing q) act on it directly. */
     void applySingle(int particle, const double* r, const double* q) const;
+    /** apply() for component c; FixedRows and FixedColumns are its sizes, or 0 to read them from the component. */
+    template <int FixedRows, int FixedColumns> void applyComponent(int c, const double* r, const double* q) const;
     const StiffModes& modes;
     std::vector<std::size_t> scratchOffset;
     // Per component: the force in particle and in mode coordinates, the two responses, then the force change in

@@ -269,73 +269,85 @@ ForceResponseTask::ForceResponseTask(const StiffModes& modes) : modes(modes) {
 void ForceResponseTask::apply(int begin, int end) const {
     for (int c = begin; c < end; ++c) {
         const StiffModes::Component& comp = modes.getComponent(c);
-        const int* particles = modes.getComponentParticles(c);
-        const int D = comp.rows(), C = comp.columns(), size = D * C;
-        const double* u = modes.getEigenvectors(c);
+        const int D = comp.rows(), C = comp.columns();
         const double* r = &response->data[response->offset[c]];
         const bool processed = processing != nullptr && comp.stiff;
         const double* q = processed ? &processing->data[processing->offset[c]] : nullptr;
-        if (D == 1 && C == 3) {
+        if (D == 1 && C == 3)
             // One particle, isotropic: its one mode per direction is the particle itself (u = +-1).
-            applySingle(particles[0], r, q);
-            continue;
+            applySingle(modes.getComponentParticles(c)[0], r, q);
+        else if (D == 2 && C == 3)
+            // A pair (a Drude pair), isotropic: the same code with the sizes known to the compiler.
+            applyComponent<2, 3>(c, r, q);
+        else
+            applyComponent<0, 0>(c, r, q);
+    }
+}
+
+template <int FixedRows, int FixedColumns>
+void ForceResponseTask::applyComponent(int c, const double* r, const double* q) const {
+    const StiffModes::Component& comp = modes.getComponent(c);
+    const int* particles = modes.getComponentParticles(c);
+    const int D = FixedRows > 0 ? FixedRows : comp.rows(), C = FixedColumns > 0 ? FixedColumns : comp.columns();
+    const int size = D * C;
+    const int numParticles = FixedRows > 0 && FixedColumns == 3 ? FixedRows : comp.numParticles;
+    const bool processed = q != nullptr;
+    const double* u = modes.getEigenvectors(c);
+    double* particleForce = &scratch[scratchOffset[c]];
+    double* modeForce = particleForce + size;
+    double* dx = modeForce + size;
+    double* dv = dx + size;
+    double* particleChange = dv + size;
+    double* modeChange = particleChange + size;
+    // Row i, column col of a row-major D x C block holds coordinate d of particle p (isotropic: row p, column d;
+    // else row 3 p + d, one column), as in StiffFlowTask: in both layouts element 3 p + d.
+    for (int p = 0; p < numParticles; ++p) {
+        const int particle = particles[p];
+        const double scale = 1.0 / modes.getSqrtMass(particle);
+        const OpenMM::Vec3 force = extraForces ? forces[particle] + extraForces[particle] : forces[particle];
+        OpenMM::Vec3 change;
+        if (processed && closing) {
+            change = forceChanges[particle] = forces[particle] - openingForces[particle];
+        } else if (processed) {
+            change = forceChanges[particle];
+            openingForces[particle] = forces[particle];
         }
-        double* particleForce = &scratch[scratchOffset[c]];
-        double* modeForce = particleForce + size;
-        double* dx = modeForce + size;
-        double* dv = dx + size;
-        double* particleChange = dv + size;
-        double* modeChange = particleChange + size;
-        // Row i, column col of a row-major D x C block holds coordinate d of particle p (isotropic: row p, column d;
-        // else row 3 p + d, one column), as in StiffFlowTask: in both layouts element 3 p + d.
-        for (int p = 0; p < comp.numParticles; ++p) {
-            const int particle = particles[p];
-            const double scale = 1.0 / modes.getSqrtMass(particle);
-            const OpenMM::Vec3 force = extraForces ? forces[particle] + extraForces[particle] : forces[particle];
-            OpenMM::Vec3 change;
-            if (processed && closing) {
-                change = forceChanges[particle] = forces[particle] - openingForces[particle];
-            } else if (processed) {
-                change = forceChanges[particle];
-                openingForces[particle] = forces[particle];
-            }
-            for (int d = 0; d < 3; ++d) {
-                particleForce[3 * p + d] = scale * force[d];
-                particleChange[3 * p + d] = scale * change[d];
-            }
+        for (int d = 0; d < 3; ++d) {
+            particleForce[3 * p + d] = scale * force[d];
+            particleChange[3 * p + d] = scale * change[d];
         }
-        for (int k = 0; k < D; ++k)
-            for (int col = 0; col < C; ++col) {
-                double sum = 0, sumChange = 0;
-                for (int i = 0; i < D; ++i) {
-                    sum += u[(size_t)k * D + i] * particleForce[i * C + col];
-                    sumChange += u[(size_t)k * D + i] * particleChange[i * C + col];
+    }
+    for (int k = 0; k < D; ++k)
+        for (int col = 0; col < C; ++col) {
+            double sum = 0, sumChange = 0;
+            for (int i = 0; i < D; ++i) {
+                sum += u[(size_t)k * D + i] * particleForce[i * C + col];
+                sumChange += u[(size_t)k * D + i] * particleChange[i * C + col];
+            }
+            modeForce[k * C + col] = sum;
+            modeChange[k * C + col] = sumChange;
+        }
+    for (int i = 0; i < D; ++i)
+        for (int col = 0; col < C; ++col) {
+            double sx = 0, sv = 0;
+            for (int k = 0; k < D; ++k) {
+                const double projected = u[(size_t)k * D + i] * modeForce[k * C + col];
+                sx += r[2 * k] * projected;
+                sv += r[2 * k + 1] * projected;
+                if (processed) {
+                    const double projectedChange = u[(size_t)k * D + i] * modeChange[k * C + col];
+                    sx += q[2 * k] * projectedChange;
+                    sv += q[2 * k + 1] * projectedChange;
                 }
-                modeForce[k * C + col] = sum;
-                modeChange[k * C + col] = sumChange;
             }
-        for (int i = 0; i < D; ++i)
-            for (int col = 0; col < C; ++col) {
-                double sx = 0, sv = 0;
-                for (int k = 0; k < D; ++k) {
-                    const double projected = u[(size_t)k * D + i] * modeForce[k * C + col];
-                    sx += r[2 * k] * projected;
-                    sv += r[2 * k + 1] * projected;
-                    if (processed) {
-                        const double projectedChange = u[(size_t)k * D + i] * modeChange[k * C + col];
-                        sx += q[2 * k] * projectedChange;
-                        sv += q[2 * k + 1] * projectedChange;
-                    }
-                }
-                dx[i * C + col] = sx;
-                dv[i * C + col] = sv;
-            }
-        for (int p = 0; p < comp.numParticles; ++p) {
-            const double scale = 1.0 / modes.getSqrtMass(particles[p]);
-            for (int d = 0; d < 3; ++d) {
-                positions[particles[p]][d] += scale * dx[3 * p + d];
-                velocities[particles[p]][d] += scale * dv[3 * p + d];
-            }
+            dx[i * C + col] = sx;
+            dv[i * C + col] = sv;
+        }
+    for (int p = 0; p < numParticles; ++p) {
+        const double scale = 1.0 / modes.getSqrtMass(particles[p]);
+        for (int d = 0; d < 3; ++d) {
+            positions[particles[p]][d] += scale * dx[3 * p + d];
+            velocities[particles[p]][d] += scale * dv[3 * p + d];
         }
     }
 }

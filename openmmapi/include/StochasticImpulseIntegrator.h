@@ -75,11 +75,13 @@ public:
          * evaluated once per step.
          *
          * Velocities are processed.  Under a steadily changing soft force the step's positions are exact but its
-         * velocities at the step ends are kappa/sinc^2(xi/2) times the true ones (1.19, 2.36 at xi = 1, 2.07: the
-         * polarization's following of a turning field would read as a hot Drude).  The closing kick therefore
-         * subtracts beta = (kappa/sinc^2(xi/2) - 1)/(omega^2 H) times the change of the soft force over the step
-         * from each stiff mode's velocity, and the next step adds it back before it flows: positions are those of
-         * the unprocessed method, velocities are exact for steadily changing forces.  After setPositions() or
+         * velocities at the step ends are kappa/sinc^2(xi/2) times the true ones without friction (1.19, 2.36 at
+         * xi = 1, 2.07: the polarization's following of a turning field would read as a hot Drude), and with
+         * friction a constant force leaves an end velocity lambda f.  The closing kick therefore subtracts lambda f
+         * and beta (about (kappa/sinc^2(xi/2) - 1)/(omega^2 H); computed with friction) times the change of the soft
+         * force over the step from each stiff mode's velocity, and the next step adds both back before it flows:
+         * positions are those of the unprocessed method, velocities are exact for constant and steadily changing
+         * forces (modes with xi < 0.9 pi).  After setPositions() or
          * setVelocities() the next step starts without it, as the first one does; checkpoints keep it.
          */
         Filtered = 3

@@ -117,7 +117,6 @@ private:
     void prepare();
     void ensureForces(OpenMM::ContextImpl& context, int slot);
     void invalidateForces();
-    /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
     /**
      * Constrains positions (reference: the positions before the move) or velocities, carrying stiff components.  A
      * carrier's correction, times its component's mass and impulsePerCorrection (the impulse per unit correction: 1
@@ -131,6 +130,7 @@ private:
     void updateConstraintShares(double stepSize);
     /** Kicks the particles of carried components by h times their constraint shares. */
     void kickConstraintShares(OpenMM::ContextImpl& context, double h);
+    /** Runs a StiffFlow pass; kickForces, when not null, are the forces of the fused kick over kickStep before it. */
     void runStiffFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
                       double constraintTolerance, const OpenMM::Vec3* kickForces, double kickStep);
     /** Adds the force response of pass passIndex to the forces of the flow's slot (FilteredKick). */
@@ -190,12 +190,12 @@ private:
     // forces that the kicks of the next step add (zero outside carried components), and, for Filtered steps, the
     // change of the soft force on stiff particles over the last step, whose velocity processing the next step undoes.
     std::vector<OpenMM::Vec3> shareForces, forceDifferences;
-    // Whether the virtual sites are where the current positions put them (invalidateForces() clears it).
-    bool virtualSitesPlaced = false;
     // Whether the history was read from a checkpoint since the last step (forgetStepHistory() then keeps it).
     bool historyLoaded = false;
     // The soft forces on stiff particles where the current Filtered step began.
     std::vector<OpenMM::Vec3> openingForces;
+    // Whether the virtual sites are where the current positions put them (invalidateForces() clears it).
+    bool virtualSitesPlaced = false;
     // For each FilteredStiffFlow or FilteredKick pass, its velocity processing (StiffModes::computeVelocityProcessing).
     std::vector<StiffModes::ForceResponse> processingResponses;
     int thermostatsPerStep;

@@ -77,8 +77,6 @@ public:
     OpenMM::Vec3* velocities = nullptr;
 
 private:
-    /** apply() for a component of one particle, whose response r (and processing q) act on it directly. */
-    void applySingle(int particle, const double* r, const double* q) const;
     /** apply() for component c; FixedRows and FixedColumns are its sizes, or 0 to read them from the component. */
     template <int FixedRows, int FixedColumns> void applyComponent(int c, const double* r, const double* q) const;
     const StiffModes& modes;

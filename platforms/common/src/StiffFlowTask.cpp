@@ -273,11 +273,11 @@ void ForceResponseTask::apply(int begin, int end) const {
         const double* r = &response->data[response->offset[c]];
         const bool processed = processing != nullptr && comp.stiff;
         const double* q = processed ? &processing->data[processing->offset[c]] : nullptr;
+        // Single particles and pairs (Drude pairs), isotropic, through the same code with their sizes known to the
+        // compiler.
         if (D == 1 && C == 3)
-            // One particle, isotropic: its one mode per direction is the particle itself (u = +-1).
-            applySingle(modes.getComponentParticles(c)[0], r, q);
+            applyComponent<1, 3>(c, r, q);
         else if (D == 2 && C == 3)
-            // A pair (a Drude pair), isotropic: the same code with the sizes known to the compiler.
             applyComponent<2, 3>(c, r, q);
         else
             applyComponent<0, 0>(c, r, q);
@@ -293,7 +293,9 @@ void ForceResponseTask::applyComponent(int c, const double* r, const double* q) 
     const int numParticles = FixedRows > 0 && FixedColumns == 3 ? FixedRows : comp.numParticles;
     const bool processed = q != nullptr;
     const double* u = modes.getEigenvectors(c);
-    double* particleForce = &scratch[scratchOffset[c]];
+    // Fixed sizes work on the stack, where the compiler can keep the blocks in registers.
+    double local[FixedRows > 0 ? 6 * FixedRows * FixedColumns : 1];
+    double* particleForce = FixedRows > 0 ? local : &scratch[scratchOffset[c]];
     double* modeForce = particleForce + size;
     double* dx = modeForce + size;
     double* dv = dx + size;
@@ -350,23 +352,4 @@ void ForceResponseTask::applyComponent(int c, const double* r, const double* q) 
             velocities[particles[p]][d] += scale * dv[3 * p + d];
         }
     }
-}
-
-void ForceResponseTask::applySingle(int particle, const double* r, const double* q) const {
-    const double inverseMass = 1.0 / (modes.getSqrtMass(particle) * modes.getSqrtMass(particle));
-    const OpenMM::Vec3 force = extraForces ? forces[particle] + extraForces[particle] : forces[particle];
-    OpenMM::Vec3 dx = force * (r[0] * inverseMass), dv = force * (r[1] * inverseMass);
-    if (q != nullptr) {
-        OpenMM::Vec3 change;
-        if (closing) {
-            change = forceChanges[particle] = forces[particle] - openingForces[particle];
-        } else {
-            change = forceChanges[particle];
-            openingForces[particle] = forces[particle];
-        }
-        dx += change * (q[0] * inverseMass);
-        dv += change * (q[1] * inverseMass);
-    }
-    positions[particle] += dx;
-    velocities[particle] += dv;
 }

@@ -119,11 +119,12 @@ def main():
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     parser.add_argument("--long", action="store_true", help="Fig. 6.8: the O(omega^2) time scale (T = omega^2)")
     args = parser.parse_args()
+    if args.replot:
+        reporting.replot(args.replot, args.out, "fpu_long" if args.long else "fpu_artificial",
+                         plot_long if args.long else plot)
+        return
     if args.long:
         long_time(args)
-        return
-    if args.replot:
-        reporting.replot(args.replot, args.out, "fpu_artificial", plot)
         return
     T = 5.0 if args.quick else args.T
     times = list(np.arange(0.5, T + 1e-9, 0.5))
@@ -197,16 +198,16 @@ def plot_long(result, path):
         energies = np.array(run["I"])
         ax = axes[row, 0]
         for j in range(M):
-            ax.plot(times[:len(energies)], energies[:, j], lw=0.8, label="I_%d" % (j + 1))
-        ax.set_ylabel("stiff spring energy")
+            ax.plot(times[:len(energies)], energies[:, j], lw=0.8, label="$I_%d$" % (j + 1))
+        ax.set_ylabel("stiff spring energy $I_j$ (reduced units)")
         ax.set_title(name)
         ax.legend(fontsize=8, loc="upper right")
         ax = axes[row, 1]
         ax.plot(times[:len(run["H"])], np.array(run["H"]) - run["H"][0], "k", lw=0.8)
-        ax.set_ylabel("H(t) − H(first sample)")
+        ax.set_ylabel("H(t) − H(first sample) (reduced units)")
         ax.set_title(name + ": total energy")
     for ax in axes[-1]:
-        ax.set_xlabel("t (time units of (6.7))")
+        ax.set_xlabel("t (reduced time units of eq. 6.7)")
     fig.suptitle("FPU chain (m = 3, ω = %g) over T = ω² = %g: energy exchange among the stiff springs and total energy "
                  "(FLAVORS paper, Fig. 6.8)" % (result["omega"], result["T"]))
     fig.tight_layout(rect=(0, 0, 1, 0.97))
@@ -226,10 +227,10 @@ def plot(result, path):
             energies = np.array(run["I"])
             if len(energies):
                 ax.plot(times[:len(energies)], energies[:, j], style, lw=1.2, label=name)
-        ax.set_xlabel("t (time units of (6.7))")
-        ax.set_ylabel("I_%d, energy of stiff spring %d" % (j + 1, j + 1))
+        ax.set_xlabel("t (reduced time units of eq. 6.7)")
+        ax.set_ylabel("$I_%d$, energy of stiff spring %d (reduced units)" % (j + 1, j + 1))
         ax.set_yscale("log")
-        ax.set_title("I_%d" % (j + 1))
+        ax.set_title("$I_%d$" % (j + 1))
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=9)
     fig.suptitle("FPU chain (m = 3, ω = %g): energy exchange among the stiff springs, FLAVOR averagings (δ = 0.002) "

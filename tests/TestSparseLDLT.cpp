@@ -110,4 +110,7 @@ TEST(SparseLDLT, NearlyDependentRowsAreDroppedByTheThreshold) {
     SparseLDLT loose = factorOf(a, false, 2.0 * theta * theta, numDependent);
     EXPECT_EQ(1, numDependent);
     EXPECT_TRUE(loose.isDependent(2));
+    // The smallest pivot ratio among the rows kept: sin^2(theta) when row 2 is kept, 1 when it is dropped.
+    EXPECT_NEAR(std::sin(theta) * std::sin(theta), strict.smallestPivotRatio(), 1e-12);
+    EXPECT_NEAR(1.0, loose.smallestPivotRatio(), 1e-12);
 }

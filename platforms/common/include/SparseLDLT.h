@@ -35,6 +35,11 @@ public:
     int factorize(double dropTolerance);
     /** Overwrites b (in the constructor's numbering) with the solution of A x = b. */
     void solve(double* b) const;
+    /**
+     * The smallest ratio of a pivot to its row's diagonal entry among the rows not found dependent by the last
+     * factorize() (1 for an empty matrix): how close the rows come to being dependent, in the elimination order.
+     */
+    double smallestPivotRatio() const { return smallestRatio; }
     /** Whether row i (the constructor's numbering) was found dependent by the last factorize(). */
     bool isDependent(int i) const { return dependent[position[i]] != 0; }
 
@@ -50,6 +55,7 @@ private:
     std::vector<int> factorStart, factorRow, parent;
     std::vector<double> factorValue, pivot;
     std::vector<char> dependent;
+    double smallestRatio = 1.0;
     // Workspaces of factorize() and solve().
     std::vector<int> count, pattern, flag;
     std::vector<double> accumulator;

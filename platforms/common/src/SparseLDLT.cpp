@@ -81,6 +81,7 @@ SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool re
 
 int SparseLDLT::factorize(double dropTolerance) {
     int numDependent = 0;
+    smallestRatio = 1.0;
     for (int k = 0; k < n; ++k) {
         // Scatter column k of the upper triangle and find the rows of L's row k by walking the elimination tree.
         accumulator[k] = 0.0;
@@ -120,6 +121,8 @@ int SparseLDLT::factorize(double dropTolerance) {
         pivot[k] = d;
         dependent[k] = d <= dropTolerance * diagonal ? 1 : 0;
         numDependent += dependent[k];
+        if (!dependent[k])
+            smallestRatio = std::min(smallestRatio, d / diagonal);
     }
     return numDependent;
 }

@@ -2,6 +2,7 @@
 // stability boundary 2 sqrt(2), true stiff statistics, and conformance with compositions written here.
 
 #include "FlavorIntegrator.h"
+#include "FrozenStage.h"
 #include "PlatformTest.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
@@ -612,58 +613,6 @@ vector<Vec3> moleculeVelocities() {
     return {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0), Vec3(0.2, 0.1, 0), Vec3(0.2, 0.1, 0)};
 }
 
-double rate(const vector<Vec3>& q, const vector<Vec3>& v, int i, int j) {
-    Vec3 r = q[i] - q[j];
-    return r.dot(v[i] - v[j]) / std::sqrt(r.dot(r));
-}
-
-double distance(const vector<Vec3>& q, int i, int j) {
-    Vec3 r = q[i] - q[j];
-    return std::sqrt(r.dot(r));
-}
-
-/** The states around the frozen drift of one SymplecticEuler artificial step without soft forces. */
-struct FrozenStage {
-    vector<Vec3> q1, v1; // after the microstep D(tau) K_stiff(tau), computed here
-    vector<Vec3> q2, v2; // after the integrator's step: the microstep, then the frozen drift over delta - tau
-};
-
-/** Runs one step of FlavorIntegrator(delta, tau) on system (its stiff forces in StiffMask; a zero soft force is added
- * in group 3) from q0, v0, and computes the microstep independently. */
-FrozenStage runFrozenStage(System& system, const vector<Vec3>& q0, const vector<Vec3>& v0, double delta, double tau,
-                           double tolerance, Platform& platform, const std::map<std::string, std::string>& properties) {
-    const int n = system.getNumParticles();
-    FrozenStage stage;
-    stage.q1.resize(n);
-    stage.v1.resize(n);
-    for (int i = 0; i < n; ++i)
-        stage.q1[i] = q0[i] + v0[i] * tau;
-    {
-        VerletIntegrator probe(0.001);
-        Context forces(system, probe, platform, properties);
-        forces.setPositions(stage.q1);
-        vector<Vec3> f = forces.getState(State::Forces, false, StiffMask).getForces();
-        for (int i = 0; i < n; ++i)
-            stage.v1[i] = v0[i] + f[i] * (tau / system.getParticleMass(i));
-    }
-    // A FLAVOR System needs a soft force: a zero one, in a group of its own.
-    CustomExternalForce* zeroSoftForce = new CustomExternalForce("0");
-    zeroSoftForce->setForceGroup(3);
-    system.addForce(zeroSoftForce);
-    FlavorIntegrator integrator(delta, tau, StiffMask);
-    integrator.setScheme(FlavorIntegrator::SymplecticEuler);
-    integrator.setAveraging(FlavorIntegrator::Artificial);
-    integrator.setIntegrationForceGroups(StiffMask | (1 << 3));
-    integrator.setConstraintTolerance(tolerance);
-    Context context(system, integrator, platform, properties);
-    context.setPositions(q0);
-    context.setVelocities(v0);
-    integrator.step(1);
-    stage.q2 = positionsOf(context);
-    stage.v2 = velocitiesOf(context);
-    return stage;
-}
-
 } // namespace
 
 TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStoredRates) {
@@ -698,123 +647,6 @@ TEST_P(FlavorArtificial, FrozenStageHoldsEveryFrozenDistanceAndRestoresTheStored
         EXPECT_NEAR(momentum1[d], momentum2[d], 1e-9);
         EXPECT_NEAR(centre1[d] / mass + (delta - tau) * momentum1[d] / mass, centre2[d] / mass, 1e-11);
     }
-}
-
-namespace {
-
-/**
- * Neopentane, C(CH3)4, with every bond and every angle stiff: 16 bonds and the 1-3 distances of 30 angles on 17 atoms.
- * Each carbon has four neighbours, whose six 1-3 distances and four bonds are one more than the nine degrees of
- * freedom they fix: the full set is redundant.  The positions are slightly off the ideal tetrahedra.
- */
-System* neopentane(vector<Vec3>& positions, vector<std::array<int, 3>>& angles) {
-    System* system = new System();
-    const double s = 1 / std::sqrt(3.0);
-    const Vec3 directions[4] = {Vec3(s, s, s), Vec3(s, -s, -s), Vec3(-s, s, -s), Vec3(-s, -s, s)};
-    std::mt19937 random(3);
-    std::uniform_real_distribution<double> jitter(-0.003, 0.003);
-    auto add = [&](double mass, Vec3 position) {
-        positions.push_back(position + Vec3(jitter(random), jitter(random), jitter(random)));
-        return system->addParticle(mass);
-    };
-    HarmonicBondForce* bonds = new HarmonicBondForce();
-    HarmonicAngleForce* angleForce = new HarmonicAngleForce();
-    const int centre = add(12.0, Vec3());
-    vector<int> methyls;
-    for (int i = 0; i < 4; ++i) {
-        const int carbon = add(12.0, directions[i] * 0.153);
-        bonds->addBond(centre, carbon, 0.153, 2.5e5);
-        vector<int> hydrogens;
-        for (int j = 0; j < 4; ++j)
-            if (j != i) {
-                hydrogens.push_back(add(1.0, directions[i] * 0.153 - directions[j] * 0.109));
-                bonds->addBond(carbon, hydrogens.back(), 0.109, 2.8e5);
-                angles.push_back({centre, carbon, hydrogens.back()});
-            }
-        for (int a = 0; a < 3; ++a)
-            for (int b = a + 1; b < 3; ++b)
-                angles.push_back({hydrogens[a], carbon, hydrogens[b]});
-        methyls.push_back(carbon);
-    }
-    for (int a = 0; a < 4; ++a)
-        for (int b = a + 1; b < 4; ++b)
-            angles.push_back({methyls[a], centre, methyls[b]});
-    for (const std::array<int, 3>& angle : angles)
-        angleForce->addAngle(angle[0], angle[1], angle[2], 1.911, 400.0);
-    bonds->setForceGroup(StiffGroup);
-    angleForce->setForceGroup(StiffGroup);
-    system->addForce(bonds);
-    system->addForce(angleForce);
-    return system;
-}
-
-} // namespace
-
-TEST_P(FlavorArtificial, FrozenStageHoldsARedundantFrozenSetAndKeepsItsKineticEnergy) {
-    // As above on neopentane: after the microstep D(tau) K_stiff(tau) (computed here), the frozen drift over
-    // delta - tau must keep all 46 frozen distances, the redundant ones the library leaves out included, at their
-    // values after the microstep, while the molecule moves and its methyl groups turn.  Turning methyls change the
-    // angles between constraints of different centres that share an atom, so B = J M^-1 J^T changes: the rates come
-    // back scaled by one common factor that keeps the kinetic energy along the constraints, (1/2) rdot^T B^+ rdot
-    // (computed here with B's pseudo-inverse over all 46 distances, redundant ones included).
-    const double delta = 0.004, tau = 1e-4, tolerance = 1e-10;
-    vector<Vec3> q0;
-    vector<std::array<int, 3>> angles;
-    std::unique_ptr<System> system(neopentane(q0, angles));
-    const int n = system->getNumParticles();
-    vector<Vec3> v0(n);
-    std::mt19937 random(8);
-    std::normal_distribution<double> gauss;
-    for (int i = 0; i < n; ++i)
-        v0[i] = Vec3(gauss(random), gauss(random), gauss(random)) * std::sqrt(2.5 / system->getParticleMass(i));
-    const FrozenStage stage = runFrozenStage(*system, q0, v0, delta, tau, tolerance, platform(), properties());
-    const vector<Vec3>&q1 = stage.q1, &v1 = stage.v1, &q2 = stage.q2, &v2 = stage.v2;
-    vector<std::pair<int, int>> frozen;
-    for (int b = 0; b < 16; ++b)
-        frozen.emplace_back(0, 0);
-    HarmonicBondForce& bonds = dynamic_cast<HarmonicBondForce&>(system->getForce(0));
-    for (int b = 0; b < bonds.getNumBonds(); ++b) {
-        double length, k;
-        bonds.getBondParameters(b, frozen[b].first, frozen[b].second, length, k);
-    }
-    for (const std::array<int, 3>& angle : angles)
-        frozen.emplace_back(angle[0], angle[2]);
-    ASSERT_EQ(46u, frozen.size());
-    for (const std::pair<int, int>& pair : frozen)
-        EXPECT_NEAR(distance(q1, pair.first, pair.second), distance(q2, pair.first, pair.second), 1e-9)
-            << pair.first << "-" << pair.second;
-    auto normalEnergy = [&](const vector<Vec3>& q, const vector<Vec3>& v) {
-        const int m = (int)frozen.size();
-        Eigen::MatrixXd b = Eigen::MatrixXd::Zero(m, m);
-        Eigen::VectorXd rates(m);
-        for (int c = 0; c < m; ++c) {
-            rates[c] = rate(q, v, frozen[c].first, frozen[c].second);
-            for (int d = 0; d < m; ++d)
-                for (int end = 0; end < 2; ++end)
-                    for (int otherEnd = 0; otherEnd < 2; ++otherEnd) {
-                        const int i = end == 0 ? frozen[c].first : frozen[c].second;
-                        const int j = otherEnd == 0 ? frozen[d].first : frozen[d].second;
-                        if (i != j)
-                            continue;
-                        Vec3 uc = q[frozen[c].first] - q[frozen[c].second],
-                             ud = q[frozen[d].first] - q[frozen[d].second];
-                        const double sign = (end == otherEnd ? 1.0 : -1.0);
-                        b(c, d) += sign * uc.dot(ud) / std::sqrt(uc.dot(uc) * ud.dot(ud)) / system->getParticleMass(i);
-                    }
-        }
-        const Eigen::VectorXd y = b.completeOrthogonalDecomposition().solve(rates);
-        return 0.5 * rates.dot(y);
-    };
-    EXPECT_NEAR(normalEnergy(q1, v1), normalEnergy(q2, v2), 1e-7 * normalEnergy(q1, v1));
-    const double scale = rate(q2, v2, 0, 1) / rate(q1, v1, 0, 1);
-    EXPECT_GT(std::abs(scale - 1), 1e-5) << "B did not change: the test would not test the scaling";
-    for (const std::pair<int, int>& pair : frozen)
-        EXPECT_NEAR(scale * rate(q1, v1, pair.first, pair.second), rate(q2, v2, pair.first, pair.second), 1e-7)
-            << pair.first << "-" << pair.second;
-    // Not a no-op: a hydrogen moved by more than a tenth of its drift, and a methyl group turned about its bond
-    // (the distance between hydrogens of two methyls changed).
-    EXPECT_GT((q2[2] - q1[2]).dot(q2[2] - q1[2]), 1e-2 * (delta - tau) * (delta - tau) * v1[2].dot(v1[2]));
-    EXPECT_GT(std::abs(distance(q2, 2, 6) - distance(q1, 2, 6)), 1e-5);
 }
 
 namespace {

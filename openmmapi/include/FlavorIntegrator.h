@@ -54,8 +54,12 @@ public:
         /**
          * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is one soft kick
          * over the mesostep, a microstep of the fast Hamiltonian (kinetic energy and stiff potential), and a drift
-         * for the rest of the mesostep with the stiff degrees of freedom frozen, the rates of the frozen coordinates
-         * stored and restored (with the kinetic energy they carried).  What freezes: for a quadratic stiff group,
+         * for the rest of the mesostep with the stiff degrees of freedom frozen: the frozen coordinates and their
+         * conjugate momenta are held while the rest moves (where frozen distances turn, the motion feels the kinetic
+         * energy of the held momenta), which leaves the canonical distribution of the flexible system invariant.
+         * A cluster of coupled frozen distances that is nearly dependent (planar rings in proteins) gives back the
+         * rates of its frozen distances instead, scaled to keep their kinetic energy.
+         * What freezes: for a quadratic stiff group,
          * the nonzero modes of its stiffness matrix (an exact projection); otherwise the distances that the stiff
          * bonded forces act on (each bond of a HarmonicBondForce or CustomBondForce, the 1-3 distances of the angles
          * of a HarmonicAngleForce, 2k - 3 at a centre with k neighbours, less those nearly dependent on the others,

@@ -67,12 +67,16 @@ OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector
  * temporary constraints next to the System's own (which stay on throughout), each cluster of coupled constraints on
  * its own through the platform's ParallelLoop.
  *
- *     drift(h):  store the rates of the frozen distances; remove the velocity components along every constraint
- *                (mass-orthogonal projection onto the constraint manifold's tangent space); drift with the frozen
- *                distances held at their current lengths and the System's at theirs; then give every constraint its
- *                rate along the new directions: the stored one for the frozen distances, 0 for the System's, all
- *                scaled by the one factor that keeps the kinetic energy along the constraints (1/2 rdot^T B^-1 rdot)
- *                what it was at the start (1 where B did not change).
+ *     drift(h):  split each velocity into its part tangent to the constraint manifold and its normal part
+ *                M^-1 J^T mu, mu = B^-1 (0, rdot) (rdot: the rates of the frozen distances, 0 for the System's
+ *                constraints); keep the frozen distances' entries of mu (their normal momenta) and drift the tangent
+ *                part with every constraint held, by RATTLE steps of the Hamiltonian |p_T|^2 / 2 + mu^T B(q) mu / 2 on
+ *                the manifold; then give the normal part back along the new directions with the same momenta (the
+ *                System's entries chosen so that their rates stay 0).  Freezing the momenta, not the rates, and the
+ *                force of mu^T B(q) mu / 2 keep phase-space volume and energy where B changes (turning torsions turn
+ *                the angles between constraints that share an atom): this frozen drift leaves the canonical
+ *                distribution of the flexible molecule invariant.  Where B is constant (water, a rigid triangle) the
+ *                force is 0 and the rates come back unchanged.
  *     kick(h):   v += h P M^-1 F, with P the same projection (the soft impulse's component along the frozen
  *                distances and the System's constraints dropped).
  *
@@ -118,11 +122,23 @@ private:
     static constexpr int MaxSubsteps = 16;
     static constexpr double MaxRelativeViolation = 0.1;
     static constexpr double DependenceThreshold = 1e-2;
+    // A cluster holds its normal momenta if every pivot of its B is at least this fraction of its diagonal where the
+    // set is chosen; nearly dependent sets (planar rings) have momenta B^-1 rdot so large that their force
+    // -grad mu^T B(q) mu / 2 makes the drift unstable, and give back their rates instead.
+    static constexpr double MomentumConditioning = 0.02;
     void driftCluster(int k) const;
     /** The frozen drift of cluster k over h as substeps RATTLE steps; false if an iteration did not converge. */
     bool driftInSubsteps(int k, int substeps) const;
-    /** (1/2) rdot^T B^-1 rdot of the stored rates with B as last factorized; y receives B^-1 rdot. */
-    double normalKineticEnergy(int k, double* y) const;
+    /** (1/2) rdot^T mu: the kinetic energy of the stored rates, with mu as last stored. */
+    double normalKineticEnergy(int k) const;
+    /** The normal momenta mu = B^-1 (0, rdot) of cluster k from the stored rates, B as last factorized. */
+    void storeNormalMomenta(int k) const;
+    /** Whether a frozen distance of cluster k has a nonzero normal momentum. */
+    bool hasNormalMomenta(int k) const;
+    /** The System constraints' entries of mu at the current directions, so that their rates stay 0. */
+    void updateSystemMomenta(int k) const;
+    /** v += dt M^-1 F with F = -grad (1/2) mu^T B(q) mu at fixed mu, the directions as last factorized. */
+    void kickByNormalMomenta(int k, double dt) const;
     void kickCluster(int k) const;
     /** x_i += w_i u_c a_c, x_j -= w_j u_c a_c for each constraint c = (i, j) of cluster k (a numbered from its first).
      */
@@ -149,12 +165,17 @@ private:
     std::vector<ConstraintCoupling> couplings;
     std::vector<int> couplingStart;
     mutable std::vector<SparseLDLT> solvers;
-    // Written per cluster while the loop runs (each cluster its own entries).
-    mutable std::vector<double> lengths, targetRates, residuals, normalWork;
+    // B of each cluster's System constraints where a cluster has both kinds (size 0 otherwise): its first
+    // systemCount[k] constraints and first systemCouplingCount[k] couplings.
+    mutable std::vector<SparseLDLT> systemSolvers;
+    std::vector<int> systemCount, systemCouplingCount;
+    std::vector<char> holdsMomenta;
+    // Written per cluster while the loop runs (each cluster its own entries).  normalMomenta: mu of the drift.
+    mutable std::vector<double> lengths, targetRates, residuals, normalMomenta;
     // directions: the unit constraint directions of the last factorization; currentDirections: of the last velocity
     // solve.
     mutable std::vector<OpenMM::Vec3> directions, currentDirections, previousPositions, startPositions, startVelocities,
-        scratch;
+        scratch, normalVelocities;
     mutable std::vector<char> factorized;
     mutable std::vector<char> failed;
     // The current call's data.

@@ -261,18 +261,42 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
             offDiagonal.emplace_back(couplings[e].first - first, couplings[e].second - first);
         couplingStart.push_back((int)e);
         solvers.emplace_back(last - first, offDiagonal);
+        // The System's constraints come first in each cluster, and so do the couplings among them.
+        int numSystem = 0, numFrozenHere = 0;
+        for (int c = first; c < last; ++c)
+            (frozen[c] ? numFrozenHere : numSystem) += 1;
+        vector<pair<int, int>> systemOffDiagonal;
+        for (const pair<int, int>& entry : offDiagonal)
+            if (entry.second < numSystem)
+                systemOffDiagonal.push_back(entry);
+        const bool mixed = numSystem > 0 && numFrozenHere > 0;
+        systemCount.push_back(mixed ? numSystem : 0);
+        systemCouplingCount.push_back(mixed ? (int)systemOffDiagonal.size() : 0);
+        systemSolvers.emplace_back(mixed ? numSystem : 0, mixed ? systemOffDiagonal : vector<pair<int, int>>());
     }
     targetRates.assign(pairs.size(), 0.0);
     residuals.assign(pairs.size(), 0.0);
-    normalWork.assign(pairs.size(), 0.0);
+    normalMomenta.assign(pairs.size(), 0.0);
     directions.resize(pairs.size());
     currentDirections.resize(pairs.size());
     previousPositions.resize(n);
     startPositions.resize(n);
     startVelocities.resize(n);
     scratch.resize(n);
+    normalVelocities.resize(n);
     failed.assign(numClusters, 0);
     factorized.assign(numClusters, 0);
+    // Which clusters hold normal momenta: those whose B is well conditioned where the set was chosen.
+    holdsMomenta.assign(numClusters, 1);
+    for (int k = 0; k < numClusters; ++k) {
+        if (constraintStart[k + 1] == constraintStart[k])
+            continue;
+        assembleB(solvers[k], pairs, constraintStart[k], constraintStart[k + 1], couplings.data() + couplingStart[k],
+                  couplingStart[k + 1] - couplingStart[k], positionsToCheck.data(), particleInverseMasses.data(),
+                  directions.data());
+        solvers[k].factorize(1e-10);
+        holdsMomenta[k] = solvers[k].smallestPivotRatio() >= MomentumConditioning ? 1 : 0;
+    }
 }
 
 void FrozenDistances::drift(vector<Vec3>& q, vector<Vec3>& v, const vector<double>& w, double step, double tol,
@@ -354,26 +378,18 @@ void FrozenDistances::driftCluster(int k) const {
     failed[k] = 1;
 }
 
-double FrozenDistances::normalKineticEnergy(int k, double* y) const {
-    // (1/2) rdot^T B^-1 rdot for the stored rates (0 for the System's constraints), B as last factorized; y gets
-    // B^-1 rdot.
-    const int first = constraintStart[k], last = constraintStart[k + 1];
-    for (int c = first; c < last; ++c)
-        y[c - first] = frozen[c] ? targetRates[c] : 0.0;
-    solvers[k].solve(y);
-    double energy = 0.0;
-    for (int c = first; c < last; ++c)
-        energy += 0.5 * (frozen[c] ? targetRates[c] : 0.0) * y[c - first];
-    return energy;
-}
-
 bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     const double step = h / substeps;
     factorize(k);
-    const double startEnergy = normalKineticEnergy(k, &normalWork[constraintStart[k]]);
+    storeNormalMomenta(k);
+    const double startEnergy = normalKineticEnergy(k);
     if (!constrainVelocities(k, velocities, false, MaxIterations))
         return false;
+    const bool turning = holdsMomenta[k] && hasNormalMomenta(k);
     for (int s = 0; s < substeps; ++s) {
+        // RATTLE on the constraint manifold with the potential (1/2) mu^T B(q) mu of the frozen normal momenta.
+        if (turning)
+            kickByNormalMomenta(k, 0.5 * step);
         for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
             const int i = particles[n];
             previousPositions[i] = positions[i];
@@ -385,31 +401,101 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
             const int i = particles[n];
             velocities[i] = (positions[i] - previousPositions[i]) * (1.0 / step);
         }
-        // Back onto the tangent space at the new positions (RATTLE); after the last step also the stored rates along
-        // the new directions: one solve with the targets does both.  The factorization here serves the next step and
-        // the kicks that follow the drift.
+        // The factorization here serves the next step, the normal momenta and the kicks that follow the drift.
         factorize(k);
-        if (!constrainVelocities(k, velocities, s == substeps - 1, MaxIterations))
+        if (turning) {
+            updateSystemMomenta(k);
+            kickByNormalMomenta(k, 0.5 * step);
+        }
+        // Back onto the tangent space; a cluster that gives back rates gets them here with the last step's solve.
+        const bool withRates = !holdsMomenta[k] && s == substeps - 1;
+        if (!constrainVelocities(k, velocities, withRates, MaxIterations))
             return false;
     }
-    // The rates restored along the new directions carry (1/2) rdot^T B^-1 rdot of kinetic energy with the new B; where
-    // turning torsions changed B, that is not the energy they carried at the start, and the difference pumps energy
-    // in systematically (a protein with frozen angles heats by tens of kelvin).  A free flight keeps its kinetic
-    // energy: scale the restored normal velocity M^-1 J^T B^-1 rdot by one common factor so that it does.  The map
-    // stays time reversible (the reverse drift scales back by the inverse factor), and where B is constant (rigid
-    // units: water, a tetrahedral centre) the factor is 1.
-    {
-        double* y = &normalWork[constraintStart[k]];
-        const double endEnergy = normalKineticEnergy(k, y);
-        if (endEnergy > 0.0) {
-            // directions: those of the last factorization, here.
-            const double scale = std::sqrt(startEnergy / endEnergy) - 1.0;
-            for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
-                y[c - constraintStart[k]] *= scale;
-            addAlongConstraints(k, velocities, directions.data(), y);
-        }
+    if (holdsMomenta[k]) {
+        // The normal momenta come back along the new directions.
+        addAlongConstraints(k, velocities, directions.data(), &normalMomenta[constraintStart[k]]);
+        return true;
+    }
+    // A cluster whose normal momenta are ill conditioned got its rates back above; they carry
+    // (1/2) rdot^T B^-1 rdot of kinetic energy with the new B, which the one common factor that scales them here
+    // makes what it was at the start (1 where B did not change).
+    storeNormalMomenta(k);
+    const double endEnergy = normalKineticEnergy(k);
+    if (endEnergy > 0.0) {
+        double* mu = &normalMomenta[constraintStart[k]];
+        const double scale = std::sqrt(startEnergy / endEnergy) - 1.0;
+        for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
+            mu[c - constraintStart[k]] *= scale;
+        addAlongConstraints(k, velocities, directions.data(), mu);
     }
     return true;
+}
+
+double FrozenDistances::normalKineticEnergy(int k) const {
+    double energy = 0.0;
+    for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
+        energy += 0.5 * (frozen[c] ? targetRates[c] : 0.0) * normalMomenta[c];
+    return energy;
+}
+
+void FrozenDistances::storeNormalMomenta(int k) const {
+    // mu = B^-1 (0, rdot): the frozen distances' rates with the System's constraints at rest (B as just factorized).
+    const int first = constraintStart[k], last = constraintStart[k + 1];
+    double* mu = &normalMomenta[first];
+    for (int c = first; c < last; ++c)
+        mu[c - first] = frozen[c] ? targetRates[c] : 0.0;
+    solvers[k].solve(mu);
+}
+
+bool FrozenDistances::hasNormalMomenta(int k) const {
+    for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
+        if (frozen[c] && normalMomenta[c] != 0.0)
+            return true;
+    return false;
+}
+
+void FrozenDistances::updateSystemMomenta(int k) const {
+    // The System's constraints keep their rates 0 along the new directions: their entries of mu minimize
+    // (1/2) mu^T B mu at fixed frozen entries, x = -B_ss^-1 B_sf mu_f.
+    const int numSystem = systemCount[k];
+    if (numSystem == 0)
+        return;
+    const int first = constraintStart[k], last = constraintStart[k + 1];
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
+        normalVelocities[particles[n]] = Vec3();
+    for (int c = first + numSystem; c < last; ++c) {
+        const int i = pairs[c].first, j = pairs[c].second;
+        normalVelocities[i] += directions[c] * (inverseMasses[i] * normalMomenta[c]);
+        normalVelocities[j] -= directions[c] * (inverseMasses[j] * normalMomenta[c]);
+    }
+    SparseLDLT& solver = systemSolvers[k];
+    assembleB(solver, pairs, first, first + numSystem, couplings.data() + couplingStart[k], systemCouplingCount[k],
+              positions, inverseMasses, directions.data());
+    solver.factorize(1e-10);
+    double* x = &normalMomenta[first];
+    for (int c = first; c < first + numSystem; ++c)
+        x[c - first] = -directions[c].dot(normalVelocities[pairs[c].first] - normalVelocities[pairs[c].second]);
+    solver.solve(x);
+}
+
+void FrozenDistances::kickByNormalMomenta(int k, double dt) const {
+    // F = -grad (1/2) mu^T B(q) mu at fixed mu, B = J M^-1 J^T with unit directions u_c: with the normal velocity
+    // w = M^-1 J^T mu, constraint c = (a, b) of length L pulls a by -mu_c P_c (w_a - w_b) / L (P_c: the projection
+    // perpendicular to u_c) and b by the opposite.  Directions as last factorized, i.e. at the current positions.
+    const int first = constraintStart[k], last = constraintStart[k + 1];
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
+        normalVelocities[particles[n]] = Vec3();
+    addAlongConstraints(k, normalVelocities.data(), directions.data(), &normalMomenta[first]);
+    for (int c = first; c < last; ++c) {
+        const int a = pairs[c].first, b = pairs[c].second;
+        const Vec3 u = directions[c];
+        const Vec3 r = positions[a] - positions[b];
+        const Vec3 relative = normalVelocities[a] - normalVelocities[b];
+        const Vec3 force = (relative - u * u.dot(relative)) * (-normalMomenta[c] / std::sqrt(r.dot(r)));
+        velocities[a] += force * (dt * inverseMasses[a]);
+        velocities[b] -= force * (dt * inverseMasses[b]);
+    }
 }
 
 void FrozenDistances::kickCluster(int k) const {

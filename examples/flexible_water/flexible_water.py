@@ -15,7 +15,10 @@ spread, mean H-O-H angle and its spread, potential energy per molecule, kinetic 
 separately, and g_OO(r) (the first-peak height).  ns/day is measured over the production run of each peer.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/flexible_water/flexible_water.py [--quick] [--out DIR]
-        [--start PS] [--equilibration PS] [--production PS] [--threads N]
+        [--start PS] [--equilibration PS] [--production PS] [--threads N] [--peers NAME ...]
+
+--peers runs only the peers whose names contain one of the given strings (the first of them is the chart's reference
+line); several runs with the same --peers give independent replicas (each builds and equilibrates its own start).
 
 Every peer starts from the same state: minimized, then --start ps of LangevinMiddle (flexible, 0.5 fs); each peer
 then equilibrates for --equilibration ps with its own integrator before --production ps of measurement.
@@ -166,7 +169,7 @@ def plot(records, path):
         errors = [r.get(key + "_error", 0.0) for r in stable]
         ax.errorbar(values, y, xerr=errors, fmt="o", capsize=3)
         if key != "ns_per_day" and reference["stable"]:
-            ax.axvline(reference[key], color="gray", ls="--", lw=1, label="reference (LangevinMiddle 0.25 fs)")
+            ax.axvline(reference[key], color="gray", ls="--", lw=1, label="reference (%s)" % reference["name"])
             ax.legend(fontsize=7, loc="best")
         ax.set_yticks(y)
         ax.set_yticklabels(labels if ax in (axes[0], axes[4]) else [], fontsize=7)
@@ -185,7 +188,7 @@ def plot(records, path):
     errors = [r["oh_sd_error"] for r in stable]
     ax.errorbar(values, y, xerr=errors, fmt="o", capsize=3)
     if reference["stable"]:
-        ax.axvline(reference["oh_sd"], color="gray", ls="--", lw=1, label="reference (LangevinMiddle 0.25 fs)")
+        ax.axvline(reference["oh_sd"], color="gray", ls="--", lw=1, label="reference (%s)" % reference["name"])
         ax.legend(fontsize=7, loc="best")
     ax.set_yticks(y)
     ax.set_yticklabels([])
@@ -212,6 +215,8 @@ def main():
     parser.add_argument("--start", type=float, default=3.0, help="ps of common equilibration before the peers")
     parser.add_argument("--molecules", type=int, default=501)
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    parser.add_argument("--peers", nargs="+", metavar="NAME",
+                        help="run only the peers whose names contain one of these strings (default: all)")
     args = parser.parse_args()
     if args.replot:
         reporting.replot(args.replot, args.out, "flexible_water", lambda data, path: plot(data["peers"], path))
@@ -237,7 +242,11 @@ def main():
     del context, integrator
     frames = 10 if args.quick else 60
     records = []
-    for name, rigid, factory in peers(flavor_settings):
+    selected = [peer for peer in peers(flavor_settings)
+                if args.peers is None or any(part in peer[0] for part in args.peers)]
+    if not selected:
+        parser.error("--peers %s matches none of the peers" % " ".join(args.peers))
+    for name, rigid, factory in selected:
         record = run_peer(name, rigid, factory, forcefield, modeller.topology, start, args.equilibration,
                           args.production, frames, args.threads)
         records.append(record)

@@ -32,3 +32,17 @@ def test_quick_run_writes_json_and_png(tmp_path):
     # nonintrusive FLAVOR's weakened bonds stretch by several times that.
     assert abs(artificial["oh_mean"] - reference["oh_mean"]) < 1e-3
     assert 0.095 < reference["oh_mean"] < 0.099
+
+
+def test_peers_option_runs_only_the_named_peers(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--peers", "0.25 fs", "+angles"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "flexible_water.json") as f:
+        names = [peer["name"] for peer in json.load(f)["peers"]]
+    assert names == ["LangevinMiddle flexible 0.25 fs", "FLAVOR ArtificialProjected +angles δ=2 fs τ=0.5 fs"]
+
+
+def test_peers_option_that_matches_nothing_is_an_error(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--peers", "no such peer"))
+    assert result.returncode != 0
+    assert "matches none of the peers" in result.stderr

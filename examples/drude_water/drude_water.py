@@ -400,9 +400,13 @@ def main():
                         help="DrudeLangevinIntegrator steps in fs; the first is the reference (default 0.5 1)")
     parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.0, 1.5, 2.0, 3.0, 4.0],
                         help="StochasticImpulseIntegrator steps in fs (default 1 1.5 2 3 4)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="added to every random seed: independent replicas of a run (default 0)")
     parser.add_argument("--splittings", nargs="+", choices=["Strang", "Filtered"], default=["Strang", "Filtered"],
                         help="StochasticImpulseIntegrator splittings (default Strang Filtered)")
     args = parser.parse_args()
+    if args.seed < 0:
+        parser.error("--seed must be non-negative (got %d)" % args.seed)
     if args.filter_bias:
         os.makedirs(args.out, exist_ok=True)
         filter_bias(args.out)
@@ -422,11 +426,11 @@ def main():
     analysis = Analysis(system)
     scf = SelfConsistent(system, analysis)
     # Equilibrate with the reference integrator (1 fs) from a minimized lattice.
-    integrator = make_integrator("DrudeLangevin", 1.0, 1)
+    integrator = make_integrator("DrudeLangevin", 1.0, 1 + args.seed)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setPositions(positions)
     openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
-    context.setVelocitiesToTemperature(300 * unit.kelvin, 2)
+    context.setVelocitiesToTemperature(300 * unit.kelvin, 2 + args.seed)
     integrator.step(int(settings["equilibration_ps"] * 1000))
     state = context.getState(getPositions=True, getVelocities=True)
     del context
@@ -435,7 +439,7 @@ def main():
     peers = [("DrudeLangevin", h) for h in ([0.5, 1.0] if args.quick else args.reference_steps)]
     peers += [(kind, h) for kind in (("Strang", "Filtered") if args.quick else args.splittings)
               for h in settings["sim_steps"]]
-    for seed, (kind, step_fs) in enumerate(peers, start=10):
+    for seed, (kind, step_fs) in enumerate(peers, start=10 + args.seed):
         label = f"{kind}_{step_fs:g}fs"
         try:
             runs[label] = run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed)

@@ -35,3 +35,9 @@ def test_drude_water_quick(tmp_path):
     for label in ("DrudeLangevin_0.5fs", "Filtered_2fs"):
         assert abs(runs[label]["induced_ratio"][0] - 1) < 0.05, label
         assert runs[label]["t_drude"][0] < 20, label
+
+
+def test_a_negative_seed_offset_is_rejected(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed", "-1"))
+    assert result.returncode != 0
+    assert "--seed must be non-negative (got -1)" in result.stderr

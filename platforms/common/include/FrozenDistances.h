@@ -143,15 +143,18 @@ private:
     /** x_i += w_i u_c a_c, x_j -= w_j u_c a_c for each constraint c = (i, j) of cluster k (a numbered from its first).
      */
     void addAlongConstraints(int k, OpenMM::Vec3* x, const OpenMM::Vec3* u, const double* a) const;
+    /** The same for the constraints [first, last) (a numbered from first), each amount times factor. */
+    void addAlongConstraints(int first, int last, OpenMM::Vec3* x, const OpenMM::Vec3* u, const double* a,
+                             double factor = 1.0) const;
     /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
     void factorize(int k) const;
     /** Newton's iteration with the factorized B: moves positions along the stored directions until every length
      * holds. */
     bool constrainPositions(int k) const;
-    /** Sets v so that every constraint's rate along its current direction is its target (withTargets) or 0. */
-    bool constrainVelocities(int k, OpenMM::Vec3* v, bool withTargets, int maxIterations) const;
+    /** Sets v so that every constraint's rate along its current direction is 0. */
+    bool constrainVelocities(int k, OpenMM::Vec3* v, int maxIterations) const;
     /** constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here. */
-    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v, bool withTargets) const;
+    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v) const;
     void checkConvergence();
     int numFrozen;
     // Cluster k owns particles[particleStart[k] .. particleStart[k+1]) and constraints

@@ -383,7 +383,7 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     factorize(k);
     storeNormalMomenta(k);
     const double startEnergy = normalKineticEnergy(k);
-    if (!constrainVelocities(k, velocities, false, MaxIterations))
+    if (!constrainVelocities(k, velocities, MaxIterations))
         return false;
     const bool turning = holdsMomenta[k] && hasNormalMomenta(k);
     for (int s = 0; s < substeps; ++s) {
@@ -407,28 +407,20 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
             updateSystemMomenta(k);
             kickByNormalMomenta(k, 0.5 * step);
         }
-        // Back onto the tangent space; a cluster that gives back rates gets them here with the last step's solve.
-        const bool withRates = !holdsMomenta[k] && s == substeps - 1;
-        if (!constrainVelocities(k, velocities, withRates, MaxIterations))
+        if (!constrainVelocities(k, velocities, MaxIterations))
             return false;
     }
-    if (holdsMomenta[k]) {
-        // The normal momenta come back along the new directions.
-        addAlongConstraints(k, velocities, directions.data(), &normalMomenta[constraintStart[k]]);
-        return true;
+    // The normal part comes back along the new directions: with the held momenta, or, where the momenta are ill
+    // conditioned, as the stored rates (mu = B^-1 (0, rdot) with the new B) scaled by the one factor that keeps their
+    // kinetic energy (1/2) rdot^T B^-1 rdot what it was at the start (1 where B did not change).
+    double factor = 1.0;
+    if (!holdsMomenta[k]) {
+        storeNormalMomenta(k);
+        const double endEnergy = normalKineticEnergy(k);
+        factor = endEnergy > 0.0 ? std::sqrt(startEnergy / endEnergy) : 0.0;
     }
-    // A cluster whose normal momenta are ill conditioned got its rates back above; they carry
-    // (1/2) rdot^T B^-1 rdot of kinetic energy with the new B, which the one common factor that scales them here
-    // makes what it was at the start (1 where B did not change).
-    storeNormalMomenta(k);
-    const double endEnergy = normalKineticEnergy(k);
-    if (endEnergy > 0.0) {
-        double* mu = &normalMomenta[constraintStart[k]];
-        const double scale = std::sqrt(startEnergy / endEnergy) - 1.0;
-        for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
-            mu[c - constraintStart[k]] *= scale;
-        addAlongConstraints(k, velocities, directions.data(), mu);
-    }
+    addAlongConstraints(constraintStart[k], constraintStart[k + 1], velocities, directions.data(),
+                        &normalMomenta[constraintStart[k]], factor);
     return true;
 }
 
@@ -464,11 +456,8 @@ void FrozenDistances::updateSystemMomenta(int k) const {
     const int first = constraintStart[k], last = constraintStart[k + 1];
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
         normalVelocities[particles[n]] = Vec3();
-    for (int c = first + numSystem; c < last; ++c) {
-        const int i = pairs[c].first, j = pairs[c].second;
-        normalVelocities[i] += directions[c] * (inverseMasses[i] * normalMomenta[c]);
-        normalVelocities[j] -= directions[c] * (inverseMasses[j] * normalMomenta[c]);
-    }
+    addAlongConstraints(first + numSystem, last, normalVelocities.data(), directions.data(),
+                        &normalMomenta[first + numSystem]);
     SparseLDLT& solver = systemSolvers[k];
     assembleB(solver, pairs, first, first + numSystem, couplings.data() + couplingStart[k], systemCouplingCount[k],
               positions, inverseMasses, directions.data());
@@ -507,7 +496,7 @@ void FrozenDistances::kickCluster(int k) const {
         // The factorization of the last drift is close to B here; a new one only when none exists yet.
         if (!factorized[k])
             factorize(k);
-        if (!constrainVelocitiesRefactorizing(k, scratch.data(), false))
+        if (!constrainVelocitiesRefactorizing(k, scratch.data()))
             failed[k] = 1;
     }
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
@@ -517,9 +506,14 @@ void FrozenDistances::kickCluster(int k) const {
 }
 
 void FrozenDistances::addAlongConstraints(int k, Vec3* x, const Vec3* u, const double* a) const {
-    for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c) {
+    addAlongConstraints(constraintStart[k], constraintStart[k + 1], x, u, a);
+}
+
+void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Vec3* u, const double* a,
+                                          double factor) const {
+    for (int c = first; c < last; ++c) {
         const int i = pairs[c].first, j = pairs[c].second;
-        const double amount = a[c - constraintStart[k]];
+        const double amount = factor * a[c - first];
         x[i] += u[c] * (inverseMasses[i] * amount);
         x[j] -= u[c] * (inverseMasses[j] * amount);
     }
@@ -564,17 +558,16 @@ bool FrozenDistances::constrainPositions(int k) const {
     return false;
 }
 
-bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v, bool withTargets) const {
+bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v) const {
     // Refinement with B from elsewhere converges while the directions are close; if not, B from here.
-    if (constrainVelocities(k, v, withTargets, MaxIterations / 10))
+    if (constrainVelocities(k, v, MaxIterations / 10))
         return true;
     factorize(k);
-    return constrainVelocities(k, v, withTargets, MaxIterations);
+    return constrainVelocities(k, v, MaxIterations);
 }
 
-bool FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets, int maxIterations) const {
-    // RATTLE's velocity step with targets (the stored rates of the frozen distances, 0 for the System's constraints,
-    // or 0 for all): (J M^-1 J^T) mu = targets - J v along the current unit directions J, by iterative refinement
+bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations) const {
+    // RATTLE's velocity step: (J M^-1 J^T) mu = -J v along the current unit directions J, by iterative refinement
     // with the factorized B (exact in one iteration where B was factorized).
     const int first = constraintStart[k], last = constraintStart[k + 1];
     double* mu = &residuals[first];
@@ -586,9 +579,8 @@ bool FrozenDistances::constrainVelocities(int k, Vec3* v, bool withTargets, int 
         bool converged = true;
         for (int c = first; c < last; ++c) {
             const Vec3 relative = v[pairs[c].first] - v[pairs[c].second];
-            const double target = withTargets ? targetRates[c] : 0.0;
-            const double error = target - currentDirections[c].dot(relative);
-            const double scale = std::sqrt(relative.dot(relative)) + std::abs(target);
+            const double error = -currentDirections[c].dot(relative);
+            const double scale = std::sqrt(relative.dot(relative));
             if (!(std::abs(error) <= tolerance * scale) && !solvers[k].isDependent(c - first))
                 converged = false;
             mu[c - first] = error;

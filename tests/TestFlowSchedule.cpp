@@ -11,7 +11,8 @@ const int Soft = ~Stiff;
 FlavorParameters parameters(FlavorIntegrator::Scheme scheme, double delta, double tau, double friction = 0.0,
                             bool stiffFriction = false) {
     return FlavorParameters{
-        scheme, FlavorIntegrator::Nonintrusive, false, delta, tau, Stiff, AllForceGroups, friction, stiffFriction};
+        scheme,        FlavorIntegrator::Nonintrusive, false, delta, tau, Stiff, AllForceGroups, friction,
+        stiffFriction, FlavorIntegrator::Edges};
 }
 
 SubFlow kick(double h, int groups) {
@@ -189,6 +190,36 @@ TEST(FlowSchedule, ArtificialLangevinPlacesTheThermostatsAsTheNonintrusiveScheme
         EXPECT_EQ(thermostat(edge), s.back());
         EXPECT_DOUBLE_EQ(2 * edge, totalTime(s, SubFlow::Thermostat));
     }
+}
+
+TEST(FlowSchedule, MiddlePlacementShiftsTheVerletStepAndThermostatsInTheMicrostepDrift) {
+    const double delta = 0.01, tau = 0.002, half = (delta - tau) / 2;
+    for (bool stiff : {false, true}) {
+        FlavorParameters p = artificial(FlavorIntegrator::Verlet, delta, tau, false, false, 1.0, stiff);
+        p.thermostatPlacement = FlavorIntegrator::Middle;
+        EXPECT_EQ((Schedule{kick(tau / 2, Stiff), frozenDrift(half), kick(delta, Soft), frozenDrift(half),
+                            kick(tau / 2, Stiff), drift(tau / 2), thermostat(stiff ? tau : delta), drift(tau / 2)}),
+                  flavorSchedule(p));
+        // Without friction there is nothing to place: the Edges schedule.
+        p.friction = 0.0;
+        FlavorParameters edges = p;
+        edges.thermostatPlacement = FlavorIntegrator::Edges;
+        EXPECT_EQ(flavorSchedule(edges), flavorSchedule(p));
+    }
+    // Projected: one soft kick over delta, its frozen component weighted by tau/delta.
+    FlavorParameters p = artificial(FlavorIntegrator::Verlet, delta, tau, true, false, 1.0);
+    p.thermostatPlacement = FlavorIntegrator::Middle;
+    EXPECT_EQ((Schedule{kick(tau / 2, Stiff), frozenDrift(half), kick(tau, Soft), frozenKick(delta - tau, Soft),
+                        frozenDrift(half), kick(tau / 2, Stiff), drift(tau / 2), thermostat(delta), drift(tau / 2)}),
+              flavorSchedule(p));
+    // With tau = delta: the kicks merge into one kick with every force, then D O D (LangevinMiddleIntegrator).
+    p = artificial(FlavorIntegrator::Verlet, delta, delta, true, false, 1.0);
+    p.thermostatPlacement = FlavorIntegrator::Middle;
+    Schedule reduced = flavorSchedule(p);
+    EXPECT_DOUBLE_EQ(delta, totalTime(reduced, SubFlow::Kick, Soft));
+    EXPECT_DOUBLE_EQ(delta, totalTime(reduced, SubFlow::Kick, Stiff));
+    EXPECT_EQ((Schedule{drift(delta / 2), thermostat(delta), drift(delta / 2)}),
+              Schedule(reduced.end() - 3, reduced.end()));
 }
 
 TEST(FlowSchedule, FrozenFlowsArePassesOfTheirOwn) {

@@ -7,8 +7,9 @@ Peers (Langevin, 300 K, friction 1/ps):
   - LangevinMiddleIntegrator, rigid water (SETTLE), 2 fs;
   - MTSLangevinIntegrator, flexible, 2 fs outer with 4 inner steps for the bonds and angles;
   - FlavorIntegrator (Verlet scheme), O-H bonds stiff: Nonintrusive, Artificial and ArtificialProjected averaging
-    over the mesostep delta and microstep tau of --flavors; with "+angles" also the H-O-H angles stiff (the
-    artificial FLAVOR then freezes the H-H distance as well).
+    over a sweep of the mesostep delta and microstep tau; with "+angles" also the H-O-H angles stiff (the
+    artificial FLAVOR then freezes the H-H distance as well); "Middle": the thermostat in the middle of the
+    microstep (FlavorIntegrator.Middle) instead of at the edges of the mesostep.
 
 Observables, each with a block-average error bar (the standard error of the block means): mean O-H length and its
 spread, mean H-O-H angle and its spread, potential energy per molecule, kinetic temperature of O and of H
@@ -71,18 +72,21 @@ def peers(flavor_settings):
     averagings = {"Nonintrusive": openmmflavors.FlavorIntegrator.Nonintrusive,
                   "Artificial": openmmflavors.FlavorIntegrator.Artificial,
                   "ArtificialProjected": openmmflavors.FlavorIntegrator.ArtificialProjected}
-    for averaging, delta, tau, angles in flavor_settings:
+    for averaging, delta, tau, angles, middle in flavor_settings:
         groups = {BOND_GROUP} | ({ANGLE_GROUP} if angles else set())
 
-        def factory(averaging=averaging, delta=delta, tau=tau, groups=groups):
+        def factory(averaging=averaging, delta=delta, tau=tau, groups=groups, middle=middle):
             integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, tau * unit.femtosecond, groups)
             integrator.setAveraging(averagings[averaging])
             integrator.setTemperature(TEMPERATURE * unit.kelvin)
             integrator.setFriction(FRICTION / unit.picosecond)
+            if middle:
+                integrator.setThermostatPlacement(openmmflavors.FlavorIntegrator.Middle)
             integrator.setRandomNumberSeed(1234)
             return integrator
 
-        name = "FLAVOR %s%s δ=%g fs τ=%g fs" % (averaging, " +angles" if angles else "", delta, tau)
+        name = "FLAVOR %s%s%s δ=%g fs τ=%g fs" % (averaging, " +angles" if angles else "", " Middle" if middle else "",
+                                                 delta, tau)
         result.append((name, False, factory))
     return result
 
@@ -223,12 +227,15 @@ def main():
         return
     if args.quick:
         args.equilibration, args.production, args.start = 0.005, 0.02, 0.1
-    flavor_settings = [("Nonintrusive", 2.0, 0.5, False), ("Artificial", 2.0, 0.5, False),
-                       ("ArtificialProjected", 2.0, 0.5, False), ("ArtificialProjected", 2.0, 0.25, False),
-                       ("ArtificialProjected", 2.5, 0.5, False), ("ArtificialProjected", 2.0, 0.5, True),
-                       ("ArtificialProjected", 4.0, 0.5, True)]
+    # (averaging, delta, tau, H-O-H angles stiff too, thermostat in the middle of the microstep)
+    flavor_settings = [("Nonintrusive", 2.0, 0.5, False, False), ("Artificial", 2.0, 0.5, False, False),
+                       ("ArtificialProjected", 2.0, 0.5, False, False), ("ArtificialProjected", 2.0, 0.25, False, False),
+                       ("ArtificialProjected", 2.5, 0.5, False, False), ("ArtificialProjected", 2.0, 0.5, True, False),
+                       ("ArtificialProjected", 4.0, 0.5, True, False), ("ArtificialProjected", 2.0, 0.5, True, True),
+                       ("ArtificialProjected", 4.0, 0.5, True, True)]
     if args.quick:
-        flavor_settings = [("Nonintrusive", 2.0, 0.5, False), ("ArtificialProjected", 2.0, 0.5, True)]
+        flavor_settings = [("Nonintrusive", 2.0, 0.5, False, False), ("ArtificialProjected", 2.0, 0.5, True, False),
+                           ("ArtificialProjected", 2.0, 0.5, True, True)]
     forcefield, modeller = build_box(args.molecules)
     # A common start: minimized flexible water equilibrated with LangevinMiddle at 0.5 fs for --start ps.
     system = make_system(forcefield, modeller.topology, False)

@@ -10,7 +10,8 @@ Peers (Langevin, 300 K, friction 1/ps):
   - LangevinMiddleIntegrator 2 fs (the reference for the observables);
   - MTSLangevinIntegrator 4 fs outer, the bonds and angles 4 times per step (1 fs);
   - FlavorIntegrator, ArtificialProjected averaging, Verlet scheme, at the mesostep delta and microstep tau of
-    --flavors, with the bonds and angles stiff ("4:1") or the bonds alone ("4:1:bonds", angles soft).
+    --flavors, with the bonds and angles stiff ("4:1") or the bonds alone ("4:1:bonds", angles soft), the thermostat
+    at the edges of the mesostep or in the middle of the microstep ("4:1:middle").
 
 Observables, each with a block-average error bar (the standard error of the block means): kinetic temperature of
 the whole system and of the protein (degrees of freedom less the constraints), RMS deviation of the bond lengths
@@ -59,18 +60,20 @@ def peers(flavor_settings):
         ("MTSLangevin 4 fs / 4",
          lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 4e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4)])),
     ]
-    for delta, tau, bonds_only in flavor_settings:
+    for delta, tau, bonds_only, middle in flavor_settings:
         stiff = {BOND_GROUP} if bonds_only else {BOND_GROUP, ANGLE_GROUP}
 
-        def factory(delta=delta, tau=tau, stiff=stiff):
+        def factory(delta=delta, tau=tau, stiff=stiff, middle=middle):
             integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, tau * unit.femtosecond, stiff)
             integrator.setAveraging(openmmflavors.FlavorIntegrator.ArtificialProjected)
             integrator.setTemperature(TEMPERATURE * unit.kelvin)
             integrator.setFriction(FRICTION / unit.picosecond)
+            if middle:
+                integrator.setThermostatPlacement(openmmflavors.FlavorIntegrator.Middle)
             integrator.setRandomNumberSeed(1234)
             return integrator
 
-        what = "bonds" if bonds_only else "bonds+angles"
+        what = ("bonds" if bonds_only else "bonds+angles") + (" Middle" if middle else "")
         result.append(("FLAVOR ArtificialProjected %s δ=%g fs τ=%g fs" % (what, delta, tau), factory))
     return result
 
@@ -275,14 +278,20 @@ def main():
     p.add_argument("--timing", type=float, default=0.4, help="ps per peer timed with 1 thread")
     p.add_argument("--start", type=float, default=2.0, help="ps of common LangevinMiddle 2 fs before the peers")
     p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1,4:0.5,3:0.5",
-                   help="delta:tau[:bonds] in fs, comma separated (':bonds': only the bonds stiff)")
+                   help="delta:tau[:bonds][:middle] in fs, comma separated (':bonds': only the bonds stiff; ':middle': "
+                        "the thermostat in the middle of the microstep, FlavorIntegrator.Middle)")
     p.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
     if args.replot:
         reporting.replot(args.replot, args.out, "villin", plot)
         return
-    flavor_settings = [(float(s.split(":")[0]), float(s.split(":")[1]), s.endswith(":bonds"))
-                       for s in args.flavors.split(",")]
+    flavor_settings = []
+    for setting in args.flavors.split(","):
+        fields = setting.split(":")
+        flags = set(fields[2:])
+        if len(fields) < 2 or not flags <= {"bonds", "middle"}:
+            p.error("--flavors: %r is not delta:tau[:bonds][:middle]" % setting)
+        flavor_settings.append((float(fields[0]), float(fields[1]), "bonds" in flags, "middle" in flags))
     if args.quick:
         args.equilibration, args.production, args.timing, args.start = 0.008, 0.04, 0.008, 0.01
         flavor_settings = flavor_settings[-1:]

@@ -28,7 +28,9 @@ class IntegrateFlavorStepKernel;
  *
  * With a nonzero friction the integrator is a Langevin FLAVOR: friction and noise are applied as exact
  * Ornstein-Uhlenbeck steps, either over the whole mesostep (the default) or, if stiff friction is enabled, only
- * while the stiff forces are on.
+ * while the stiff forces are on; at the edges of the mesostep (the default) or, for the artificial Verlet scheme, in
+ * the middle of the stiff microstep (setThermostatPlacement(Middle), where velocities are LangevinMiddleIntegrator's,
+ * half a microstep's drift before the positions).
  */
 class OPENMM_EXPORT_FLAVORS FlavorIntegrator : public OpenMM::Integrator {
 public:
@@ -73,6 +75,29 @@ public:
          * microStep/mesoStep: the frozen coordinates feel the soft forces only for the time they move.
          */
         ArtificialProjected = 2
+    };
+    /**
+     * Where friction and noise act in a Langevin mesostep of the artificial Verlet scheme.
+     */
+    enum ThermostatPlacement {
+        /**
+         * Over half the mesostep at each end of the mesostep (eqs. (4.9) and (4.10) of the FLAVORS paper; the
+         * default).  The stiff microstep is then an O-B-A-B-O step, whose stationary variance of a harmonic stiff
+         * coordinate of frequency omega is too large by the factor 1/(1 - (omega tau/2)^2): +3 % for O-H bonds at
+         * tau = 0.5 fs.
+         */
+        Edges = 0,
+        /**
+         * Over the mesostep in the middle of the stiff microstep's drift, as LangevinMiddleIntegrator places it: each
+         * mesostep is K_stiff(tau/2) frozen drift((delta-tau)/2) K_soft(delta) frozen drift((delta-tau)/2)
+         * K_stiff(tau/2) D(tau/2) O D(tau/2), a cyclic shift of the Edges step with the thermostat moved into its
+         * microstep.  Harmonic stiff coordinates are then sampled with their exact variance for every tau, and with
+         * tau = delta the step is LangevinMiddleIntegrator's.  Velocities are those after the thermostat, half a
+         * microstep's drift before the positions (as LangevinMiddleIntegrator's).  It needs the Verlet scheme, an
+         * artificial averaging and the symplectic fast microstep (setExactFastFlow(false)); other combinations are
+         * rejected when a step is taken.
+         */
+        Middle = 1
     };
     /**
      * Create a FlavorIntegrator.
@@ -198,6 +223,16 @@ public:
      */
     const std::vector<int>& getFrictionParticles() const { return frictionParticles; }
     /**
+     * Get where friction and noise act in a Langevin mesostep.
+     */
+    ThermostatPlacement getThermostatPlacement() const { return thermostatPlacement; }
+    /**
+     * Set where friction and noise act in a Langevin mesostep: Edges (the default) or Middle.  Middle applies to the
+     * Verlet scheme with an artificial averaging and the symplectic fast microstep; a step taken with another
+     * combination throws an OpenMMException (the Context stays usable).
+     */
+    void setThermostatPlacement(ThermostatPlacement placement);
+    /**
      * Restrict friction and noise to the given particles (an empty list means every particle).  The other particles
      * follow the Hamiltonian scheme.  Indices must be non-negative, distinct and, once the integrator is bound to a
      * Context, less than the number of particles.
@@ -236,6 +271,7 @@ private:
     Scheme scheme;
     Averaging averaging;
     bool exactFastFlow;
+    ThermostatPlacement thermostatPlacement;
     double temperature, friction;
     bool stiffFriction;
     std::vector<int> frictionParticles;

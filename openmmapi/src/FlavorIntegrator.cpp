@@ -40,9 +40,9 @@ void requireSoftForce(const System& system, const string& parameter, int stiffGr
 } // namespace
 
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
-    : microStep(0.0), stiffGroups(0), scheme(Verlet), averaging(Nonintrusive), exactFastFlow(false), temperature(0.0),
-      friction(0.0), stiffFriction(false), randomNumberSeed(0), forcesAreValid(false), stiffModesValid(false),
-      stepKernel(nullptr) {
+    : microStep(0.0), stiffGroups(0), scheme(Verlet), averaging(Nonintrusive), exactFastFlow(false),
+      thermostatPlacement(Edges), temperature(0.0), friction(0.0), stiffFriction(false), randomNumberSeed(0),
+      forcesAreValid(false), stiffModesValid(false), stepKernel(nullptr) {
     requirePositive(Owner, "mesoStep", mesoStep, "ps");
     requirePositive(Owner, "microStep", microStep, "ps");
     if (microStep > mesoStep)
@@ -115,6 +115,14 @@ void FlavorIntegrator::setAveraging(Averaging newAveraging) {
 
 void FlavorIntegrator::setExactFastFlow(bool exact) {
     exactFastFlow = exact;
+}
+
+void FlavorIntegrator::setThermostatPlacement(ThermostatPlacement placement) {
+    if (placement != Edges && placement != Middle)
+        throwInvalidParameter(
+            Owner, "thermostatPlacement", std::to_string((int)placement),
+            "thermostatPlacement must be FlavorIntegrator::Edges (0) or FlavorIntegrator::Middle (1)");
+    thermostatPlacement = placement;
 }
 
 int FlavorIntegrator::addFrozenDistance(int particle1, int particle2) {

@@ -76,6 +76,17 @@ Schedule artificialSchedule(const FlavorParameters& p) {
         if (friction && !p.stiffFriction)
             s.push_back(thermostat(rest));
         s.push_back(frozenDrift(rest));
+    } else if (friction && p.thermostatPlacement == FlavorIntegrator::Middle) {
+        // The Verlet step shifted to start at the microstep's first kick, the thermostat in the middle of its drift
+        // (B A O A, as LangevinMiddleIntegrator): a harmonic stiff coordinate keeps its exact variance for every tau.
+        s.push_back(kick(tau / 2, stiff));
+        s.push_back(frozenDrift(rest / 2));
+        softKick(delta);
+        s.push_back(frozenDrift(rest / 2));
+        s.push_back(kick(tau / 2, stiff));
+        s.push_back(drift(tau / 2));
+        s.push_back(thermostat(p.stiffFriction ? tau : delta));
+        s.push_back(drift(tau / 2));
     } else {
         const double edge = p.stiffFriction ? tau / 2 : delta / 2;
         if (friction)

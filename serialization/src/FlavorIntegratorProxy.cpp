@@ -13,7 +13,7 @@ FlavorIntegratorProxy::FlavorIntegratorProxy() : SerializationProxy("FlavorInteg
 
 void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const FlavorIntegrator& integrator = *reinterpret_cast<const FlavorIntegrator*>(object);
-    node.setIntProperty("version", 2);
+    node.setIntProperty("version", 3);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("microStep", integrator.getMicroStep());
     node.setIntProperty("stiffGroups", integrator.getStiffGroups());
@@ -23,6 +23,7 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
     node.setBoolProperty("stiffFriction", integrator.getStiffFriction());
+    node.setIntProperty("thermostatPlacement", integrator.getThermostatPlacement());
     node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
     node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
     node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
@@ -39,9 +40,9 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
 
 void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version != 1 && version != 2)
+    if (version < 1 || version > 3)
         throw OpenMMException("FlavorIntegrator: unsupported serialization version " + std::to_string(version) +
-                              "; this library reads versions 1 and 2");
+                              "; this library reads versions 1, 2 and 3");
     auto integrator = std::make_unique<FlavorIntegrator>(
         node.getDoubleProperty("stepSize"), node.getDoubleProperty("microStep"), node.getIntProperty("stiffGroups"));
     integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
@@ -53,6 +54,9 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     integrator->setTemperature(node.getDoubleProperty("temperature"));
     integrator->setFriction(node.getDoubleProperty("friction"));
     integrator->setStiffFriction(node.getBoolProperty("stiffFriction"));
+    if (version >= 3) // earlier versions placed the thermostat at the edges
+        integrator->setThermostatPlacement(
+            (FlavorIntegrator::ThermostatPlacement)node.getIntProperty("thermostatPlacement"));
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));

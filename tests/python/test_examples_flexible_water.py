@@ -39,7 +39,8 @@ def test_peers_option_runs_only_the_named_peers(tmp_path):
     assert result.returncode == 0, result.stderr[-3000:]
     with open(tmp_path / "flexible_water.json") as f:
         names = [peer["name"] for peer in json.load(f)["peers"]]
-    assert names == ["LangevinMiddle flexible 0.25 fs", "FLAVOR ArtificialProjected +angles δ=2 fs τ=0.5 fs"]
+    assert names == ["LangevinMiddle flexible 0.25 fs", "FLAVOR ArtificialProjected +angles δ=2 fs τ=0.5 fs",
+                     "FLAVOR ArtificialProjected +angles Middle δ=2 fs τ=0.5 fs"]
 
 
 def test_peers_option_that_matches_nothing_is_an_error(tmp_path):

@@ -62,7 +62,8 @@ def parameters(integrator):
     return (integrator.getMesoStep(), integrator.getStepSize(), integrator.getMicroStep(),
             integrator.getStiffGroups(), integrator.getScheme(), integrator.getTemperature(),
             integrator.getFriction(), integrator.getStiffFriction(), integrator.getRandomNumberSeed(),
-            integrator.getAveraging(), integrator.getExactFastFlow(), integrator.getNumFrozenDistances())
+            integrator.getAveraging(), integrator.getExactFastFlow(), integrator.getNumFrozenDistances(),
+            integrator.getThermostatPlacement())
 
 
 BAD_SETTER_CALLS = [
@@ -96,6 +97,8 @@ BAD_SETTER_CALLS = [
     ("setStiffGroups", 1 << 40, ValueError, "stiffGroups", str(1 << 40), "0..31"),
     ("setScheme", 5, openmm.OpenMMException, "scheme", "5", "Verlet"),
     ("setAveraging", 3, openmm.OpenMMException, "averaging", "3", "ArtificialProjected (2)"),
+    ("setThermostatPlacement", 2, openmm.OpenMMException, "thermostatPlacement", "2", "Middle (1)"),
+    ("setThermostatPlacement", 1.5, TypeError, "thermostatPlacement", "1.5", "integer"),
     ("addFrozenDistance", (2, 2), openmm.OpenMMException, "frozen distance particles", "2, 2", "must differ"),
     ("addFrozenDistance", (-1, 2), openmm.OpenMMException, "frozen distance particle", "-1", ">= 0"),
 ]
@@ -248,3 +251,17 @@ def test_a_stiff_torsion_is_rejected_at_context_creation_under_the_artificial_av
     message = str(info.value)
     for part in ("force 0 (PeriodicTorsionForce", "addFrozenDistance", "Nonintrusive"):
         assert part in message, message
+
+
+def test_middle_placement_with_the_nonintrusive_averaging_is_rejected_when_stepping(platform_name):
+    system = build_fpu_system()
+    integrator = make_integrator(meso=0.02, micro=0.002, groups={1}, temperature=100.0, friction=2.0)
+    context = make_context(system, integrator, platform_name)
+    integrator.setThermostatPlacement(FlavorIntegrator.Middle)
+    pos_before, _ = state_arrays(context)
+    with pytest.raises(openmm.OpenMMException, match="thermostatPlacement = Middle .* Nonintrusive"):
+        integrator.step(1)
+    np.testing.assert_array_equal(state_arrays(context)[0], pos_before)
+    integrator.setThermostatPlacement(FlavorIntegrator.Edges)
+    positions, velocities = run_trajectory(context, 5)
+    assert np.all(np.isfinite(positions)) and np.all(np.isfinite(velocities))

@@ -41,6 +41,7 @@ def non_default_integrator():
     integrator.setIntegrationForceGroups({0, 1, 3, 31})
     integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
     integrator.setExactFastFlow(True)
+    integrator.setThermostatPlacement(FlavorIntegrator.Middle)
     integrator.addFrozenDistance(4, 9)
     integrator.addFrozenDistance(2, 1)
     return integrator
@@ -61,6 +62,7 @@ def all_parameters(integrator):
         "integrationForceGroups": integrator.getIntegrationForceGroups(),
         "averaging": integrator.getAveraging(),
         "exactFastFlow": integrator.getExactFastFlow(),
+        "thermostatPlacement": integrator.getThermostatPlacement(),
         "frozenDistances": [list(integrator.getFrozenDistance(i)) for i in range(integrator.getNumFrozenDistances())],
     }
 
@@ -108,16 +110,16 @@ def test_serialized_xml_names_the_integrator():
 
 def test_xml_with_unknown_version_is_rejected():
     text = openmm.XmlSerializer.serialize(non_default_integrator())
-    assert 'version="2"' in text
+    assert 'version="3"' in text
     with pytest.raises(openmm.OpenMMException, match="version"):
-        openmm.XmlSerializer.deserialize(text.replace('version="2"', 'version="99"'))
+        openmm.XmlSerializer.deserialize(text.replace('version="3"', 'version="99"'))
 
 
 def test_version_1_xml_loads_as_the_nonintrusive_flavor():
     # Version 1 had no averaging: written here as that version wrote it, every other parameter kept.
     text = openmm.XmlSerializer.serialize(non_default_integrator())
-    old = (text.replace('version="2"', 'version="1"').replace(' averaging="2"', '')
-           .replace(' exactFastFlow="1"', ''))
+    old = (text.replace('version="3"', 'version="1"').replace(' averaging="2"', '')
+           .replace(' exactFastFlow="1"', '').replace(' thermostatPlacement="1"', ''))
     old = re.sub(r"<FrozenDistances>.*</FrozenDistances>", "", old, flags=re.S)
     assert "averaging" not in old and "exactFastFlow" not in old and "FrozenDistances" not in old
     integrator = openmm.XmlSerializer.deserialize(old)
@@ -125,7 +127,19 @@ def test_version_1_xml_loads_as_the_nonintrusive_flavor():
     assert integrator.getAveraging() == FlavorIntegrator.Nonintrusive
     assert not integrator.getExactFastFlow()
     expected = all_parameters(non_default_integrator())
-    expected.update(averaging=FlavorIntegrator.Nonintrusive, exactFastFlow=False, frozenDistances=[])
+    expected.update(averaging=FlavorIntegrator.Nonintrusive, exactFastFlow=False, frozenDistances=[],
+                    thermostatPlacement=FlavorIntegrator.Edges)
+    assert all_parameters(integrator) == expected
+
+
+def test_version_2_xml_loads_with_the_thermostat_at_the_edges():
+    # Version 2 had no thermostat placement: its Langevin steps put the thermostat at the edges of the mesostep.
+    text = openmm.XmlSerializer.serialize(non_default_integrator())
+    old = text.replace('version="3"', 'version="2"').replace(' thermostatPlacement="1"', '')
+    assert "thermostatPlacement" not in old
+    integrator = openmm.XmlSerializer.deserialize(old)
+    expected = all_parameters(non_default_integrator())
+    expected.update(thermostatPlacement=FlavorIntegrator.Edges)
     assert all_parameters(integrator) == expected
 
 

@@ -29,3 +29,15 @@ def test_quick_run_writes_json_and_png(tmp_path):
                     "angle_rms all", "angle_rms with H", "angle_rms heavy atoms", "backbone_rmsd"):
             assert math.isfinite(peer[key]), (peer["name"], key)
         assert 0 < peer["bond_rms all"] < 0.01 and 0 < peer["angle_rms all"] < 20
+
+
+def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:0.5:middle"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "villin.json") as f:
+        peers = json.load(f)["peers"]
+    assert peers[-1]["name"] == "FLAVOR ArtificialProjected bonds+angles Middle δ=3 fs τ=0.5 fs"
+    assert peers[-1]["stable"]
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:0.5:sideways"))
+    assert result.returncode != 0
+    assert "'3:0.5:sideways' is not delta:tau[:bonds][:middle]" in result.stderr

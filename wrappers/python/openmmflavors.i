@@ -78,6 +78,9 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %pythonprepend FlavorPlugin::FlavorIntegrator::setScheme %{
     scheme = _toInt(scheme, "scheme")
 %}
+%pythonprepend FlavorPlugin::FlavorIntegrator::setThermostatPlacement %{
+    placement = _toInt(placement, "thermostatPlacement")
+%}
 %pythonprepend FlavorPlugin::FlavorIntegrator::setStiffFriction %{
     stiff = _toBool(stiff, "stiffFriction")
 %}

@@ -64,10 +64,12 @@ struct FlavorParameters {
     int integrationGroups;
     double friction;
     bool stiffFriction;
+    FlavorIntegrator::ThermostatPlacement thermostatPlacement;
     bool operator==(const FlavorParameters& o) const {
         return scheme == o.scheme && averaging == o.averaging && exactFastFlow == o.exactFastFlow &&
                mesoStep == o.mesoStep && microStep == o.microStep && stiffGroups == o.stiffGroups &&
-               integrationGroups == o.integrationGroups && friction == o.friction && stiffFriction == o.stiffFriction;
+               integrationGroups == o.integrationGroups && friction == o.friction && stiffFriction == o.stiffFriction &&
+               thermostatPlacement == o.thermostatPlacement;
     }
 };
 
@@ -83,7 +85,11 @@ struct FlavorParameters {
  * or theta^eps = E(tau, 0) with the exact fast flow.  ArtificialProjected splits each soft kick K_soft(h) into
  * K_soft(h tau/delta) and a FrozenKick over h (1 - tau/delta).  Thermostats are placed as for the nonintrusive
  * schemes: over the whole mesostep (O(tau) before the fast part and O(delta - tau) before the frozen drift for
- * SymplecticEuler, O(delta/2) at each end for Verlet) or, with stiff friction, for tau.
+ * SymplecticEuler, O(delta/2) at each end for Verlet) or, with stiff friction, for tau.  With the Middle placement
+ * (Verlet, symplectic microstep only) the Verlet step is shifted cyclically and the thermostat sits in the middle of
+ * the microstep's drift:
+ *
+ *     K_stiff(tau/2) theta^tr((delta-tau)/2) K_soft(delta) theta^tr((delta-tau)/2) K_stiff(tau/2) D(tau/2) O D(tau/2)
  */
 OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
 

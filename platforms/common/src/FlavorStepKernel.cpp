@@ -20,6 +20,26 @@ void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& 
         "use the Nonintrusive averaging (FlavorIntegrator::setAveraging) for nonlinear stiff forces");
 }
 
+namespace {
+
+/** The Middle placement is defined for the artificial Verlet scheme with its symplectic microstep. */
+void requireMiddlePlacementSupported(const FlavorParameters& p) {
+    string conflict;
+    if (p.scheme != FlavorIntegrator::Verlet)
+        conflict = "scheme = SymplecticEuler (it needs Verlet)";
+    else if (p.averaging == FlavorIntegrator::Nonintrusive)
+        conflict = "averaging = Nonintrusive (it needs Artificial or ArtificialProjected)";
+    else if (p.exactFastFlow)
+        conflict = "exactFastFlow = true (it needs the symplectic microstep; the exact fast flow samples harmonic "
+                   "stiff coordinates exactly with Edges)";
+    if (!conflict.empty())
+        throw OpenMMException("FlavorIntegrator: thermostatPlacement = Middle (1) is not allowed with " + conflict +
+                              "; allowed: FlavorIntegrator::Edges (0) with every scheme and averaging, Middle with the "
+                              "Verlet scheme, an artificial averaging and setExactFastFlow(false)");
+}
+
+} // namespace
+
 void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
                                bool& stiffModesValid) {
     FlavorParameters current{integrator.getScheme(),
@@ -30,7 +50,10 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
                              integrator.getStiffGroups(),
                              integrator.getIntegrationForceGroups(),
                              integrator.getFriction(),
-                             integrator.getStiffFriction()};
+                             integrator.getStiffFriction(),
+                             integrator.getThermostatPlacement()};
+    if (current.thermostatPlacement == FlavorIntegrator::Middle)
+        requireMiddlePlacementSupported(current);
     const double currentKT = BOLTZ * integrator.getTemperature();
     if (!configured || !(current == parameters) || currentKT != kT) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.

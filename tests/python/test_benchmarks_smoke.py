@@ -3,9 +3,11 @@ with --quick into a temporary folder, exits 0 and writes its JSON, markdown and 
 The C++ helper benchmarks/step_cost is run once on each of its two systems.
 The numbers themselves are the benchmarks' business, not the tests'; only what must hold by construction is
 checked."""
+import importlib.util
 import json
 import os
 import subprocess
+import sys
 
 import conftest
 from flavorbench.helper import find_helper
@@ -107,3 +109,26 @@ def test_step_cost_helper_builds_both_systems():
         assert data["particles"] == particles
         assert set(data["results"]) == {"sim_strang", "force_soft"}
         assert all(r["steps"] == 3 and r["us_per_step_min"] > 0 for r in data["results"].values())
+
+
+def test_drude_step_instructions_sorts_functions_and_redraws_its_chart(tmp_path):
+    # The callgrind runs need valgrind and minutes; here the sorting of functions into categories and --replot.
+    spec = importlib.util.spec_from_file_location("drude_step_instructions",
+                                                  os.path.join(BENCHMARKS, "drude_step_instructions.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.category("???:OpenMM::CpuNeighborList::threadComputeNeighborList(...)") == "neighbour list"
+    assert module.category("???:OpenMM::ReferenceSETTLEAlgorithm::apply(...)") == "SETTLE"
+    assert module.category("???:FlavorPlugin::CounterRandom::normals(...) [libOpenMMFlavorsEngine.so]") == "integrator"
+    assert module.category("???:OpenMM::SimTKOpenMMUtilities::getNormallyDistributedRandomNumber()") == "integrator"
+    assert module.category("???:OpenMM::pme_exec(...) [libOpenMM.so.7.7]") == "nonbonded and PME forces"
+    assert module.category("./string/memmove-vec-unaligned-erms.S:__memcpy_avx_unaligned_erms") == "rest"
+    runs = [{"label": label, "step_fs": h, "per_step": dict.fromkeys(module.CATEGORIES, 1e6 * h),
+             "per_fs": dict.fromkeys(module.CATEGORIES, 1e6)} for label, _, h in module.RUNS]
+    path = tmp_path / "data.json"
+    path.write_text(json.dumps({"runs": runs}))
+    result = subprocess.run([sys.executable, os.path.join(BENCHMARKS, "drude_step_instructions.py"),
+                             "--out", str(tmp_path), "--replot", str(path)], capture_output=True, text=True,
+                            env=dict(os.environ, MPLBACKEND="Agg"))
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert (tmp_path / "drude_step_instructions.png").stat().st_size > 0

@@ -1,6 +1,7 @@
 // The artificial FLAVOR (FLAVORS paper, eq. (2.11), Theorem 5.1): reductions, the transfer matrix (5.5), the
 // stability boundary 2 sqrt(2), true stiff statistics, and conformance with compositions written here.
 
+#include "Diatomics.h"
 #include "FlavorIntegrator.h"
 #include "FrozenStage.h"
 #include "PlatformTest.h"
@@ -857,26 +858,11 @@ TEST_P(FlavorArtificial, BothCompositionsMatchAnIndependentImplementationOnABond
 }
 
 TEST_P(FlavorArtificial, BondedFreezingSamplesTheTrueBondVariance) {
-    // Independent diatomics (unit masses, bond k (r - r0)^2 / 2 stiff, a soft tether on the first atom), Langevin
-    // artificial FLAVOR: the bond stretch keeps <k (r - r0)^2> = kT (up to O(kT/(k r0^2)) = 6e-4) for delta/tau = 4
-    // and 25, within 4 standard errors over the independent molecules.
-    const int molecules = 150;
-    const double k = 4e5, r0 = 0.1, temperature = 300, kT = BOLTZ * temperature, tau = 1e-4;
-    std::unique_ptr<System> system(new System());
-    HarmonicBondForce* bonds = new HarmonicBondForce();
-    bonds->setForceGroup(StiffGroup);
-    CustomExternalForce* tether = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
-    tether->setForceGroup(SoftGroup);
-    for (int m = 0; m < molecules; ++m) {
-        system->addParticle(1.0);
-        system->addParticle(1.0);
-        bonds->addBond(2 * m, 2 * m + 1, r0, k);
-        tether->addParticle(2 * m);
-    }
-    system->addForce(bonds);
-    system->addForce(tether);
+    // Independent diatomics (Diatomics.h), Langevin artificial FLAVOR: the bond stretch keeps <k (r - r0)^2> = kT (up
+    // to O(kT/(k r0^2)) = 6e-4) for delta/tau = 4 and 25, within 4 standard errors over the independent molecules.
+    const double temperature = 300, kT = BOLTZ * temperature, tau = 1e-4;
+    const Diatomics diatomics(150, 4e5, 0.1);
     std::mt19937 generator(7);
-    std::normal_distribution<double> normal;
     for (auto averaging : {FlavorIntegrator::Artificial, FlavorIntegrator::ArtificialProjected})
         for (double ratio : {4.0, 25.0}) {
             FlavorIntegrator integrator(ratio * tau, tau, StiffMask);
@@ -884,38 +870,9 @@ TEST_P(FlavorArtificial, BondedFreezingSamplesTheTrueBondVariance) {
             integrator.setTemperature(temperature);
             integrator.setFriction(20.0);
             integrator.setRandomNumberSeed(5);
-            Context context(*system, integrator, platform(), properties());
-            vector<Vec3> q(2 * molecules), v(2 * molecules);
-            const double sigmaR = std::sqrt(kT / k), sigmaV = std::sqrt(kT);
-            for (int m = 0; m < molecules; ++m) {
-                Vec3 centre(0.1 * normal(generator), 0.1 * normal(generator), 0.1 * normal(generator));
-                Vec3 axis(normal(generator), normal(generator), normal(generator));
-                axis *= 1.0 / std::sqrt(axis.dot(axis));
-                const double length = r0 + sigmaR * normal(generator);
-                q[2 * m] = centre - axis * (length / 2);
-                q[2 * m + 1] = centre + axis * (length / 2);
-                for (int i : {2 * m, 2 * m + 1})
-                    v[i] = Vec3(sigmaV * normal(generator), sigmaV * normal(generator), sigmaV * normal(generator));
-            }
-            context.setPositions(q);
-            context.setVelocities(v);
-            integrator.step(500);
-            const int samples = 150, interval = 20;
-            vector<double> average(molecules, 0.0);
-            for (int s = 0; s < samples; ++s) {
-                integrator.step(interval);
-                vector<Vec3> x = positionsOf(context);
-                for (int m = 0; m < molecules; ++m) {
-                    const double stretch = distance(x, 2 * m, 2 * m + 1) - r0;
-                    average[m] += k * stretch * stretch / samples;
-                }
-            }
-            double mean = 0, variance = 0;
-            for (double a : average)
-                mean += a / molecules;
-            for (double a : average)
-                variance += (a - mean) * (a - mean) / (molecules - 1);
-            const double standardError = std::sqrt(variance / molecules);
+            Context context(*diatomics.system, integrator, platform(), properties());
+            const auto [mean, standardError] =
+                diatomics.stretchEnergy(context, integrator, kT, kT / diatomics.k, generator, 500, 150, 20);
             std::cout << "[ measured ] bonded, averaging " << averaging << " delta/tau " << ratio
                       << ": k<(r-r0)^2>/kT = " << mean / kT << " +- " << standardError / kT << std::endl;
             EXPECT_LE(std::abs(mean - kT), 4 * standardError)

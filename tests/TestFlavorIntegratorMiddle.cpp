@@ -2,6 +2,7 @@
 // it samples a harmonic stiff coordinate with its exact variance where Edges gives 1/(1 - (omega tau/2)^2) times it,
 // and combinations it is not defined for are rejected with the Context left usable.
 
+#include "Diatomics.h"
 #include "ExpectRejected.h"
 #include "FlavorIntegrator.h"
 #include "PlatformTest.h"
@@ -104,27 +105,14 @@ TEST_P(FlavorMiddle, WithEqualStepsItIsLangevinMiddleIntegrator) {
 }
 
 TEST_P(FlavorMiddle, AHarmonicStiffBondKeepsItsExactVarianceWhereEdgesWidenIt) {
-    // Independent diatomics (unit masses, bond k (r - r0)^2 / 2 stiff, a soft tether on the first atom) at
-    // omega tau = 0.89 (omega = sqrt(2 k)): the Edges placement makes the microstep an O-B-A-B-O step, whose
-    // stationary stretch variance is kT / (k (1 - (omega tau/2)^2)) = 1.25 kT/k; Middle makes it B-A-O-A-B, which
-    // keeps kT/k.  Both within 4 standard errors over the independent molecules (up to O(kT/(k r0^2)) = 6e-4 from
-    // the rotation), with stiff friction too (the thermostat over tau, its friction scaled by delta/tau).
-    const int molecules = 150;
-    const double k = 4e5, r0 = 0.1, temperature = 300, kT = BOLTZ * temperature, tau = 1e-3, delta = 4 * tau;
-    const double omegaTau = std::sqrt(2 * k) * tau;
-    std::unique_ptr<System> system(new System());
-    HarmonicBondForce* bonds = new HarmonicBondForce();
-    bonds->setForceGroup(StiffGroup);
-    CustomExternalForce* tether = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
-    tether->setForceGroup(SoftGroup);
-    for (int m = 0; m < molecules; ++m) {
-        system->addParticle(1.0);
-        system->addParticle(1.0);
-        bonds->addBond(2 * m, 2 * m + 1, r0, k);
-        tether->addParticle(2 * m);
-    }
-    system->addForce(bonds);
-    system->addForce(tether);
+    // Independent diatomics (Diatomics.h) at omega tau = 0.89 (omega = sqrt(2 k), unit masses): the Edges placement
+    // makes the microstep an O-B-A-B-O step, whose stationary stretch variance is kT / (k (1 - (omega tau/2)^2)) =
+    // 1.25 kT/k; Middle makes it B-A-O-A-B, which keeps kT/k.  Both within 4 standard errors over the independent
+    // molecules (up to O(kT/(k r0^2)) = 6e-4 from the rotation), with stiff friction too (the thermostat over tau, its
+    // friction scaled by delta/tau).
+    const double temperature = 300, kT = BOLTZ * temperature, tau = 1e-3, delta = 4 * tau;
+    const Diatomics diatomics(150, 4e5, 0.1);
+    const double omegaTau = std::sqrt(2 * diatomics.k) * tau;
     struct Case {
         FlavorIntegrator::ThermostatPlacement placement;
         bool stiffFriction;
@@ -135,7 +123,6 @@ TEST_P(FlavorMiddle, AHarmonicStiffBondKeepsItsExactVarianceWhereEdgesWidenIt) {
                                 {FlavorIntegrator::Middle, false, 1.0},
                                 {FlavorIntegrator::Middle, true, 1.0}};
     std::mt19937 generator(7);
-    std::normal_distribution<double> normal;
     for (const Case& c : cases) {
         FlavorIntegrator integrator(delta, tau, StiffMask);
         integrator.setAveraging(FlavorIntegrator::ArtificialProjected);
@@ -144,39 +131,9 @@ TEST_P(FlavorMiddle, AHarmonicStiffBondKeepsItsExactVarianceWhereEdgesWidenIt) {
         integrator.setStiffFriction(c.stiffFriction);
         integrator.setThermostatPlacement(c.placement);
         integrator.setRandomNumberSeed(5);
-        Context context(*system, integrator, platform(), properties());
-        vector<Vec3> q(2 * molecules), v(2 * molecules);
-        const double sigmaR = std::sqrt(c.expected * kT / k), sigmaV = std::sqrt(kT);
-        for (int m = 0; m < molecules; ++m) {
-            Vec3 centre(0.1 * normal(generator), 0.1 * normal(generator), 0.1 * normal(generator));
-            Vec3 axis(normal(generator), normal(generator), normal(generator));
-            axis *= 1.0 / std::sqrt(axis.dot(axis));
-            const double length = r0 + sigmaR * normal(generator);
-            q[2 * m] = centre - axis * (length / 2);
-            q[2 * m + 1] = centre + axis * (length / 2);
-            for (int i : {2 * m, 2 * m + 1})
-                v[i] = Vec3(sigmaV * normal(generator), sigmaV * normal(generator), sigmaV * normal(generator));
-        }
-        context.setPositions(q);
-        context.setVelocities(v);
-        integrator.step(300);
-        const int samples = 200, interval = 10;
-        vector<double> average(molecules, 0.0);
-        for (int s = 0; s < samples; ++s) {
-            integrator.step(interval);
-            vector<Vec3> x = positionsOf(context);
-            for (int m = 0; m < molecules; ++m) {
-                const Vec3 d = x[2 * m + 1] - x[2 * m];
-                const double stretch = std::sqrt(d.dot(d)) - r0;
-                average[m] += k * stretch * stretch / samples;
-            }
-        }
-        double mean = 0, variance = 0;
-        for (double a : average)
-            mean += a / molecules;
-        for (double a : average)
-            variance += (a - mean) * (a - mean) / (molecules - 1);
-        const double standardError = std::sqrt(variance / molecules);
+        Context context(*diatomics.system, integrator, platform(), properties());
+        const auto [mean, standardError] =
+            diatomics.stretchEnergy(context, integrator, kT, c.expected * kT / diatomics.k, generator, 300, 200, 10);
         std::cout << "[ measured ] placement " << c.placement << " stiff friction " << c.stiffFriction
                   << ": k<(r-r0)^2>/kT = " << mean / kT << " +- " << standardError / kT << " (expected " << c.expected
                   << ")" << std::endl;

@@ -63,19 +63,13 @@ def child(kind, steps, state_dir):
 
 def save_state(state_dir):
     import openmm
-    import openmm.unit as unit
-    from drude_water import build_water, make_integrator
+    from drude_water import build_water, equilibrated_state
     system, _, positions, _ = build_water(256)
-    integrator = make_integrator("DrudeLangevin", 1.0, 1)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
-    context.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
-    context.setVelocitiesToTemperature(300 * unit.kelvin, 2)
-    integrator.step(300)
+    state = equilibrated_state(system, positions, 1.0, 300, 1, threads=1)
     with open(os.path.join(state_dir, "system.xml"), "w") as f:
         f.write(openmm.XmlSerializer.serialize(system))
     with open(os.path.join(state_dir, "state.xml"), "w") as f:
-        f.write(openmm.XmlSerializer.serialize(context.getState(getPositions=True, getVelocities=True)))
+        f.write(openmm.XmlSerializer.serialize(state))
 
 
 def per_function(path):

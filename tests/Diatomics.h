@@ -72,12 +72,8 @@ struct Diatomics {
                 average[m] += k * stretch * stretch / samples;
             }
         }
-        double mean = 0, variance = 0;
-        for (double a : average)
-            mean += a / molecules;
-        for (double a : average)
-            variance += (a - mean) * (a - mean) / (molecules - 1);
-        return {mean, std::sqrt(variance / molecules)};
+        const BlockMean overMolecules = blockMean(average);
+        return {overMolecules.mean, overMolecules.standardError};
     }
 };
 

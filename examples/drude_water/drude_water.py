@@ -150,6 +150,18 @@ def make_integrator(kind, step_fs, seed):
     return integrator
 
 
+def equilibrated_state(system, positions, step_fs, steps, seed, threads=2):
+    """Minimized positions and `steps` DrudeLangevin steps of step_fs from velocities at 300 K (integrator seed `seed`,
+    velocity seed `seed` + 1), on the CPU platform: the state with positions and velocities."""
+    integrator = make_integrator("DrudeLangevin", step_fs, seed)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": str(threads)})
+    context.setPositions(positions)
+    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
+    context.setVelocitiesToTemperature(300 * unit.kelvin, seed + 1)
+    integrator.step(steps)
+    return context.getState(getPositions=True, getVelocities=True)
+
+
 def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
     integrator = make_integrator(kind, step_fs, seed)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
@@ -257,14 +269,7 @@ def constraint_cost(out, molecules=64, step_fs=0.005):
             force.setNonbondedMethod(openmm.NonbondedForce.CutoffPeriodic)
             force.setCutoffDistance(0.49 * box)
     analysis = Analysis(system)
-    integrator = make_integrator("DrudeLangevin", 0.5, 3)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
-    context.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
-    context.setVelocitiesToTemperature(300 * unit.kelvin, 4)
-    integrator.step(400)
-    state = context.getState(getPositions=True, getVelocities=True)
-    del context
+    state = equilibrated_state(system, positions, 0.5, 400, 3)
     exact = openmm.VerletIntegrator(step_fs * unit.femtosecond)
     carried = StochasticImpulseIntegrator(0.0, 0.0, step_fs * unit.femtosecond, {DRUDE_GROUP})
     for integrator in (exact, carried):
@@ -426,14 +431,7 @@ def main():
     analysis = Analysis(system)
     scf = SelfConsistent(system, analysis)
     # Equilibrate with the reference integrator (1 fs) from a minimized lattice.
-    integrator = make_integrator("DrudeLangevin", 1.0, 1 + args.seed)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
-    context.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
-    context.setVelocitiesToTemperature(300 * unit.kelvin, 2 + args.seed)
-    integrator.step(int(settings["equilibration_ps"] * 1000))
-    state = context.getState(getPositions=True, getVelocities=True)
-    del context
+    state = equilibrated_state(system, positions, 1.0, int(settings["equilibration_ps"] * 1000), 1 + args.seed)
     edges = np.linspace(0.2, min(0.8, 0.5 * box), 61)
     runs = {}
     peers = [("DrudeLangevin", h) for h in ([0.5, 1.0] if args.quick else args.reference_steps)]

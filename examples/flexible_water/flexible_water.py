@@ -173,8 +173,7 @@ def plot(records, path):
         errors = [r.get(key + "_error", 0.0) for r in stable]
         ax.errorbar(values, y, xerr=errors, fmt="o", capsize=3)
         if key != "ns_per_day" and reference["stable"]:
-            ax.axvline(reference[key], color="gray", ls="--", lw=1, label="reference (%s)" % reference["name"])
-            ax.legend(fontsize=7, loc="best")
+            ax.axvline(reference[key], color="gray", ls="--", lw=1)
         ax.set_yticks(y)
         ax.set_yticklabels(labels if ax in (axes[0], axes[4]) else [], fontsize=7)
         ax.set_xlabel(label)
@@ -192,14 +191,14 @@ def plot(records, path):
     errors = [r["oh_sd_error"] for r in stable]
     ax.errorbar(values, y, xerr=errors, fmt="o", capsize=3)
     if reference["stable"]:
-        ax.axvline(reference["oh_sd"], color="gray", ls="--", lw=1, label="reference (%s)" % reference["name"])
-        ax.legend(fontsize=7, loc="best")
+        ax.axvline(reference["oh_sd"], color="gray", ls="--", lw=1)
     ax.set_yticks(y)
     ax.set_yticklabels([])
     ax.set_xlabel("O–H spread, standard deviation (nm)")
     ax.invert_yaxis()
     unstable = [r["name"] for r in records if not r["stable"]]
-    fig.text(0.01, 0.005, "Rigid water: its kinetic temperatures count 3 degrees of freedom per atom, but SETTLE "
+    fig.text(0.01, 0.005, "Dashed lines: the reference (%s).  " % reference["name"] +
+             "Rigid water: its kinetic temperatures count 3 degrees of freedom per atom, but SETTLE "
              "removes 3 per molecule, so they are not comparable.  " +
              ("Unstable (blew up): " + ", ".join(unstable) if unstable else "Every peer stayed stable."), fontsize=9)
     fig.suptitle("Flexible TIP3P water (1,503 atoms, PME, 300 K): FLAVOR averagings against OpenMM's Langevin "

@@ -122,6 +122,8 @@ private:
     static constexpr int MaxSubsteps = 16;
     static constexpr double MaxRelativeViolation = 0.1;
     static constexpr double DependenceThreshold = 1e-2;
+    // A pivot this small relative to its diagonal is a direction already spanned by the rows before it.
+    static constexpr double DependentPivot = 1e-10;
     // A cluster holds its normal momenta if every pivot of its B is at least this fraction of its diagonal where the
     // set is chosen; nearly dependent sets (planar rings) have momenta B^-1 rdot so large that their force
     // -grad mu^T B(q) mu / 2 makes the drift unstable, and give back their rates instead.
@@ -148,6 +150,12 @@ private:
                              double factor = 1.0) const;
     /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
     void factorize(int k) const;
+    /**
+     * Assembles into solver B of cluster k's constraints [constraintStart[k], last) with the first numCouplings of
+     * its couplings, at positions q with inverse masses w, stores their unit directions and factorizes it.
+     */
+    void factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const OpenMM::Vec3* q,
+                    const double* w) const;
     /** Newton's iteration with the factorized B: moves positions along the stored directions until every length
      * holds. */
     bool constrainPositions(int k) const;

@@ -291,10 +291,8 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     for (int k = 0; k < numClusters; ++k) {
         if (constraintStart[k + 1] == constraintStart[k])
             continue;
-        assembleB(solvers[k], pairs, constraintStart[k], constraintStart[k + 1], couplings.data() + couplingStart[k],
-                  couplingStart[k + 1] - couplingStart[k], positionsToCheck.data(), particleInverseMasses.data(),
-                  directions.data());
-        solvers[k].factorize(1e-10);
+        factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k],
+                   positionsToCheck.data(), particleInverseMasses.data());
         holdsMomenta[k] = solvers[k].smallestPivotRatio() >= MomentumConditioning ? 1 : 0;
     }
 }
@@ -458,14 +456,11 @@ void FrozenDistances::updateSystemMomenta(int k) const {
         normalVelocities[particles[n]] = Vec3();
     addAlongConstraints(first + numSystem, last, normalVelocities.data(), directions.data(),
                         &normalMomenta[first + numSystem]);
-    SparseLDLT& solver = systemSolvers[k];
-    assembleB(solver, pairs, first, first + numSystem, couplings.data() + couplingStart[k], systemCouplingCount[k],
-              positions, inverseMasses, directions.data());
-    solver.factorize(1e-10);
+    factorizeB(systemSolvers[k], k, first + numSystem, systemCouplingCount[k], positions, inverseMasses);
     double* x = &normalMomenta[first];
     for (int c = first; c < first + numSystem; ++c)
         x[c - first] = -directions[c].dot(normalVelocities[pairs[c].first] - normalVelocities[pairs[c].second]);
-    solver.solve(x);
+    systemSolvers[k].solve(x);
 }
 
 void FrozenDistances::kickByNormalMomenta(int k, double dt) const {
@@ -520,12 +515,16 @@ void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Ve
 }
 
 void FrozenDistances::factorize(int k) const {
-    SparseLDLT& solver = solvers[k];
-    assembleB(solver, pairs, constraintStart[k], constraintStart[k + 1], couplings.data() + couplingStart[k],
-              couplingStart[k + 1] - couplingStart[k], positions, inverseMasses, directions.data());
-    // A pivot this small relative to its diagonal is a direction already spanned by the rows before it.
-    solver.factorize(1e-10);
+    factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k], positions,
+               inverseMasses);
     factorized[k] = 1;
+}
+
+void FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
+                                 const double* w) const {
+    assembleB(solver, pairs, constraintStart[k], last, couplings.data() + couplingStart[k], numCouplings, q, w,
+              directions.data());
+    solver.factorize(DependentPivot);
 }
 
 bool FrozenDistances::constrainPositions(int k) const {

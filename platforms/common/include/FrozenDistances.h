@@ -14,7 +14,8 @@
 
 namespace OpenMM {
 class ContextImpl;
-}
+class ReferenceConstraints;
+} // namespace OpenMM
 
 namespace FlavorPlugin {
 
@@ -91,6 +92,10 @@ OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector
  * construction (independentConstraints), so B stays well conditioned; rows that become exactly dependent later are
  * recognised by their pivots and dropped.
  *
+ * Clusters without a frozen distance (rigid water, molecules with only their own constraints, free particles) need
+ * none of this: their drift is OpenMM's constrained drift and their kick OpenMM's projected kick, so they go through
+ * the platform's constraint algorithms (SETTLE for water, CCMA otherwise), as in OpenMM's own integrators.
+ *
  * All buffers are sized at construction; the steps do not allocate.
  */
 class OPENMM_EXPORT_FLAVORS FrozenDistances : public RangeTask {
@@ -103,9 +108,10 @@ public:
      */
     FrozenDistances(const OpenMM::System& system, const std::vector<std::pair<int, int>>& frozenPairs,
                     const std::vector<OpenMM::Vec3>& positions);
+    ~FrozenDistances();
     /** The frozen distances held (those of the constructor less the System's constraints and the dependent ones). */
     int getNumFrozen() const { return numFrozen; }
-    /** The connected components of the constraint graph (a particle without constraints is one of its own). */
+    /** The connected components of the constraint graph that hold a frozen distance (solved by the cluster solver). */
     int getNumClusters() const { return (int)particleStart.size() - 1; }
     /** The frozen drift over h, cluster by cluster through loop; throws if the constraints cannot be held. */
     void drift(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
@@ -114,11 +120,15 @@ public:
     void kick(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
               const std::vector<OpenMM::Vec3>& forces, const std::vector<double>& inverseMasses, double h,
               double tolerance, ParallelLoop& loop);
-    /** Runs the current drift or kick on clusters [begin, end). */
+    /** Runs the current drift or kick on items [begin, end): the clusters, then the chunks of the other clusters. */
     void apply(int begin, int end) const override;
+    int minItemsPerThread() const override { return minItems; }
+    bool unevenItems() const override { return true; }
 
 private:
+    struct OtherChunk;
     static constexpr int MaxIterations = 100;
+    static constexpr int ChunkParticles = 512;
     static constexpr int MaxSubsteps = 16;
     static constexpr double MaxRelativeViolation = 0.1;
     static constexpr double DependenceThreshold = 1e-2;
@@ -128,6 +138,11 @@ private:
     // set is chosen; nearly dependent sets (planar rings) have momenta B^-1 rdot so large that their force
     // -grad mu^T B(q) mu / 2 makes the drift unstable, and give back their rates instead.
     static constexpr double MomentumConditioning = 0.02;
+    void run(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
+             const std::vector<OpenMM::Vec3>* forces, const std::vector<double>& inverseMasses, double h,
+             double tolerance, bool kicking, ParallelLoop& loop);
+    /** The drift or kick of a chunk of clusters without frozen distances, by the platform's constraint algorithms. */
+    void moveOtherChunk(const OtherChunk& chunk) const;
     void driftCluster(int k) const;
     /** The frozen drift of cluster k over h as substeps RATTLE steps; false if an iteration did not converge. */
     bool driftInSubsteps(int k, int substeps) const;
@@ -189,7 +204,18 @@ private:
         scratch, normalVelocities;
     mutable std::vector<char> factorized;
     mutable std::vector<char> failed;
+    /** Clusters without a frozen distance: their particles without constraints, those with, and their constraints. */
+    struct OtherChunk {
+        std::vector<int> freeParticles, constrainedParticles;
+        std::unique_ptr<OpenMM::ReferenceConstraints> constraints;
+    };
+    std::vector<OtherChunk> otherChunks;
+    // The platform's constraint algorithms take non-const inverse masses.
+    mutable std::vector<double> systemInverseMasses;
+    int minItems;
     // The current call's data.
+    std::vector<OpenMM::Vec3>* positionVector;
+    std::vector<OpenMM::Vec3>* velocityVector;
     OpenMM::Vec3* positions;
     OpenMM::Vec3* velocities;
     const OpenMM::Vec3* forces;

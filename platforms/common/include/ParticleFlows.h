@@ -42,6 +42,13 @@ class RangeTask {
 public:
     virtual ~RangeTask() = default;
     virtual void apply(int begin, int end) const = 0;
+    /** The fewest items per thread worth waking a thread pool for (many for a particle's few operations). */
+    virtual int minItemsPerThread() const { return 1024; }
+    /**
+     * Whether items differ widely in their work (constraint clusters of one to thousands of rows): a thread pool then
+     * hands them out one at a time to whichever thread is free, instead of in equal contiguous blocks.
+     */
+    virtual bool unevenItems() const { return false; }
 };
 
 /**

@@ -6,6 +6,7 @@
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
+#include "openmm/reference/ReferenceConstraints.h"
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -161,8 +162,8 @@ vector<char> FlavorPlugin::independentConstraints(const vector<pair<int, int>>& 
 
 FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs,
                                  const vector<Vec3>& positionsToCheck)
-    : positions(nullptr), velocities(nullptr), forces(nullptr), inverseMasses(nullptr), h(0.0), tolerance(0.0),
-      kicking(false) {
+    : minItems(1), positionVector(nullptr), velocityVector(nullptr), positions(nullptr), velocities(nullptr),
+      forces(nullptr), inverseMasses(nullptr), h(0.0), tolerance(0.0), kicking(false) {
     const int n = system.getNumParticles();
     vector<pair<int, int>> candidates;
     vector<char> candidateFrozen;
@@ -237,9 +238,43 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
         if (cluster >= 0)
             clusterConstraints[cluster].push_back((int)c);
     }
+    // Clusters without a frozen distance (rigid water, free particles) drift and are projected as in OpenMM's own
+    // integrators, by the platform's constraint algorithms (SETTLE for water), in chunks of about ChunkParticles
+    // particles that run in parallel; the cluster solver takes the rest, largest cluster first.
+    vector<int> order(numClusters);
+    for (int k = 0; k < numClusters; ++k)
+        order[k] = k;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return clusterConstraints[a].size() > clusterConstraints[b].size(); });
+    std::unique_ptr<System> chunkSystem;
+    auto closeChunk = [&]() {
+        if (chunkSystem && chunkSystem->getNumConstraints() > 0)
+            otherChunks.back().constraints = std::make_unique<ReferenceConstraints>(*chunkSystem);
+        chunkSystem.reset();
+    };
     particleStart.push_back(0);
     constraintStart.push_back(0);
-    for (int k = 0; k < numClusters; ++k) {
+    long long work = 0;
+    for (int k : order) {
+        const bool holdsFrozen = std::any_of(clusterConstraints[k].begin(), clusterConstraints[k].end(),
+                                             [&](int c) { return allFrozen[c]; });
+        if (!holdsFrozen) {
+            if (!chunkSystem) {
+                otherChunks.emplace_back();
+                chunkSystem = std::make_unique<System>();
+                for (int i = 0; i < n; ++i)
+                    chunkSystem->addParticle(system.getParticleMass(i));
+            }
+            OtherChunk& chunk = otherChunks.back();
+            for (int i : clusterParticles[k])
+                (clusterConstraints[k].empty() ? chunk.freeParticles : chunk.constrainedParticles).push_back(i);
+            for (int c : clusterConstraints[k])
+                chunkSystem->addConstraint(all[c].first, all[c].second, allLengths[c]);
+            work += (long long)clusterParticles[k].size();
+            if ((int)(chunk.freeParticles.size() + chunk.constrainedParticles.size()) >= ChunkParticles)
+                closeChunk();
+            continue;
+        }
         particles.insert(particles.end(), clusterParticles[k].begin(), clusterParticles[k].end());
         for (int c : clusterConstraints[k]) {
             pairs.push_back(all[c]);
@@ -248,7 +283,14 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
         }
         particleStart.push_back((int)particles.size());
         constraintStart.push_back((int)pairs.size());
+        work += (long long)clusterConstraints[k].size();
     }
+    closeChunk();
+    numClusters = (int)particleStart.size() - 1;
+    systemInverseMasses = particleInverseMasses;
+    // A thread pool is worth waking for about 1024 constraints or particles per thread.
+    const long long items = numClusters + (long long)otherChunks.size();
+    minItems = (int)std::max(1LL, (1024 * items + std::max(1LL, work) - 1) / std::max(1LL, work));
     // B's pattern: constraints sharing a particle are coupled through it, and so lie in one cluster; listed by their
     // second constraint, the couplings come cluster by cluster.
     couplings = couplingsOf(pairs, 0, (int)pairs.size(), n);
@@ -297,28 +339,30 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     }
 }
 
+FrozenDistances::~FrozenDistances() = default;
+
 void FrozenDistances::drift(vector<Vec3>& q, vector<Vec3>& v, const vector<double>& w, double step, double tol,
                             ParallelLoop& loop) {
-    positions = q.data();
-    velocities = v.data();
-    inverseMasses = w.data();
-    h = step;
-    tolerance = tol;
-    kicking = false;
-    loop.run(*this, getNumClusters());
-    checkConvergence();
+    run(q, v, nullptr, w, step, tol, false, loop);
 }
 
 void FrozenDistances::kick(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>& f, const vector<double>& w,
                            double step, double tol, ParallelLoop& loop) {
+    run(q, v, &f, w, step, tol, true, loop);
+}
+
+void FrozenDistances::run(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>* f, const vector<double>& w, double step,
+                          double tol, bool kick, ParallelLoop& loop) {
+    positionVector = &q;
+    velocityVector = &v;
     positions = q.data();
     velocities = v.data();
-    forces = f.data();
+    forces = f ? f->data() : nullptr;
     inverseMasses = w.data();
     h = step;
     tolerance = tol;
-    kicking = true;
-    loop.run(*this, getNumClusters());
+    kicking = kick;
+    loop.run(*this, getNumClusters() + (int)otherChunks.size());
     checkConvergence();
 }
 
@@ -334,12 +378,42 @@ void FrozenDistances::checkConvergence() {
 }
 
 void FrozenDistances::apply(int begin, int end) const {
+    const int numClusters = getNumClusters();
     for (int k = begin; k < end; ++k) {
-        if (kicking)
+        if (k >= numClusters)
+            moveOtherChunk(otherChunks[k - numClusters]);
+        else if (kicking)
             kickCluster(k);
         else
             driftCluster(k);
     }
+}
+
+void FrozenDistances::moveOtherChunk(const OtherChunk& chunk) const {
+    vector<Vec3>& q = *positionVector;
+    vector<Vec3>& v = *velocityVector;
+    if (kicking) {
+        for (const vector<int>* list : {&chunk.freeParticles, &chunk.constrainedParticles})
+            for (int i : *list)
+                v[i] += forces[i] * (h * inverseMasses[i]);
+        // v satisfied the constraints before the kick, so projecting v projects the kick.
+        if (chunk.constraints)
+            chunk.constraints->applyToVelocities(q, v, systemInverseMasses, tolerance);
+        return;
+    }
+    for (int i : chunk.freeParticles)
+        q[i] += v[i] * h;
+    if (!chunk.constraints)
+        return;
+    for (int i : chunk.constrainedParticles) {
+        previousPositions[i] = q[i];
+        q[i] += v[i] * h;
+    }
+    chunk.constraints->apply(previousPositions, q, systemInverseMasses, tolerance);
+    const double inverseStep = 1.0 / h;
+    for (int i : chunk.constrainedParticles)
+        v[i] = (q[i] - previousPositions[i]) * inverseStep;
+    chunk.constraints->applyToVelocities(q, v, systemInverseMasses, tolerance);
 }
 
 void FrozenDistances::driftCluster(int k) const {

@@ -9,6 +9,7 @@
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/internal/ThreadPool.h"
 #include <algorithm>
+#include <atomic>
 #include <memory>
 
 using namespace FlavorPlugin;
@@ -17,27 +18,33 @@ using namespace OpenMM;
 namespace {
 
 /**
- * Runs a task on the CPU platform's thread pool, each thread on one contiguous block of indices.  The loop object is
- * reused for every pass, so stepping allocates nothing.  Small tasks run on the calling thread: waking the pool
- * costs more than they do.
+ * Runs a task on the CPU platform's thread pool: each thread on one contiguous block of indices, or, for tasks with
+ * uneven items, one item at a time to whichever thread is free (items are independent, so the results do not depend
+ * on the order).  The loop object is reused for every pass, so stepping allocates nothing.  Small tasks run on the
+ * calling thread: waking the pool costs more than they do.
  */
 class ThreadedLoop : public ParallelLoop, private ThreadPool::Task {
 public:
     explicit ThreadedLoop(ThreadPool& threads) : threads(threads), task(nullptr), count(0) {}
     void run(const RangeTask& currentTask, int count) override {
-        if (count < MinItemsPerThread * threads.getNumThreads()) {
+        if (count < currentTask.minItemsPerThread() * threads.getNumThreads()) {
             currentTask.apply(0, count);
             return;
         }
         task = &currentTask;
         this->count = count;
+        nextItem = 0;
         threads.execute(*this);
         threads.waitForThreads();
     }
 
 private:
-    static constexpr int MinItemsPerThread = 1024;
     void execute(ThreadPool& pool, int threadIndex) override {
+        if (task->unevenItems()) {
+            for (int item = nextItem++; item < count; item = nextItem++)
+                task->apply(item, item + 1);
+            return;
+        }
         const int numThreads = pool.getNumThreads();
         const int begin = (int)((long long)count * threadIndex / numThreads);
         const int end = (int)((long long)count * (threadIndex + 1) / numThreads);
@@ -46,6 +53,7 @@ private:
     ThreadPool& threads;
     const RangeTask* task;
     int count;
+    std::atomic<int> nextItem{0};
 };
 
 class CpuFlavorKernelFactory : public KernelFactory {

@@ -9,6 +9,7 @@ HarmonicAngleForce in group 2, everything else (PME, torsions) in group 0.
 Peers (Langevin, 300 K, friction 1/ps):
   - LangevinMiddleIntegrator 2 fs (the reference for the observables);
   - MTSLangevinIntegrator 4 fs outer, the bonds and angles 4 times per step (1 fs);
+  - LangevinMiddleIntegrator at the further steps of --langevin-steps (e.g. 0.5 fs: the small-step limit);
   - FlavorIntegrator, ArtificialProjected averaging, Verlet scheme, at the mesostep delta and microstep tau of
     --flavors, with the bonds and angles stiff ("4:1") or the bonds alone ("4:1:bonds", angles soft), the thermostat
     at the edges of the mesostep or in the middle of the microstep ("4:1:middle").
@@ -20,7 +21,7 @@ with and without a hydrogen), backbone (N, CA, C) RMSD from the common start aft
 threads is measured over the production run; ns/day with 1 thread over a further --timing ps in a new Context.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/villin/villin.py [--quick] [--out DIR]
-        [--start PS] [--equilibration PS] [--production PS] [--timing PS]
+        [--start PS] [--equilibration PS] [--production PS] [--timing PS] [--flavors ...] [--langevin-steps FS ...]
 
 Outputs: DIR/villin.json (every number and the RMSD series) and DIR/villin.png.
 """
@@ -53,13 +54,16 @@ def make_system(forcefield, topology):
     return assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
 
 
-def peers(flavor_settings):
+def peers(flavor_settings, langevin_steps=()):
     """(name, factory) for every peer; factory() returns the integrator."""
     result = [
         ("LangevinMiddle 2 fs", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 2e-3)),
         ("MTSLangevin 4 fs / 4",
          lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 4e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4)])),
     ]
+    for step in langevin_steps:
+        result.append(("LangevinMiddle %g fs" % step,
+                       lambda step=step: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, step * 1e-3)))
     for delta, tau, bonds_only, middle in flavor_settings:
         stiff = {BOND_GROUP} if bonds_only else {BOND_GROUP, ANGLE_GROUP}
 
@@ -280,11 +284,16 @@ def main():
     p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1,4:0.5,3:0.5",
                    help="delta:tau[:bonds][:middle] in fs, comma separated (':bonds': only the bonds stiff; ':middle': "
                         "the thermostat in the middle of the microstep, FlavorIntegrator.Middle)")
+    p.add_argument("--langevin-steps", type=float, nargs="+", default=[], metavar="FS",
+                   help="further LangevinMiddle peers at these steps in fs (e.g. 0.5: how far the 2-fs reference is "
+                        "from the small-step limit)")
     p.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
     if args.replot:
         reporting.replot(args.replot, args.out, "villin", plot)
         return
+    if any(not (0 < step <= 4) for step in args.langevin_steps):
+        p.error("--langevin-steps: every step must be in (0, 4] fs, got %s" % args.langevin_steps)
     flavor_settings = []
     for setting in args.flavors.split(","):
         fields = setting.split(":")
@@ -314,7 +323,7 @@ def main():
     del context, integrator
     frames = 10 if args.quick else 80
     records = []
-    for name, factory in peers(flavor_settings):
+    for name, factory in peers(flavor_settings, args.langevin_steps):
         record = run_peer(name, factory, forcefield, pdb.topology, start, geometry, args, frames)
         records.append(record)
         print(summary_line(record), flush=True)

@@ -41,3 +41,14 @@ def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:0.5:sideways"))
     assert result.returncode != 0
     assert "'3:0.5:sideways' is not delta:tau[:bonds][:middle]" in result.stderr
+
+
+def test_a_small_step_langevin_peer_runs_and_a_step_out_of_range_is_an_error(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:1", "--langevin-steps", "1"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "villin.json") as f:
+        names = [peer["name"] for peer in json.load(f)["peers"]]
+    assert names[:3] == ["LangevinMiddle 2 fs", "MTSLangevin 4 fs / 4", "LangevinMiddle 1 fs"]
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--langevin-steps", "0.5", "0"))
+    assert result.returncode != 0
+    assert "--langevin-steps: every step must be in (0, 4] fs, got [0.5, 0.0]" in result.stderr

@@ -583,13 +583,7 @@ System* bondedMolecule() {
     System* system = new System();
     for (double mass : {16.0, 1.0, 1.0, 12.0, 12.0})
         system->addParticle(mass);
-    HarmonicBondForce* bonds = new HarmonicBondForce();
-    bonds->addBond(0, 1, 0.1, 4e5);
-    bonds->addBond(0, 2, 0.1, 4e5);
-    bonds->setForceGroup(StiffGroup);
-    HarmonicAngleForce* angle = new HarmonicAngleForce();
-    angle->addAngle(1, 0, 2, 1.82, 400);
-    angle->setForceGroup(StiffGroup);
+    addStiffBentMolecule(*system, 0);
     CustomBondForce* link = new CustomBondForce("50*(r-0.3)^2");
     link->addBond(0, 3);
     link->setForceGroup(SoftGroup);
@@ -598,8 +592,6 @@ System* bondedMolecule() {
         tether->addParticle(i);
     tether->setForceGroup(SoftGroup);
     system->addConstraint(3, 4, 0.15);
-    system->addForce(bonds);
-    system->addForce(angle);
     system->addForce(link);
     system->addForce(tether);
     return system;

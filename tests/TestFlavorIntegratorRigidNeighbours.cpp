@@ -7,8 +7,6 @@
 #include "openmm/Context.h"
 #include "openmm/CustomExternalForce.h"
 #include "openmm/CustomIntegrator.h"
-#include "openmm/HarmonicAngleForce.h"
-#include "openmm/HarmonicBondForce.h"
 #include <cmath>
 #include <memory>
 
@@ -81,15 +79,7 @@ TEST_P(FlavorRigidNeighbours, MoleculesWithOnlyTheirOwnConstraintsMoveAsInOpenMM
     System full;
     for (double mass : {15.999, 1.008, 1.008})
         full.addParticle(mass);
-    HarmonicBondForce* bonds = new HarmonicBondForce();
-    bonds->addBond(0, 1, 0.1, 4e5);
-    bonds->addBond(0, 2, 0.1, 4e5);
-    bonds->setForceGroup(StiffGroup);
-    HarmonicAngleForce* angle = new HarmonicAngleForce();
-    angle->addAngle(1, 0, 2, 1.82, 400);
-    angle->setForceGroup(StiffGroup);
-    full.addForce(bonds);
-    full.addForce(angle);
+    addStiffBentMolecule(full, 0);
     addNeighbours(full, FirstNeighbour);
     System alone;
     addNeighbours(alone, 0);

@@ -7,6 +7,7 @@
 #include "openmm/Context.h"
 #include "openmm/CustomBondForce.h"
 #include "openmm/CustomExternalForce.h"
+#include "openmm/HarmonicAngleForce.h"
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/State.h"
 #include "openmm/System.h"
@@ -35,6 +36,23 @@ inline std::vector<OpenMM::Vec3> fpuPositions(const std::vector<double>& x0, con
             positions.push_back(OpenMM::Vec3((x0[i] + x1[i]) / std::sqrt(2.0), 0, 0));
         }
     return positions;
+}
+
+/**
+ * Makes particles first, first + 1, first + 2 of system a flexible bent molecule with stiff forces only: bonds
+ * (first, first + 1) and (first, first + 2) of 0.1 nm, 4e5 kJ/mol/nm^2, and the angle at first of 1.82 rad,
+ * 400 kJ/mol/rad^2, all in StiffGroup.
+ */
+inline void addStiffBentMolecule(OpenMM::System& system, int first) {
+    OpenMM::HarmonicBondForce* bonds = new OpenMM::HarmonicBondForce();
+    bonds->addBond(first, first + 1, 0.1, 4e5);
+    bonds->addBond(first, first + 2, 0.1, 4e5);
+    bonds->setForceGroup(StiffGroup);
+    OpenMM::HarmonicAngleForce* angle = new OpenMM::HarmonicAngleForce();
+    angle->addAngle(first + 1, first, first + 2, 1.82, 400);
+    angle->setForceGroup(StiffGroup);
+    system.addForce(bonds);
+    system.addForce(angle);
 }
 
 /** The linear system (5.1): particle 0 is x (soft potential x^2/2), particle 1 is y (stiff omega^2/2 (y-x)^2). */

@@ -583,7 +583,7 @@ System* bondedMolecule() {
     System* system = new System();
     for (double mass : {16.0, 1.0, 1.0, 12.0, 12.0})
         system->addParticle(mass);
-    addStiffBentMolecule(*system, 0);
+    addStiffBentMolecules(*system, 0);
     CustomBondForce* link = new CustomBondForce("50*(r-0.3)^2");
     link->addBond(0, 3);
     link->setForceGroup(SoftGroup);

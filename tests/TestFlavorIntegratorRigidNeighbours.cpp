@@ -79,7 +79,7 @@ TEST_P(FlavorRigidNeighbours, MoleculesWithOnlyTheirOwnConstraintsMoveAsInOpenMM
     System full;
     for (double mass : {15.999, 1.008, 1.008})
         full.addParticle(mass);
-    addStiffBentMolecule(full, 0);
+    addStiffBentMolecules(full, 0);
     addNeighbours(full, FirstNeighbour);
     System alone;
     addNeighbours(alone, 0);

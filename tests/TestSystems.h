@@ -39,20 +39,23 @@ inline std::vector<OpenMM::Vec3> fpuPositions(const std::vector<double>& x0, con
 }
 
 /**
- * Makes particles first, first + 1, first + 2 of system a flexible bent molecule with stiff forces only: bonds
- * (first, first + 1) and (first, first + 2) of 0.1 nm, 4e5 kJ/mol/nm^2, and the angle at first of 1.82 rad,
- * 400 kJ/mol/rad^2, all in StiffGroup.
+ * Makes particles first + 3m, first + 3m + 1, first + 3m + 2 (m = 0 .. count - 1) of system flexible bent molecules
+ * with stiff forces only: bonds from the first particle to the two others of 0.1 nm, 4e5 kJ/mol/nm^2, and the angle
+ * at the first of 1.82 rad, 400 kJ/mol/rad^2, all in StiffGroup.
  */
-inline void addStiffBentMolecule(OpenMM::System& system, int first) {
+inline void addStiffBentMolecules(OpenMM::System& system, int first, int count = 1) {
     OpenMM::HarmonicBondForce* bonds = new OpenMM::HarmonicBondForce();
-    bonds->addBond(first, first + 1, 0.1, 4e5);
-    bonds->addBond(first, first + 2, 0.1, 4e5);
+    OpenMM::HarmonicAngleForce* angles = new OpenMM::HarmonicAngleForce();
+    for (int m = 0; m < count; ++m) {
+        const int o = first + 3 * m;
+        bonds->addBond(o, o + 1, 0.1, 4e5);
+        bonds->addBond(o, o + 2, 0.1, 4e5);
+        angles->addAngle(o + 1, o, o + 2, 1.82, 400);
+    }
     bonds->setForceGroup(StiffGroup);
-    OpenMM::HarmonicAngleForce* angle = new OpenMM::HarmonicAngleForce();
-    angle->addAngle(first + 1, first, first + 2, 1.82, 400);
-    angle->setForceGroup(StiffGroup);
+    angles->setForceGroup(StiffGroup);
     system.addForce(bonds);
-    system.addForce(angle);
+    system.addForce(angles);
 }
 
 /** The linear system (5.1): particle 0 is x (soft potential x^2/2), particle 1 is y (stiff omega^2/2 (y-x)^2). */

@@ -2,12 +2,15 @@
 // of the other tests run every pass on the calling thread.  Here 1,000 FPU chains give 6,000 particles (particle
 // passes, thermostats) and 3,000 stiff components (the exact stiff flow and its noise), well above 2 x 1024: with two
 // threads every pass is split.  Random numbers are counter-based per (stream, particle), so the trajectory must not
-// depend on the number of threads at all, and must match the Reference platform's serial loops.
+// depend on the number of threads at all, and must match the Reference platform's serial loops.  The artificial
+// FLAVOR's frozen stage is threaded by clusters (one at a time to whichever thread is free) and chunks of rigid water:
+// its test below has enough of both to be split.
 
 #include "FlavorIntegrator.h"
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/CustomExternalForce.h"
 #include "openmm/Platform.h"
 #include <functional>
 #include <gtest/gtest.h>
@@ -46,16 +49,71 @@ Trajectory run(const std::function<Integrator*()>& makeIntegrator, const std::st
     return {positionsOf(context), velocitiesOf(context)};
 }
 
-void expectThreadIndependent(const std::function<Integrator*()>& makeIntegrator) {
-    const Trajectory reference = run(makeIntegrator, "Reference", 0);
-    const Trajectory oneThread = run(makeIntegrator, "CPU", 1);
-    const Trajectory twoThreads = run(makeIntegrator, "CPU", 2);
+/**
+ * 800 flexible bent molecules with frozen bonds and angles (800 clusters, 2,400 frozen distances) and 400 rigid
+ * waters (chunks for SETTLE) on soft tethers: 20 steps of the Langevin ArtificialProjected FLAVOR.
+ */
+Trajectory runFrozenStage(const std::string& platformName, int threads) {
+    const int molecules = 800, waters = 400;
+    System system;
+    for (int m = 0; m < molecules + waters; ++m)
+        for (double mass : {15.999, 1.008, 1.008})
+            system.addParticle(mass);
+    addStiffBentMolecules(system, 0, molecules);
+    for (int w = 0; w < waters; ++w) {
+        const int o = 3 * (molecules + w);
+        system.addConstraint(o, o + 1, 0.09572);
+        system.addConstraint(o, o + 2, 0.09572);
+        system.addConstraint(o + 1, o + 2, 0.15139);
+    }
+    CustomExternalForce* tether = new CustomExternalForce("200*((x-x0)^2+(y-y0)^2+(z-z0)^2)");
+    tether->addPerParticleParameter("x0");
+    tether->addPerParticleParameter("y0");
+    tether->addPerParticleParameter("z0");
+    std::vector<Vec3> positions, velocities;
+    for (int m = 0; m < molecules + waters; ++m) {
+        const Vec3 centre(0.5 * (m % 10), 0.5 * ((m / 10) % 10), 0.5 * (m / 100));
+        const bool water = m >= molecules;
+        positions.push_back(centre);
+        positions.push_back(centre + (water ? Vec3(0.09572, 0, 0) : Vec3(0.101, 0.002, 0)));
+        positions.push_back(centre + (water ? Vec3(-0.0240, 0.0927, 0) : Vec3(-0.0245, 0.0968, 0.003)));
+        for (int k = 0; k < 3; ++k) {
+            const int i = 3 * m + k;
+            tether->addParticle(i, {centre[0], centre[1], centre[2]});
+            velocities.push_back(Vec3(std::sin(0.7 * i), std::cos(1.3 * i), std::sin(2.1 * i)) * 0.8);
+        }
+    }
+    tether->setForceGroup(SoftGroup);
+    system.addForce(tether);
+    FlavorIntegrator integrator(0.004, 0.001, StiffMask);
+    integrator.setAveraging(FlavorIntegrator::ArtificialProjected);
+    integrator.setTemperature(300);
+    integrator.setFriction(5.0);
+    integrator.setRandomNumberSeed(11);
+    std::map<std::string, std::string> properties;
+    if (threads > 0)
+        properties["Threads"] = std::to_string(threads);
+    Context context(system, integrator, Platform::getPlatformByName(platformName), properties);
+    context.setPositions(positions);
+    context.setVelocities(velocities);
+    context.applyConstraints(1e-10);
+    context.applyVelocityConstraints(1e-10);
+    integrator.step(20);
+    return {positionsOf(context), velocitiesOf(context)};
+}
+
+void expectSameTrajectories(const Trajectory& reference, const Trajectory& oneThread, const Trajectory& twoThreads) {
     // The same work, split differently: bit for bit.
     EXPECT_EQ(oneThread.positions, twoThreads.positions);
     EXPECT_EQ(oneThread.velocities, twoThreads.velocities);
     // The CPU platform computes these forces with the Reference code; only our passes are threaded.
     EXPECT_LT(relativeDifference(twoThreads.positions, reference.positions), 1e-12);
     EXPECT_LT(relativeDifference(twoThreads.velocities, reference.velocities), 1e-12);
+}
+
+void expectThreadIndependent(const std::function<Integrator*()>& makeIntegrator) {
+    expectSameTrajectories(run(makeIntegrator, "Reference", 0), run(makeIntegrator, "CPU", 1),
+                           run(makeIntegrator, "CPU", 2));
 }
 
 } // namespace
@@ -76,4 +134,8 @@ TEST(ThreadedPaths, LangevinStochasticImpulseIsThreadIndependent) {
         integrator->setRandomNumberSeed(11);
         return integrator;
     });
+}
+
+TEST(ThreadedPaths, ArtificialFlavorFrozenStageIsThreadIndependent) {
+    expectSameTrajectories(runFrozenStage("Reference", 0), runFrozenStage("CPU", 1), runFrozenStage("CPU", 2));
 }

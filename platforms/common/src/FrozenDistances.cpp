@@ -653,7 +653,10 @@ bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations) con
         for (int c = first; c < last; ++c) {
             const Vec3 relative = v[pairs[c].first] - v[pairs[c].second];
             const double error = -currentDirections[c].dot(relative);
-            const double scale = std::sqrt(relative.dot(relative));
+            // Relative to the two speeds, not to their difference: where the pair moves as one (a rigid molecule
+            // translating), its relative velocity is rounding of the speeds and cannot be resolved below them.
+            const double scale = std::sqrt(v[pairs[c].first].dot(v[pairs[c].first])) +
+                                 std::sqrt(v[pairs[c].second].dot(v[pairs[c].second]));
             if (!(std::abs(error) <= tolerance * scale) && !solvers[k].isDependent(c - first))
                 converged = false;
             mu[c - first] = error;

@@ -191,8 +191,8 @@ private:
     std::vector<ConstraintCoupling> couplings;
     std::vector<int> couplingStart;
     mutable std::vector<SparseLDLT> solvers;
-    // B of each cluster's System constraints where a cluster has both kinds (size 0 otherwise): its first
-    // systemCount[k] constraints and first systemCouplingCount[k] couplings.
+    // B of each cluster's System constraints (size 0 where it has none): its first systemCount[k] constraints and
+    // first systemCouplingCount[k] couplings.
     mutable std::vector<SparseLDLT> systemSolvers;
     std::vector<int> systemCount, systemCouplingCount;
     std::vector<char> holdsMomenta;

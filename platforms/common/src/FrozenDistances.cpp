@@ -303,18 +303,18 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
             offDiagonal.emplace_back(couplings[e].first - first, couplings[e].second - first);
         couplingStart.push_back((int)e);
         solvers.emplace_back(last - first, offDiagonal);
-        // The System's constraints come first in each cluster, and so do the couplings among them.
-        int numSystem = 0, numFrozenHere = 0;
+        // The System's constraints come first in each cluster, and so do the couplings among them.  Every cluster
+        // holds a frozen distance; one with System constraints too has a second solver for them.
+        int numSystem = 0;
         for (int c = first; c < last; ++c)
-            (frozen[c] ? numFrozenHere : numSystem) += 1;
+            numSystem += frozen[c] ? 0 : 1;
         vector<pair<int, int>> systemOffDiagonal;
         for (const pair<int, int>& entry : offDiagonal)
             if (entry.second < numSystem)
                 systemOffDiagonal.push_back(entry);
-        const bool mixed = numSystem > 0 && numFrozenHere > 0;
-        systemCount.push_back(mixed ? numSystem : 0);
-        systemCouplingCount.push_back(mixed ? (int)systemOffDiagonal.size() : 0);
-        systemSolvers.emplace_back(mixed ? numSystem : 0, mixed ? systemOffDiagonal : vector<pair<int, int>>());
+        systemCount.push_back(numSystem);
+        systemCouplingCount.push_back((int)systemOffDiagonal.size());
+        systemSolvers.emplace_back(numSystem, systemOffDiagonal);
     }
     targetRates.assign(pairs.size(), 0.0);
     residuals.assign(pairs.size(), 0.0);
@@ -331,8 +331,6 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     // Which clusters hold normal momenta: those whose B is well conditioned where the set was chosen.
     holdsMomenta.assign(numClusters, 1);
     for (int k = 0; k < numClusters; ++k) {
-        if (constraintStart[k + 1] == constraintStart[k])
-            continue;
         factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k],
                    positionsToCheck.data(), particleInverseMasses.data());
         holdsMomenta[k] = solvers[k].smallestPivotRatio() >= MomentumConditioning ? 1 : 0;
@@ -418,11 +416,6 @@ void FrozenDistances::moveOtherChunk(const OtherChunk& chunk) const {
 
 void FrozenDistances::driftCluster(int k) const {
     const int firstConstraint = constraintStart[k], lastConstraint = constraintStart[k + 1];
-    if (lastConstraint == firstConstraint) {
-        for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
-            positions[particles[n]] += velocities[particles[n]] * h;
-        return;
-    }
     // Store the rates of the frozen distances and hold them at their current lengths.
     for (int c = firstConstraint; c < lastConstraint; ++c) {
         if (!frozen[c])
@@ -561,13 +554,11 @@ void FrozenDistances::kickCluster(int k) const {
         const int i = particles[n];
         scratch[i] = forces[i] * (h * inverseMasses[i]);
     }
-    if (constraintStart[k + 1] > constraintStart[k]) {
-        // The factorization of the last drift is close to B here; a new one only when none exists yet.
-        if (!factorized[k])
-            factorize(k);
-        if (!constrainVelocitiesRefactorizing(k, scratch.data()))
-            failed[k] = 1;
-    }
+    // The factorization of the last drift is close to B here; a new one only when none exists yet.
+    if (!factorized[k])
+        factorize(k);
+    if (!constrainVelocitiesRefactorizing(k, scratch.data()))
+        failed[k] = 1;
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
         const int i = particles[n];
         velocities[i] += scratch[i];

@@ -133,3 +133,47 @@ TEST_P(FlavorRigidNeighbours, MoleculesWithOnlyTheirOwnConstraintsMoveAsInOpenMM
         EXPECT_NEAR(std::sqrt(s.dot(s)), std::sqrt(r.dot(r)), 1e-12) << "constraint " << c;
     }
 }
+
+TEST_P(FlavorRigidNeighbours, AStepThatEndsWithAFrozenStageEndsWithTheNeighboursVelocitiesOnTheirConstraints) {
+    // Inside a step the frozen stage leaves the neighbours' chord velocities to the next kick's projection; where the
+    // step ends with the frozen stage (the symplectic Euler scheme) it projects them itself, as where a kick ends it.
+    const double delta = 0.004, tau = 0.001, tolerance = 1e-10;
+    for (FlavorIntegrator::Scheme scheme : {FlavorIntegrator::SymplecticEuler, FlavorIntegrator::Verlet})
+        for (FlavorIntegrator::Averaging averaging :
+             {FlavorIntegrator::Artificial, FlavorIntegrator::ArtificialProjected}) {
+            System system;
+            for (double mass : {15.999, 1.008, 1.008})
+                system.addParticle(mass);
+            addStiffBentMolecules(system, 0);
+            addNeighbours(system, FirstNeighbour);
+            vector<Vec3> q = {Vec3(0, 0, 0), Vec3(0.101, 0.002, 0), Vec3(-0.0245, 0.0968, 0.003)};
+            vector<Vec3> v = {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0)};
+            for (const Vec3& x : neighbourPositions())
+                q.push_back(x);
+            for (const Vec3& x : neighbourVelocities())
+                v.push_back(x * 10.0);
+            FlavorIntegrator flavor(delta, tau, StiffMask);
+            flavor.setScheme(scheme);
+            flavor.setAveraging(averaging);
+            flavor.setConstraintTolerance(tolerance);
+            Context context(system, flavor, platform(), properties());
+            context.setPositions(q);
+            context.setVelocities(v);
+            context.applyConstraints(tolerance);
+            context.applyVelocityConstraints(tolerance);
+            for (int step = 0; step < 5; ++step) {
+                flavor.step(1);
+                State state = context.getState(State::Positions | State::Velocities);
+                for (int c = 0; c < system.getNumConstraints(); ++c) {
+                    int i, j;
+                    double length;
+                    system.getConstraintParameters(c, i, j, length);
+                    const Vec3 r = state.getPositions()[i] - state.getPositions()[j];
+                    const Vec3 vi = state.getVelocities()[i], vj = state.getVelocities()[j];
+                    const double rate = r.dot(vi - vj) / std::sqrt(r.dot(r));
+                    EXPECT_LT(std::abs(rate), 1e-8 * (std::sqrt(vi.dot(vi)) + std::sqrt(vj.dot(vj))))
+                        << "scheme " << scheme << ", averaging " << averaging << ", constraint " << c;
+                }
+            }
+        }
+}

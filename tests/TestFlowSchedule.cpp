@@ -115,6 +115,20 @@ TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
     EXPECT_EQ((std::vector<int>{AllForceGroups, Soft}), plan.slotGroups);
     StepPlan constrained = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), true);
     EXPECT_EQ(7u, constrained.passes.size());
+    // With constraints a thermostat and the kick beside it share a pass (one velocity projection): O K_A | D | K_S |
+    // D | K_S | D | K_A O.
+    StepPlan langevin = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001, 1.0)), true);
+    ASSERT_EQ(7u, langevin.passes.size());
+    EXPECT_EQ((std::vector<SubFlow>{thermostat(0.005), kick(0.0005, AllForceGroups)}), langevin.passes[0].flows);
+    EXPECT_EQ((std::vector<SubFlow>{kick(0.0005, AllForceGroups), thermostat(0.005)}), langevin.passes[6].flows);
+    for (size_t p = 1; p < 6; ++p)
+        EXPECT_EQ(1u, langevin.passes[p].flows.size());
+    // The projected artificial FLAVOR: O K_S | FK | FD | K_f | D | K_f | FD | FK | K_S O.
+    StepPlan projected =
+        compileStepPlan(flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.001, true, false, 1.0)), true);
+    ASSERT_EQ(9u, projected.passes.size());
+    EXPECT_EQ(2u, projected.passes[0].flows.size());
+    EXPECT_EQ(2u, projected.passes[8].flows.size());
 }
 
 TEST(FlowSchedule, FilteredIsTheFilteredStiffFlowAndItsClosingKickWithOneForceSlot) {
@@ -165,6 +179,12 @@ TEST(FlowSchedule, ArtificialVerletIsTheSymmetricComposition) {
         EXPECT_DOUBLE_EQ(delta - tau, totalTime(schedule, SubFlow::FrozenDrift));
     }
     EXPECT_DOUBLE_EQ(tau, totalTime(projected, SubFlow::Kick, Soft));
+    // The plain part of each soft kick on the outside, next to the thermostat of a Langevin step (one projection).
+    const double plainPart = delta / 2 * (tau / delta), frozenPart = delta / 2 - plainPart;
+    EXPECT_EQ((Schedule{kick(plainPart, Soft), frozenKick(frozenPart, Soft), frozenDrift(half), kick(tau / 2, Stiff),
+                        drift(tau), kick(tau / 2, Stiff), frozenDrift(half), frozenKick(frozenPart, Soft),
+                        kick(plainPart, Soft)}),
+              projected);
 }
 
 TEST(FlowSchedule, ArtificialVerletWithEqualStepsIsTheNonintrusiveSchedule) {

@@ -53,19 +53,24 @@ Schedule artificialSchedule(const FlavorParameters& p) {
     const bool friction = p.friction > 0.0;
     const bool projected = p.averaging == FlavorIntegrator::ArtificialProjected;
     Schedule s;
-    // The soft impulse over h; projected, its component along the frozen coordinates weighted by tau/delta.
-    auto softKick = [&](double h) {
-        if (projected) {
+    // The soft impulse over h; projected, its component along the frozen coordinates weighted by tau/delta.  The
+    // two parts act at the same positions and commute; the plain kick goes on the side of the thermostat, so that
+    // the two share one velocity projection (FlowStepRunner).
+    auto softKick = [&](double h, bool closing) {
+        if (!projected) {
+            s.push_back(kick(h, soft));
+        } else if (closing) {
+            s.push_back(frozenKick(h - h * (tau / delta), soft));
+            s.push_back(kick(h * (tau / delta), soft));
+        } else {
             s.push_back(kick(h * (tau / delta), soft));
             s.push_back(frozenKick(h - h * (tau / delta), soft));
-        } else {
-            s.push_back(kick(h, soft));
         }
     };
     if (p.scheme == FlavorIntegrator::SymplecticEuler) {
         if (friction)
             s.push_back(thermostat(tau));
-        softKick(delta);
+        softKick(delta, false);
         if (p.exactFastFlow) {
             s.push_back(harmonicFlow(tau));
         } else {
@@ -81,7 +86,7 @@ Schedule artificialSchedule(const FlavorParameters& p) {
         // (B A O A, as LangevinMiddleIntegrator): a harmonic stiff coordinate keeps its exact variance for every tau.
         s.push_back(kick(tau / 2, stiff));
         s.push_back(frozenDrift(rest / 2));
-        softKick(delta);
+        softKick(delta, false);
         s.push_back(frozenDrift(rest / 2));
         s.push_back(kick(tau / 2, stiff));
         s.push_back(drift(tau / 2));
@@ -91,7 +96,7 @@ Schedule artificialSchedule(const FlavorParameters& p) {
         const double edge = p.stiffFriction ? tau / 2 : delta / 2;
         if (friction)
             s.push_back(thermostat(edge));
-        softKick(delta / 2);
+        softKick(delta / 2, false);
         s.push_back(frozenDrift(rest / 2));
         if (p.exactFastFlow) {
             s.push_back(harmonicFlow(tau));
@@ -101,7 +106,7 @@ Schedule artificialSchedule(const FlavorParameters& p) {
             s.push_back(kick(tau / 2, stiff));
         }
         s.push_back(frozenDrift(rest / 2));
-        softKick(delta / 2);
+        softKick(delta / 2, true);
         if (friction)
             s.push_back(thermostat(edge));
     }
@@ -196,17 +201,26 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
     return simplifySchedule(s);
 }
 
-StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool oneFlowPerPass) {
+bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
+    return kind == SubFlow::Kick || kind == SubFlow::Thermostat;
+}
+
+StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool constrained) {
     StepPlan plan;
-    bool driftedInPass = false;
+    bool driftedInPass = false, onlyVelocityFlowsInPass = false;
     for (const SubFlow& flow : schedule) {
         const bool previousWasStiff = !plan.passes.empty() && isModeFlow(plan.passes.back().flows.back().kind);
-        bool newPass = plan.passes.empty() || oneFlowPerPass || isModeFlow(flow.kind) || previousWasStiff ||
-                       (flow.kind == SubFlow::Kick && driftedInPass);
+        // With constraints only kicks and thermostats share a pass: one velocity projection after all of them is
+        // the same as one after each (the projection is linear at fixed positions).
+        const bool joinsUnderConstraints = isVelocityFlow(flow.kind) && onlyVelocityFlowsInPass;
+        bool newPass = plan.passes.empty() || (constrained && !joinsUnderConstraints) || isModeFlow(flow.kind) ||
+                       previousWasStiff || (flow.kind == SubFlow::Kick && driftedInPass);
         if (newPass) {
             plan.passes.emplace_back();
             driftedInPass = false;
+            onlyVelocityFlowsInPass = true;
         }
+        onlyVelocityFlowsInPass = onlyVelocityFlowsInPass && isVelocityFlow(flow.kind);
         int slot = -1;
         if (flow.kind == SubFlow::Kick || flow.kind == SubFlow::FrozenKick || flow.kind == SubFlow::FilteredStiffFlow ||
             flow.kind == SubFlow::FilteredKick) {

@@ -143,11 +143,15 @@ struct StepPlan {
     std::vector<int> slotGroups;
 };
 
+/** Whether a sub-flow changes only velocities, particle by particle (a kick or a thermostat). */
+OPENMM_EXPORT_FLAVORS bool isVelocityFlow(SubFlow::Kind kind);
+
 /**
  * Splits a schedule into passes.  A pass ends before a kick that follows a drift (its forces need the new
- * positions).  With constraints, every sub-flow is its own pass so constraints can be applied after it.
+ * positions).  With constraints (constrained = true) a pass is a single sub-flow or a run of kicks and thermostats,
+ * so that constraints can be applied after it.
  */
-OPENMM_EXPORT_FLAVORS StepPlan compileStepPlan(const Schedule& schedule, bool oneFlowPerPass);
+OPENMM_EXPORT_FLAVORS StepPlan compileStepPlan(const Schedule& schedule, bool constrained);
 
 } // namespace FlavorPlugin
 

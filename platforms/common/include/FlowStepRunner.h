@@ -139,7 +139,8 @@ private:
     /** Points a Filtered kick's response task at the velocity processing of pass passIndex. */
     void setProcessing(ForceResponseTask& task, size_t passIndex, bool closing);
     /** Runs a FrozenDrift or FrozenKick pass. */
-    void runFrozenFlow(OpenMM::ContextImpl& context, const PreparedFlow& flow, double constraintTolerance);
+    void runFrozenFlow(OpenMM::ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                       double constraintTolerance);
 
     std::unique_ptr<ParallelLoop> loop;
     int numParticles;
@@ -158,8 +159,13 @@ private:
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.
     std::vector<bool> kickFusedIntoNext;
-    // For each pass, whether the next one is a kick, whose velocity projection then covers this pass's velocities too.
+    // For each pass, whether the next one is a kick or thermostat, whose velocity projection then covers this pass's
+    // velocities too.
     std::vector<bool> kickProjectsNext;
+    // For each FrozenDrift or FrozenKick pass, whether a later pass of the step fixes the velocities of the particles
+    // outside the frozen clusters anyway (a kick or thermostat projects them, a drift's position constraint absorbs
+    // their normal part and sets them to the chord), so the frozen pass leaves them unprojected.
+    std::vector<bool> otherVelocitiesFixedLater;
     std::shared_ptr<const StiffModes> stiffModes;
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
     std::unique_ptr<FrozenFlowTask> frozenFlowTask;

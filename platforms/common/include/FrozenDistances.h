@@ -113,13 +113,21 @@ public:
     int getNumFrozen() const { return numFrozen; }
     /** The connected components of the constraint graph that hold a frozen distance (solved by the cluster solver). */
     int getNumClusters() const { return (int)particleStart.size() - 1; }
-    /** The frozen drift over h, cluster by cluster through loop; throws if the constraints cannot be held. */
+    /**
+     * The frozen drift over h, cluster by cluster through loop; throws if the constraints cannot be held.
+     * projectOthers: whether the velocities of the clusters without frozen distances end projected onto their
+     * constraints; false leaves their drift's chord velocities, for a caller whose next flows project them anyway.
+     */
     void drift(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
-               const std::vector<double>& inverseMasses, double h, double tolerance, ParallelLoop& loop);
-    /** The frozen kick v += h P M^-1 F, cluster by cluster through loop; throws if the projection does not converge. */
+               const std::vector<double>& inverseMasses, double h, double tolerance, bool projectOthers,
+               ParallelLoop& loop);
+    /**
+     * The frozen kick v += h P M^-1 F, cluster by cluster through loop; throws if the projection does not converge.
+     * projectOthers: as for drift(); false leaves the kick of the clusters without frozen distances unprojected.
+     */
     void kick(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
               const std::vector<OpenMM::Vec3>& forces, const std::vector<double>& inverseMasses, double h,
-              double tolerance, ParallelLoop& loop);
+              double tolerance, bool projectOthers, ParallelLoop& loop);
     /** Runs the current drift or kick on items [begin, end): the clusters, then the chunks of the other clusters. */
     void apply(int begin, int end) const override;
     int minItemsPerThread() const override { return minItems; }
@@ -140,7 +148,7 @@ private:
     static constexpr double MomentumConditioning = 0.02;
     void run(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
              const std::vector<OpenMM::Vec3>* forces, const std::vector<double>& inverseMasses, double h,
-             double tolerance, bool kicking, ParallelLoop& loop);
+             double tolerance, bool kicking, bool projectOthers, ParallelLoop& loop);
     /** The drift or kick of a chunk of clusters without frozen distances, by the platform's constraint algorithms. */
     void moveOtherChunk(const OtherChunk& chunk) const;
     void driftCluster(int k) const;
@@ -165,6 +173,8 @@ private:
                              double factor = 1.0) const;
     /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
     void factorize(int k) const;
+    /** Whether cluster k's last factorization was at exactly the current positions. */
+    bool factorizedHere(int k) const;
     /**
      * Assembles into solver B of cluster k's constraints [constraintStart[k], last) with the first numCouplings of
      * its couplings, at positions q with inverse masses w, stores their unit directions and factorizes it.
@@ -203,6 +213,8 @@ private:
     mutable std::vector<OpenMM::Vec3> directions, currentDirections, previousPositions, startPositions, startVelocities,
         scratch, normalVelocities;
     mutable std::vector<char> factorized;
+    // The positions of each cluster's particles where it was last factorized: a drift that starts there keeps B.
+    mutable std::vector<OpenMM::Vec3> factorizedPositions;
     mutable std::vector<char> failed;
     /** Clusters without a frozen distance: their particles without constraints, those with, and their constraints. */
     struct OtherChunk {
@@ -221,7 +233,7 @@ private:
     const OpenMM::Vec3* forces;
     const double* inverseMasses;
     double h, tolerance;
-    bool kicking;
+    bool kicking, projectOthers;
 };
 
 } // namespace FlavorPlugin

@@ -225,7 +225,16 @@ void FlowStepRunner::prepare() {
     kickProjectsNext.assign(plan.passes.size(), false);
     for (size_t p = 0; p + 1 < plan.passes.size(); ++p) {
         const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
-        kickProjectsNext[p] = next == SubFlow::Kick || next == SubFlow::FilteredKick;
+        kickProjectsNext[p] = isVelocityFlow(next) || next == SubFlow::FilteredKick;
+    }
+    auto particlePass = [&](size_t p) { return !isModeFlow(plan.passes[p].flows[0].kind); };
+    otherVelocitiesFixedLater.assign(plan.passes.size(), false);
+    for (size_t after = plan.passes.size(); after > 1; --after) {
+        const size_t p = after - 2;
+        const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
+        otherVelocitiesFixedLater[p] =
+            particlePass(p + 1) ||
+            ((next == SubFlow::FrozenDrift || next == SubFlow::FrozenKick) && otherVelocitiesFixedLater[p + 1]);
     }
     // With constraints a kick is followed by a velocity constraint, so it stays a pass of its own.
     kickFusedIntoNext.assign(plan.passes.size(), false);
@@ -295,7 +304,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
             continue;
         case SubFlow::FrozenDrift:
         case SubFlow::FrozenKick:
-            runFrozenFlow(context, flows[0], constraintTolerance);
+            runFrozenFlow(context, p, flows[0], constraintTolerance);
             continue;
         case SubFlow::Kick:
         case SubFlow::Drift:
@@ -331,9 +340,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         if (drifts)
             invalidateForces();
         if (hasConstraints) {
-            // With constraints every pass holds one sub-flow (compileStepPlan).
-            if (flows[0].kind == SubFlow::Kick)
-                kickConstraintShares(context, flows[0].h);
+            // With constraints a pass is one sub-flow or a run of kicks and thermostats (compileStepPlan).
+            for (const PreparedFlow& flow : flows)
+                if (flow.kind == SubFlow::Kick)
+                    kickConstraintShares(context, flow.h);
             if (drifts) {
                 constrainPositions(context, constraintTolerance, 1.0 / driftTime);
                 const double inverseTime = 1.0 / driftTime;
@@ -497,18 +507,20 @@ void FlowStepRunner::kickConstraintShares(ContextImpl& context, double h) {
         velocities[p] += shareForces[p] * (h * inverseMasses[p]);
 }
 
-void FlowStepRunner::runFrozenFlow(ContextImpl& context, const PreparedFlow& flow, double constraintTolerance) {
+void FlowStepRunner::runFrozenFlow(ContextImpl& context, size_t passIndex, const PreparedFlow& flow,
+                                   double constraintTolerance) {
     if (frozenDistances) {
         // The System's constraints are part of the frozen distances' solver.
         ReferencePlatform::PlatformData& data = platformData(context);
+        const bool projectOthers = !otherVelocitiesFixedLater[passIndex];
         if (flow.kind == SubFlow::FrozenDrift) {
             frozenDistances->drift(*data.positions, *data.velocities, inverseMasses, flow.h, constraintTolerance,
-                                   *loop);
+                                   projectOthers, *loop);
             invalidateForces();
         } else {
             ensureForces(context, flow.slot);
             frozenDistances->kick(*data.positions, *data.velocities, slots[flow.slot].forces, inverseMasses, flow.h,
-                                  constraintTolerance, *loop);
+                                  constraintTolerance, projectOthers, *loop);
         }
         return;
     }

@@ -328,6 +328,7 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     normalVelocities.resize(n);
     failed.assign(numClusters, 0);
     factorized.assign(numClusters, 0);
+    factorizedPositions.resize(n);
     // Which clusters hold normal momenta: those whose B is well conditioned where the set was chosen.
     holdsMomenta.assign(numClusters, 1);
     for (int k = 0; k < numClusters; ++k) {
@@ -340,17 +341,17 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
 FrozenDistances::~FrozenDistances() = default;
 
 void FrozenDistances::drift(vector<Vec3>& q, vector<Vec3>& v, const vector<double>& w, double step, double tol,
-                            ParallelLoop& loop) {
-    run(q, v, nullptr, w, step, tol, false, loop);
+                            bool projectOthers, ParallelLoop& loop) {
+    run(q, v, nullptr, w, step, tol, false, projectOthers, loop);
 }
 
 void FrozenDistances::kick(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>& f, const vector<double>& w,
-                           double step, double tol, ParallelLoop& loop) {
-    run(q, v, &f, w, step, tol, true, loop);
+                           double step, double tol, bool projectOthers, ParallelLoop& loop) {
+    run(q, v, &f, w, step, tol, true, projectOthers, loop);
 }
 
 void FrozenDistances::run(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>* f, const vector<double>& w, double step,
-                          double tol, bool kick, ParallelLoop& loop) {
+                          double tol, bool kick, bool projectVelocitiesOfOthers, ParallelLoop& loop) {
     positionVector = &q;
     velocityVector = &v;
     positions = q.data();
@@ -360,6 +361,7 @@ void FrozenDistances::run(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>* 
     h = step;
     tolerance = tol;
     kicking = kick;
+    projectOthers = projectVelocitiesOfOthers;
     loop.run(*this, getNumClusters() + (int)otherChunks.size());
     checkConvergence();
 }
@@ -395,7 +397,7 @@ void FrozenDistances::moveOtherChunk(const OtherChunk& chunk) const {
             for (int i : *list)
                 v[i] += forces[i] * (h * inverseMasses[i]);
         // v satisfied the constraints before the kick, so projecting v projects the kick.
-        if (chunk.constraints)
+        if (chunk.constraints && projectOthers)
             chunk.constraints->applyToVelocities(q, v, systemInverseMasses, tolerance);
         return;
     }
@@ -411,7 +413,8 @@ void FrozenDistances::moveOtherChunk(const OtherChunk& chunk) const {
     const double inverseStep = 1.0 / h;
     for (int i : chunk.constrainedParticles)
         v[i] = (q[i] - previousPositions[i]) * inverseStep;
-    chunk.constraints->applyToVelocities(q, v, systemInverseMasses, tolerance);
+    if (projectOthers)
+        chunk.constraints->applyToVelocities(q, v, systemInverseMasses, tolerance);
 }
 
 void FrozenDistances::driftCluster(int k) const {
@@ -445,7 +448,8 @@ void FrozenDistances::driftCluster(int k) const {
 
 bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     const double step = h / substeps;
-    factorize(k);
+    if (!factorizedHere(k))
+        factorize(k);
     storeNormalMomenta(k);
     const double startEnergy = normalKineticEnergy(k);
     if (!constrainVelocities(k, velocities, MaxIterations))
@@ -583,6 +587,18 @@ void FrozenDistances::factorize(int k) const {
     factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k], positions,
                inverseMasses);
     factorized[k] = 1;
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
+        factorizedPositions[particles[n]] = positions[particles[n]];
+}
+
+bool FrozenDistances::factorizedHere(int k) const {
+    // Kicks and thermostats between two drifts leave the positions, and so B and its directions, as they were.
+    if (!factorized[k])
+        return false;
+    for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
+        if (!(factorizedPositions[particles[n]] == positions[particles[n]]))
+            return false;
+    return true;
 }
 
 void FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,

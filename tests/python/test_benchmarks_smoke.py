@@ -132,3 +132,26 @@ def test_drude_step_instructions_sorts_functions_and_redraws_its_chart(tmp_path)
                             env=dict(os.environ, MPLBACKEND="Agg"))
     assert result.returncode == 0, result.stderr[-2000:]
     assert (tmp_path / "drude_step_instructions.png").stat().st_size > 0
+
+
+def test_frozen_energy_drift_quick_runs_every_peer_on_both_molecules_and_replots(tmp_path):
+    result, data = run_quick("frozen_energy_drift.py", tmp_path,
+                             ("frozen_energy_drift.json", "frozen_energy_drift.png"))
+    assert [m["name"] for m in data["molecules"]] == ["villin", "POPC"]
+    assert [m["atoms"] for m in data["molecules"]] == [582, 134]
+    for molecule in data["molecules"]:
+        assert [r["label"] for r in molecule["runs"]] == ["Verlet 0.5 fs", "FLAVOR δ=2 fs τ=1 fs",
+                                                          "FLAVOR δ=2.5 fs τ=1 fs", "FLAVOR δ=3 fs τ=1 fs"]
+        for r in molecule["runs"]:
+            assert len(r["time_ps"]) == len(r["total_energy"]) == 3
+            assert r["gain_per_atom_by_residue"]
+    replot = conftest.run_quick(os.path.join(BENCHMARKS, "frozen_energy_drift.py"), tmp_path / "again",
+                                extra=("--replot", str(tmp_path / "frozen_energy_drift.json")))
+    assert replot.returncode == 0, replot.stderr[-2000:]
+    assert (tmp_path / "again" / "frozen_energy_drift.png").stat().st_size > 0
+
+
+def test_frozen_energy_drift_rejects_a_mesostep_not_above_the_microstep(tmp_path):
+    result = conftest.run_quick(os.path.join(BENCHMARKS, "frozen_energy_drift.py"), tmp_path, extra=("--deltas", "1"))
+    assert result.returncode != 0
+    assert "--deltas: 1 fs is not allowed" in result.stderr

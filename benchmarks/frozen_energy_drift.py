@@ -1,0 +1,193 @@
+"""Energy drift of the artificial FLAVOR's frozen stage on real molecules, without a thermostat.
+
+A Langevin run hides an integrator that pumps energy into a few coordinates behind the thermostat (a warmer protein,
+wider angles); without one the pump shows as a drift of the total energy. Two molecules in vacuum (NoCutoff, X-H
+bonds constrained, bonds and angles stiff, CPU platform with 1 thread), each started from one state equilibrated by
+LangevinMiddleIntegrator at 0.5 fs and 300 K, then integrated without friction by
+
+  - VerletIntegrator at 0.5 fs (the control: a symplectic integrator with a small step, no drift), and
+  - FlavorIntegrator, ArtificialProjected averaging, Verlet scheme, tau = 1 fs, at each delta of --deltas:
+
+  villin headpiece (the protein of examples/villin, its water removed; 582 atoms, rings: 3 Phe, 1 Trp, 1 His, 1 Pro),
+  whose frozen set is nearly dependent at the rings (the cluster gives back scaled rates), and
+  one POPC lipid (amber14 lipid17; 134 atoms, no rings), whose frozen set is well conditioned (held momenta).
+
+Reported per run: the drift of the total energy (slope of a straight-line fit, kJ/mol/ps) with the standard deviation
+of the residuals, the kinetic energy at the start and at the end, and, per residue, the mean kinetic energy gained
+per atom (last quarter of the run against the first), which says where the energy goes.
+
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/frozen_energy_drift.py [--quick] [--out DIR]
+        [--ps PS] [--deltas FS ...] [--replot JSON]
+
+Outputs: DIR/frozen_energy_drift.json and DIR/frozen_energy_drift.png (total energy against time, one panel per
+molecule); progress on stderr.
+"""
+import os
+import sys
+
+import numpy as np
+import openmm as mm
+import openmm.app as app
+import openmm.unit as unit
+
+import openmmflavors
+from flavorbench import reporting
+from flavorbench.progress import Progress
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+VILLIN_PDB = os.path.join(HERE, "..", "examples", "villin", "villin.pdb")
+POPC_PDB = os.path.join(os.path.dirname(app.__file__), "data", "POPC.pdb")
+TAU_FS = 1.0
+SAMPLE_PS = 0.02
+TOLERANCE = 1e-8
+BOND_GROUP, ANGLE_GROUP = 1, 2
+
+
+def molecule(name):
+    """(System, topology, positions) of a molecule in vacuum, bonds in group 1, angles in group 2, the rest in 0."""
+    if name == "villin":
+        pdb = app.PDBFile(VILLIN_PDB)
+        forcefield = app.ForceField("amber14-all.xml", "amber14/tip3p.xml")
+        modeller = app.Modeller(pdb.topology, pdb.positions)
+        modeller.deleteWater()
+        modeller.delete([r for r in modeller.topology.residues() if r.name in ("CL", "Cl", "NA", "Na")])
+    else:
+        pdb = app.PDBFile(POPC_PDB)
+        forcefield = app.ForceField("amber14-all.xml", "amber14/lipid17.xml")
+        modeller = app.Modeller(pdb.topology, pdb.positions)
+        first = next(modeller.topology.residues())
+        modeller.delete([r for r in modeller.topology.residues() if r != first])
+    modeller.topology.setPeriodicBoxVectors(None)
+    system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.NoCutoff, constraints=app.HBonds,
+                                     removeCMMotion=False)
+    for force in system.getForces():
+        force.setForceGroup(BOND_GROUP if isinstance(force, mm.HarmonicBondForce) else
+                            ANGLE_GROUP if isinstance(force, mm.HarmonicAngleForce) else 0)
+    return system, modeller.topology, modeller.positions
+
+
+def context(system, integrator):
+    return mm.Context(system, integrator, mm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
+
+
+def equilibrated(system, positions, ps):
+    """Minimized, then ps of LangevinMiddle 0.5 fs at 300 K (fixed seeds): positions and velocities."""
+    integrator = mm.LangevinMiddleIntegrator(300, 5, 0.0005)
+    integrator.setRandomNumberSeed(5)
+    c = context(system, integrator)
+    c.setPositions(positions)
+    mm.LocalEnergyMinimizer.minimize(c, 10, 1000)
+    c.setVelocitiesToTemperature(300, 1)
+    integrator.step(int(round(ps / 0.0005)))
+    state = c.getState(getPositions=True, getVelocities=True)
+    return state.getPositions(asNumpy=True), state.getVelocities(asNumpy=True)
+
+
+def integrators(deltas):
+    """(label, step in fs, factory) of the peers."""
+    peers = [("Verlet 0.5 fs", 0.5, lambda: mm.VerletIntegrator(0.0005))]
+    for delta in deltas:
+        def factory(delta=delta):
+            integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, TAU_FS * unit.femtosecond,
+                                                        {BOND_GROUP, ANGLE_GROUP})
+            integrator.setAveraging(openmmflavors.FlavorIntegrator.ArtificialProjected)
+            return integrator
+        peers.append(("FLAVOR δ=%g fs τ=%g fs" % (delta, TAU_FS), delta, factory))
+    return peers
+
+
+def run(system, topology, start, label, step_fs, factory, ps):
+    """Total and kinetic energy every SAMPLE_PS, and the per-residue kinetic energy gained per atom."""
+    integrator = factory()
+    integrator.setConstraintTolerance(TOLERANCE)
+    c = context(system, integrator)
+    c.setPositions(start[0])
+    c.setVelocities(start[1])
+    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
+    every = max(1, int(round(SAMPLE_PS / (step_fs * 1e-3))))
+    samples = int(round(ps / SAMPLE_PS))
+    times, total, kinetic, per_atom = [], [], [], []
+    progress = Progress(label, ps, fmt=".2f")
+    try:
+        for n in range(samples):
+            integrator.step(every)
+            state = c.getState(getEnergy=True, getVelocities=True)
+            v = state.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
+            times.append(state.getTime().value_in_unit(unit.picosecond))
+            kinetic.append(state.getKineticEnergy().value_in_unit(unit.kilojoule_per_mole))
+            total.append(kinetic[-1] + state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole))
+            per_atom.append(0.5 * masses * np.sum(v * v, axis=1))
+            progress.update((n + 1) * SAMPLE_PS)
+    except mm.OpenMMException as error:
+        return {"label": label, "failed": str(error).splitlines()[0]}
+    times, total = np.array(times), np.array(total)
+    fit = np.polyfit(times, total, 1)
+    quarter = max(1, len(per_atom) // 4)
+    gain = np.mean(per_atom[-quarter:], axis=0) - np.mean(per_atom[:quarter], axis=0)
+    residues = {}
+    for atom in topology.atoms():
+        key = atom.residue.name + atom.residue.id
+        residues.setdefault(key, []).append(gain[atom.index])
+    by_residue = sorted(((key, float(np.mean(v))) for key, v in residues.items()), key=lambda kv: -kv[1])
+    return {"label": label, "step_fs": step_fs, "time_ps": times.tolist(), "total_energy": total.tolist(),
+            "drift_kj_mol_ps": float(fit[0]), "residual_sd": float(np.std(total - np.polyval(fit, times))),
+            "kinetic_start": float(np.mean(kinetic[:quarter])), "kinetic_end": float(np.mean(kinetic[-quarter:])),
+            "gain_per_atom_by_residue": by_residue[:6]}
+
+
+def plot(data, path):
+    plt = reporting.pyplot()
+    fig, axes = plt.subplots(1, len(data["molecules"]), figsize=(6 * len(data["molecules"]), 4.6), squeeze=False)
+    for ax, entry in zip(axes[0], data["molecules"]):
+        for r in entry["runs"]:
+            if "failed" in r:
+                ax.plot([], [], label="%s: failed" % r["label"])
+                continue
+            e = np.array(r["total_energy"])
+            ax.plot(r["time_ps"], e - e[0], label="%s (%+.1f kJ/mol/ps)" % (r["label"], r["drift_kj_mol_ps"]))
+        ax.set_xlabel("time (ps)")
+        ax.set_ylabel("total energy − its first sample (kJ/mol)")
+        ax.set_title("%s in vacuum, %d atoms" % (entry["name"], entry["atoms"]))
+        ax.legend(fontsize=8, loc="upper left")
+        ax.grid(alpha=0.3)
+    fig.suptitle("Energy without a thermostat: artificial FLAVOR (bonds and angles frozen) against Verlet 0.5 fs")
+    fig.tight_layout()
+    reporting.save_figure(fig, path, dpi=110)
+
+
+def main():
+    p = reporting.parser(__doc__, "frozen_energy_drift", quick_help="a few tens of femtoseconds per run (smoke test)")
+    p.add_argument("--ps", type=float, default=4.0, help="ps per run without a thermostat")
+    p.add_argument("--deltas", type=float, nargs="+", default=[2.0, 2.5, 3.0], help="FLAVOR mesosteps in fs")
+    p.add_argument("--replot", help="only redraw the chart of an earlier run's JSON into --out")
+    args = p.parse_args()
+    if args.replot:
+        reporting.replot(args.replot, args.out, "frozen_energy_drift", plot)
+        return
+    for delta in args.deltas:
+        if not TAU_FS < delta <= 4.0:
+            sys.exit("--deltas: %g fs is not allowed; each mesostep must be above tau = %g fs and at most 4 fs"
+                     % (delta, TAU_FS))
+    ps = 0.06 if args.quick else args.ps
+    equilibration = 0.01 if args.quick else 5.0
+    data = {"ps": ps, "tau_fs": TAU_FS, "constraint_tolerance": TOLERANCE, "molecules": []}
+    for name in ("villin", "POPC"):
+        system, topology, positions = molecule(name)
+        print("%s: %d atoms, equilibrating %g ps" % (name, system.getNumParticles(), equilibration),
+              file=sys.stderr, flush=True)
+        start = equilibrated(system, positions, equilibration)
+        runs = [run(system, topology, start, label, step, factory, ps)
+                for label, step, factory in integrators(args.deltas)]
+        data["molecules"].append({"name": name, "atoms": system.getNumParticles(), "runs": runs})
+        reporting.table("%s in vacuum, %g ps without a thermostat" % (name, ps),
+                        [("integrator", 26, "s"), ("drift (kJ/mol/ps)", 18, ".1f"), ("residual sd", 12, ".1f"),
+                         ("KE start", 9, ".0f"), ("KE end", 9, ".0f"), ("most heated residues (kJ/mol per atom)", 0, "s")],
+                        [[r["label"], r.get("drift_kj_mol_ps", float("nan")), r.get("residual_sd", float("nan")),
+                          r.get("kinetic_start", float("nan")), r.get("kinetic_end", float("nan")),
+                          r.get("failed") or ", ".join("%s %+.1f" % kv for kv in r["gain_per_atom_by_residue"][:3])]
+                         for r in runs])
+    reporting.save_outputs(args.out, "frozen_energy_drift", data, lambda path: plot(data, path))
+
+
+if __name__ == "__main__":
+    main()

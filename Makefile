@@ -46,6 +46,7 @@ bench: build
 	$(PYTHON_ENV) $(PYTHON) benchmarks/stability.py
 	$(PYTHON_ENV) $(PYTHON) benchmarks/sim_work_precision.py
 	$(PYTHON_ENV) $(PYTHON) benchmarks/sim_step_cost.py
+	$(PYTHON_ENV) $(PYTHON) benchmarks/frozen_energy_drift.py
 
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)

@@ -145,6 +145,9 @@ def test_frozen_energy_drift_quick_runs_every_peer_on_both_molecules_and_replots
         for r in molecule["runs"]:
             assert len(r["time_ps"]) == len(r["total_energy"]) == 3
             assert r["gain_per_atom_by_residue"]
+            gains = [e for _, e in r["stiff_terms_gaining_most"]]
+            assert gains == sorted(gains, reverse=True) and len(gains) == 6
+            assert isinstance(r["stiff_terms_gain"], float)
     replot = conftest.run_quick(os.path.join(BENCHMARKS, "frozen_energy_drift.py"), tmp_path / "again",
                                 extra=("--replot", str(tmp_path / "frozen_energy_drift.json")))
     assert replot.returncode == 0, replot.stderr[-2000:]

@@ -598,8 +598,10 @@ System* bondedMolecule() {
 }
 
 vector<Vec3> moleculePositions() {
-    return {Vec3(0, 0, 0), Vec3(0.101, 0.002, 0), Vec3(-0.0245, 0.0968, 0.003), Vec3(0.3, 0.01, 0),
-            Vec3(0.45, 0.01, 0)};
+    vector<Vec3> q = bentMoleculePositions();
+    q.push_back(Vec3(0.3, 0.01, 0));
+    q.push_back(Vec3(0.45, 0.01, 0));
+    return q;
 }
 
 vector<Vec3> moleculeVelocities() {

@@ -351,7 +351,7 @@ TEST_P(FlavorFrozenMomenta, AMoleculeAtRestPushedAlongItsFrozenBondsKeepsZeroAng
         integrator.setAveraging(FlavorIntegrator::ArtificialProjected);
         integrator.setConstraintTolerance(tolerance);
         Context context(system, integrator, platform(), properties());
-        context.setPositions({Vec3(0, 0, 0), Vec3(0.101, 0.002, 0), Vec3(-0.0245, 0.0968, 0.003)});
+        context.setPositions(bentMoleculePositions());
         ASSERT_NO_THROW(integrator.step(20)) << "tolerance " << tolerance;
         const State state = context.getState(State::Positions | State::Velocities);
         Vec3 angularMomentum;

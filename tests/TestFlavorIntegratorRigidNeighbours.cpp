@@ -50,6 +50,24 @@ vector<Vec3> neighbourVelocities() {
             Vec3(-0.6, 0.1, 0.9)};
 }
 
+/** The frozen bent molecule (particles 0-2) with the neighbours after it. */
+void addMoleculeAndNeighbours(System& system) {
+    for (double mass : {15.999, 1.008, 1.008})
+        system.addParticle(mass);
+    addStiffBentMolecules(system, 0);
+    addNeighbours(system, FirstNeighbour);
+}
+
+/** The molecule's and the neighbours' start, the neighbours' velocities times neighbourSpeed. */
+void moleculeAndNeighboursStart(vector<Vec3>& q, vector<Vec3>& v, double neighbourSpeed) {
+    q = bentMoleculePositions();
+    v = {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0)};
+    for (const Vec3& x : neighbourPositions())
+        q.push_back(x);
+    for (const Vec3& x : neighbourVelocities())
+        v.push_back(x * neighbourSpeed);
+}
+
 /** v += h F / m, projected; x moved by RATTLE drifts over (delta - tau)/2, tau, (delta - tau)/2; v += h F / m. */
 CustomIntegrator* constrainedVerletWithThreeDrifts(double delta, double tau, double tolerance) {
     CustomIntegrator* integrator = new CustomIntegrator(delta);
@@ -77,19 +95,12 @@ TEST_P(FlavorRigidNeighbours, MoleculesWithOnlyTheirOwnConstraintsMoveAsInOpenMM
     const double delta = 0.004, tau = 0.001, tolerance = 1e-10;
     const int steps = 25;
     System full;
-    for (double mass : {15.999, 1.008, 1.008})
-        full.addParticle(mass);
-    addStiffBentMolecules(full, 0);
-    addNeighbours(full, FirstNeighbour);
+    addMoleculeAndNeighbours(full);
     System alone;
     addNeighbours(alone, 0);
 
-    vector<Vec3> q = {Vec3(0, 0, 0), Vec3(0.101, 0.002, 0), Vec3(-0.0245, 0.0968, 0.003)};
-    vector<Vec3> v = {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0)};
-    for (const Vec3& x : neighbourPositions())
-        q.push_back(x);
-    for (const Vec3& x : neighbourVelocities())
-        v.push_back(x);
+    vector<Vec3> q, v;
+    moleculeAndNeighboursStart(q, v, 1.0);
     FlavorIntegrator flavor(delta, tau, StiffMask);
     flavor.setAveraging(FlavorIntegrator::ArtificialProjected);
     flavor.setConstraintTolerance(tolerance);
@@ -142,16 +153,9 @@ TEST_P(FlavorRigidNeighbours, AStepThatEndsWithAFrozenStageEndsWithTheNeighbours
         for (FlavorIntegrator::Averaging averaging :
              {FlavorIntegrator::Artificial, FlavorIntegrator::ArtificialProjected}) {
             System system;
-            for (double mass : {15.999, 1.008, 1.008})
-                system.addParticle(mass);
-            addStiffBentMolecules(system, 0);
-            addNeighbours(system, FirstNeighbour);
-            vector<Vec3> q = {Vec3(0, 0, 0), Vec3(0.101, 0.002, 0), Vec3(-0.0245, 0.0968, 0.003)};
-            vector<Vec3> v = {Vec3(0.3, -0.2, 0.1), Vec3(2.0, 1.0, -1.5), Vec3(-1.0, 0.5, 2.0)};
-            for (const Vec3& x : neighbourPositions())
-                q.push_back(x);
-            for (const Vec3& x : neighbourVelocities())
-                v.push_back(x * 10.0);
+            addMoleculeAndNeighbours(system);
+            vector<Vec3> q, v;
+            moleculeAndNeighboursStart(q, v, 10.0);
             FlavorIntegrator flavor(delta, tau, StiffMask);
             flavor.setScheme(scheme);
             flavor.setAveraging(averaging);

@@ -43,6 +43,11 @@ inline std::vector<OpenMM::Vec3> fpuPositions(const std::vector<double>& x0, con
  * with stiff forces only: bonds from the first particle to the two others of 0.1 nm, 4e5 kJ/mol/nm^2, and the angle
  * at the first of 1.82 rad, 400 kJ/mol/rad^2, all in StiffGroup.
  */
+/** A start of one bent molecule of addStiffBentMolecules, its first particle at centre (bonds and angle near rest). */
+inline std::vector<OpenMM::Vec3> bentMoleculePositions(OpenMM::Vec3 centre = OpenMM::Vec3()) {
+    return {centre, centre + OpenMM::Vec3(0.101, 0.002, 0), centre + OpenMM::Vec3(-0.0245, 0.0968, 0.003)};
+}
+
 inline void addStiffBentMolecules(OpenMM::System& system, int first, int count = 1) {
     OpenMM::HarmonicBondForce* bonds = new OpenMM::HarmonicBondForce();
     OpenMM::HarmonicAngleForce* angles = new OpenMM::HarmonicAngleForce();

@@ -73,10 +73,10 @@ Trajectory runFrozenStage(const std::string& platformName, int threads) {
     std::vector<Vec3> positions, velocities;
     for (int m = 0; m < molecules + waters; ++m) {
         const Vec3 centre(0.5 * (m % 10), 0.5 * ((m / 10) % 10), 0.5 * (m / 100));
-        const bool water = m >= molecules;
-        positions.push_back(centre);
-        positions.push_back(centre + (water ? Vec3(0.09572, 0, 0) : Vec3(0.101, 0.002, 0)));
-        positions.push_back(centre + (water ? Vec3(-0.0240, 0.0927, 0) : Vec3(-0.0245, 0.0968, 0.003)));
+        const std::vector<Vec3> molecule =
+            m >= molecules ? std::vector<Vec3>{centre, centre + Vec3(0.09572, 0, 0), centre + Vec3(-0.0240, 0.0927, 0)}
+                           : bentMoleculePositions(centre);
+        positions.insert(positions.end(), molecule.begin(), molecule.end());
         for (int k = 0; k < 3; ++k) {
             const int i = 3 * m + k;
             tether->addParticle(i, {centre[0], centre[1], centre[2]});

@@ -57,14 +57,15 @@ Schedule artificialSchedule(const FlavorParameters& p) {
     // two parts act at the same positions and commute; the plain kick goes on the side of the thermostat, so that
     // the two share one velocity projection (FlowStepRunner).
     auto softKick = [&](double h, bool closing) {
+        const double plainPart = h * (tau / delta), frozenPart = h - plainPart;
         if (!projected) {
             s.push_back(kick(h, soft));
         } else if (closing) {
-            s.push_back(frozenKick(h - h * (tau / delta), soft));
-            s.push_back(kick(h * (tau / delta), soft));
+            s.push_back(frozenKick(frozenPart, soft));
+            s.push_back(kick(plainPart, soft));
         } else {
-            s.push_back(kick(h * (tau / delta), soft));
-            s.push_back(frozenKick(h - h * (tau / delta), soft));
+            s.push_back(kick(plainPart, soft));
+            s.push_back(frozenKick(frozenPart, soft));
         }
     };
     if (p.scheme == FlavorIntegrator::SymplecticEuler) {

@@ -175,18 +175,21 @@ def run(system, topology, start, label, step_fs, factory, ps):
 
 def plot(data, path):
     plt = reporting.pyplot()
-    fig, axes = plt.subplots(1, len(data["molecules"]), figsize=(6 * len(data["molecules"]), 4.6), squeeze=False)
+    fig, axes = plt.subplots(1, len(data["molecules"]), figsize=(6.5 * len(data["molecules"]), 5.4), squeeze=False)
     for ax, entry in zip(axes[0], data["molecules"]):
         for r in entry["runs"]:
+            label = r["label"].replace("δ=", "δ = ").replace(" fs τ=", " fs, τ = ")
             if "failed" in r:
-                ax.plot([], [], label="%s: failed" % r["label"])
+                ax.plot([], [], label="%s: failed" % label)
                 continue
             e = np.array(r["total_energy"])
-            ax.plot(r["time_ps"], e - e[0], label="%s (%+.1f kJ/mol/ps)" % (r["label"], r["drift_kj_mol_ps"]))
+            drift = round(r["drift_kj_mol_ps"], 1) + 0.0  # no "-0.0"
+            ax.plot(r["time_ps"], e - e[0], label="%s: drift %+.1f kJ/mol/ps" % (label, drift))
         ax.set_xlabel("time (ps)")
         ax.set_ylabel("total energy − its first sample (kJ/mol)")
         ax.set_title("%s in vacuum, %d atoms" % (entry["name"], entry["atoms"]))
-        ax.legend(fontsize=8, loc="upper left")
+        # Below the panel: the curves fill the plot area.
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
         ax.grid(alpha=0.3)
     fig.suptitle("Energy without a thermostat: artificial FLAVOR (bonds and angles frozen) against Verlet 0.5 fs")
     fig.tight_layout()

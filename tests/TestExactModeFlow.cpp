@@ -475,3 +475,28 @@ TEST(ExactModeFlow, CholeskyFactorReproducesCovariance) {
         EXPECT_EQ(g.lvv, f.lvv);
     });
 }
+
+TEST(ExactModeFlow, WarpedFrequencyGivesStrangTheExactStaticResponse) {
+    // Without friction the warped xi~ = omega~ h solves xi~ tan(xi~/2) = xi^2/2 (checked here with tan, not with the
+    // flow the function bisects on) and stays below pi for every xi; for small xi it is xi (1 - xi^2/24 + 11
+    // xi^4/5760).  With friction the Strang step at omega~ has the static response 1/omega^2 exactly.
+    const double h = 0.002;
+    for (double xi : {1e-3, 0.01, 0.1, 0.5, 1.0, 2.07, 2.59, M_PI, 5.0, 2 * M_PI, 10.0, 50.0}) {
+        const double omega = xi / h, warped = warpedFrequency(omega, 0.0, h) * h;
+        EXPECT_LT(warped, M_PI) << "xi = " << xi;
+        EXPECT_NEAR(1.0, warped * std::tan(0.5 * warped) / (0.5 * xi * xi), 1e-12) << "xi = " << xi;
+        if (xi <= 0.1) {
+            EXPECT_NEAR(xi * (1 - xi * xi / 24 + 11 * std::pow(xi, 4) / 5760), warped, std::pow(xi, 7) + 1e-14)
+                << "xi = " << xi;
+        }
+        for (double gamma : {20.0, 0.2 * omega, 3.0 * omega}) {
+            const double warpedOmega = warpedFrequency(omega, gamma, h);
+            const double response = strangStaticResponse(computeModeFlow(warpedOmega, gamma, h), h);
+            EXPECT_NEAR(1.0, response * omega * omega, 1e-10) << "xi = " << xi << ", gamma = " << gamma;
+        }
+    }
+    // The mode's own flow has Strang's bias (xi/2) cot(xi/2).
+    const double omega = 1036.0;
+    EXPECT_NEAR(std::tan(1.036) / 1.036,
+                1.0 / (strangStaticResponse(computeModeFlow(omega, 0.0, h), h) * omega * omega), 1e-12);
+}

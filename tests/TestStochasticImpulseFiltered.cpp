@@ -1,6 +1,7 @@
-// The Filtered splitting: a constant soft force gives every stiff mode its exact mean displacement (where Strang gives
-// (omega H/2) cot(omega H/2) of it), second order on a smooth problem, no resonance spike at omega H = 2 pi on the FPU
-// chain, and processed velocities (exact for a steadily changing force, forgotten when the state is set).
+// The splittings without the impulse bias, Filtered and Warped: a constant soft force gives every stiff mode its exact
+// mean displacement (where Strang gives (omega H/2) cot(omega H/2) of it), second order on a smooth problem, no
+// resonance spike at omega H = 2 pi on the FPU chain, processed velocities (exact for a steadily changing force,
+// forgotten when the state is set), and each one's stability threshold under a soft force that is stiff itself.
 
 #include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
@@ -23,6 +24,23 @@ INSTANTIATE_ON_ALL_PLATFORMS(ImpulseFiltered);
 namespace {
 
 constexpr double Pi = 3.14159265358979323846;
+
+const StochasticImpulseIntegrator::Splitting BiasFree[] = {StochasticImpulseIntegrator::Filtered,
+                                                           StochasticImpulseIntegrator::Warped};
+
+std::string nameOf(StochasticImpulseIntegrator::Splitting splitting) {
+    return splitting == StochasticImpulseIntegrator::Filtered ? "Filtered"
+           : splitting == StochasticImpulseIntegrator::Warped ? "Warped"
+                                                              : "Strang";
+}
+
+/** The warped xi~ of omega H = xi without friction: xi~ tan(xi~/2) = xi^2/2 (bisection on (0, pi)). */
+double warpedTurn(double xi) {
+    double lo = 0.0, hi = Pi;
+    for (int i = 0; i < 200; ++i)
+        (0.5 * (lo + hi) * std::tan(0.25 * (lo + hi)) < 0.5 * xi * xi ? lo : hi) = 0.5 * (lo + hi);
+    return 0.5 * (lo + hi);
+}
 
 /**
  * One particle of mass m on a stiff isotropic tether k |q|^2/2 (one stiff mode per direction, omega^2 = k/m, no zero
@@ -99,6 +117,24 @@ TEST_P(ImpulseFiltered, ConstantSoftForceGivesTheExactMeanDisplacement) {
                 EXPECT_LT(converged.second, 1e-9) << "Filtered with friction, omega H = " << xi;
             }
         }
+        {
+            // Warped: no pole and no resonance; the warped mode turns by less than pi per step at every xi.
+            StochasticImpulseIntegrator warped(0.0, 0.0, H, StiffMask);
+            warped.setSplitting(StochasticImpulseIntegrator::Warped);
+            const auto drift = driftFrom(p, warped, platform(), properties(), exact, exact, omega, 30);
+            EXPECT_LT(drift.first, 1e-10) << "Warped, no friction, omega H = " << xi;
+            EXPECT_LT(drift.second, 1e-10) << "Warped, no friction, omega H = " << xi;
+            // With friction omega/5 the warped mode decays as exp(-omega t/10) too.
+            StochasticImpulseIntegrator damped(0.0, 0.2 * omega, H, StiffMask);
+            damped.setSplitting(StochasticImpulseIntegrator::Warped);
+            const int steps = (int)std::ceil(280 / xi);
+            const auto converged = driftFrom(p, damped, platform(), properties(), Vec3(), exact, omega, steps);
+            EXPECT_LT(converged.first, 1e-9) << "Warped with friction, omega H = " << xi;
+            // Processed velocities where the warped mode turns by less than 0.9 pi (xi below about 6).
+            if (warpedTurn(xi) < 0.85 * Pi) {
+                EXPECT_LT(converged.second, 1e-9) << "Warped with friction, omega H = " << xi;
+            }
+        }
         if (std::abs(std::remainder(xi, Pi)) > 1e-12) {
             const double bias = 0.5 * xi / std::tan(0.5 * xi);
             StochasticImpulseIntegrator strang(0.0, 0.0, H, StiffMask);
@@ -134,7 +170,9 @@ TEST_P(ImpulseFiltered, DrudePairWithFrictionReachesTheSelfConsistentDisplacemen
     system.addForce(spring);
     system.addForce(push);
     const Vec3 exact = field * (mu / (mDrude * k));
-    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Warped,
+                           StochasticImpulseIntegrator::Strang}) {
+        SCOPED_TRACE(nameOf(splitting));
         StochasticImpulseIntegrator integrator(300.0, 5.0, 0.002, StiffMask);
         integrator.setSplitting(splitting);
         integrator.setStiffModeTemperature(0.0);
@@ -148,7 +186,7 @@ TEST_P(ImpulseFiltered, DrudePairWithFrictionReachesTheSelfConsistentDisplacemen
         const double ratio = r.dot(exact) / exact.dot(exact);
         const Vec3 off = r - exact * ratio;
         EXPECT_LT(std::sqrt(off.dot(off)), 1e-9 * std::sqrt(exact.dot(exact)));
-        if (splitting == StochasticImpulseIntegrator::Filtered)
+        if (splitting != StochasticImpulseIntegrator::Strang)
             EXPECT_NEAR(1.0, ratio, 1e-9);
         else
             EXPECT_NEAR(0.5 * omega * 0.002 / std::tan(0.5 * omega * 0.002), ratio, 0.01);
@@ -173,23 +211,26 @@ TEST_P(ImpulseFiltered, SecondOrderOnASmoothProblem) {
         return positionsOf(context);
     };
     const vector<Vec3> reference = run(StochasticImpulseIntegrator::Yoshida4, 4096);
-    auto error = [&](int stepsPerPs) {
-        const vector<Vec3> q = run(StochasticImpulseIntegrator::Filtered, stepsPerPs);
-        double worst = 0;
-        for (size_t i = 0; i < q.size(); ++i)
-            worst = std::max(worst, std::abs(q[i][0] - reference[i][0]));
-        return worst;
-    };
-    const double coarse = error(160), fine = error(320);
-    const double order = std::log2(coarse / fine);
-    EXPECT_NEAR(2.0, order, 0.15) << "errors " << coarse << " and " << fine;
-    EXPECT_GT(fine, 1e-9); // far above the reference's own error
+    for (auto splitting : BiasFree) {
+        auto error = [&](int stepsPerPs) {
+            const vector<Vec3> q = run(splitting, stepsPerPs);
+            double worst = 0;
+            for (size_t i = 0; i < q.size(); ++i)
+                worst = std::max(worst, std::abs(q[i][0] - reference[i][0]));
+            return worst;
+        };
+        const double coarse = error(160), fine = error(320);
+        const double order = std::log2(coarse / fine);
+        EXPECT_NEAR(2.0, order, 0.15) << nameOf(splitting) << ": errors " << coarse << " and " << fine;
+        EXPECT_GT(fine, 1e-9); // far above the reference's own error
+    }
 }
 
 TEST_P(ImpulseFiltered, NoResonanceSpikeOnTheFpuChainAtOmegaHTwoPi) {
     // The FPU chain (omega = 50), no friction, 20 ps: the largest total-energy error over the run at omega H within
     // 0.3 of 2 pi.  Strang resonates there (errors of several kJ/mol, far above its 0.6 at omega H = 5 and 7.5);
-    // Filtered's filters vanish at 2 pi: its error there must stay below its own error at omega H = 5 and 7.5.
+    // Filtered's filters vanish at 2 pi, and Warped's modes turn by less than pi per step: the error of each there must
+    // stay below its own error at omega H = 5 and 7.5.
     std::unique_ptr<System> system(fpuSystem(3, 50.0));
     const vector<Vec3> q0 = fpuPositions({-0.4, 0.1, 0.35}, {0.02, -0.03, 0.01});
     const vector<Vec3> v0 = {Vec3(0.3, 0, 0),  Vec3(-0.2, 0, 0), Vec3(0.5, 0, 0),
@@ -213,12 +254,14 @@ TEST_P(ImpulseFiltered, NoResonanceSpikeOnTheFpuChainAtOmegaHTwoPi) {
         }
         return worst;
     };
-    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Warped,
+                           StochasticImpulseIntegrator::Strang}) {
+        SCOPED_TRACE(nameOf(splitting));
         const double away = std::max(energyError(splitting, 5.0), energyError(splitting, 7.5));
         double nearResonance = 0;
         for (double xi : {2 * Pi - 0.3, 2 * Pi - 0.1, 2 * Pi, 2 * Pi + 0.1, 2 * Pi + 0.3})
             nearResonance = std::max(nearResonance, energyError(splitting, xi));
-        if (splitting == StochasticImpulseIntegrator::Filtered)
+        if (splitting != StochasticImpulseIntegrator::Strang)
             EXPECT_LT(nearResonance, away) << "near 2 pi " << nearResonance << ", away " << away;
         else
             EXPECT_GT(nearResonance, 5 * away) << "near 2 pi " << nearResonance << ", away " << away;
@@ -229,8 +272,9 @@ TEST_P(ImpulseFiltered, SteadilyGrowingSoftForceGivesTheExactVelocity) {
     // A tethered particle (m = 2, omega = 1036/ps, friction 20/ps at 0 K) pulled by a soft force c r_d(t) towards a
     // driver particle that drifts at constant velocity V (mass 1e12, no friction: its speed changes by 1e-9 of itself),
     // so the force grows steadily, G = c V.  The exact motion settles on x = (c r_d - gamma m G/k)/k, v = G/k.  The
-    // Filtered step's positions follow it; its unprocessed velocities at the step's end would be c' G/k with c' =
-    // 1.20 and 2.36 at omega H = 1.04 and 2.07 (plus lambda F with friction).  Processed, they are G/k.
+    // Filtered and Warped steps' positions follow it; their unprocessed velocities at the step's end would be c' G/k
+    // with c' = 1.20, 2.36, 4.94 (Filtered) and 1.18, 1.80, 2.30 (Warped) at omega H = 1.04, 2.07, 2.59 (plus lambda F
+    // with friction).  Processed, they are G/k.
     const double mass = 2.0, omega = 1036.0, k = mass * omega * omega, gamma = 20.0, coupling = 3e4;
     const Vec3 driverVelocity(1.0, -0.4, 0.2), growth = driverVelocity * coupling;
     System system;
@@ -245,23 +289,24 @@ TEST_P(ImpulseFiltered, SteadilyGrowingSoftForceGivesTheExactVelocity) {
     pull->addGlobalParameter("c", coupling);
     pull->addBond({0, 1});
     system.addForce(pull);
-    for (double H : {0.001, 0.002}) {
-        SCOPED_TRACE(H);
-        StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
-        integrator.setSplitting(StochasticImpulseIntegrator::Filtered);
-        integrator.setStiffModeTemperature(0.0);
-        integrator.setStiffModeFriction(gamma);
-        Context context(system, integrator, platform(), properties());
-        context.setPositions({Vec3(), Vec3()});
-        context.setVelocities({Vec3(), driverVelocity});
-        integrator.step((int)std::lround(3.0 / H));
-        const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
-        const Vec3 exactV = growth / k, dv = v[0] - exactV;
-        EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-6 * std::sqrt(exactV.dot(exactV)));
-        // Positions: within 1% of a step's change of F/k.
-        const Vec3 exactX = (q[1] * coupling - growth * (gamma * mass / k)) / k, dx = q[0] - exactX;
-        EXPECT_LT(std::sqrt(dx.dot(dx)), 0.01 * H * std::sqrt(exactV.dot(exactV)));
-    }
+    for (auto splitting : BiasFree)
+        for (double H : {0.001, 0.002, 0.0025}) {
+            SCOPED_TRACE(nameOf(splitting) + ", H = " + std::to_string(H));
+            StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
+            integrator.setSplitting(splitting);
+            integrator.setStiffModeTemperature(0.0);
+            integrator.setStiffModeFriction(gamma);
+            Context context(system, integrator, platform(), properties());
+            context.setPositions({Vec3(), Vec3()});
+            context.setVelocities({Vec3(), driverVelocity});
+            integrator.step((int)std::lround(3.0 / H));
+            const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
+            const Vec3 exactV = growth / k, dv = v[0] - exactV;
+            EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-6 * std::sqrt(exactV.dot(exactV)));
+            // Positions: within 1% of a step's change of F/k.
+            const Vec3 exactX = (q[1] * coupling - growth * (gamma * mass / k)) / k, dx = q[0] - exactX;
+            EXPECT_LT(std::sqrt(dx.dot(dx)), 0.01 * H * std::sqrt(exactV.dot(exactV)));
+        }
 }
 
 TEST_P(ImpulseFiltered, SettingTheStateStartsTheNextStepAfresh) {
@@ -280,33 +325,38 @@ TEST_P(ImpulseFiltered, SettingTheStateStartsTheNextStepAfresh) {
     soft->addParticle(0);
     system.addForce(soft);
     const Vec3 q(0.05, -0.02, 0.03), v(1.0, 2.0, -0.5);
-    StochasticImpulseIntegrator used(0.0, 0.0, 0.005, StiffMask), fresh(0.0, 0.0, 0.005, StiffMask);
-    used.setSplitting(StochasticImpulseIntegrator::Filtered);
-    fresh.setSplitting(StochasticImpulseIntegrator::Filtered);
-    Context usedContext(system, used, platform(), properties()), freshContext(system, fresh, platform(), properties());
-    usedContext.setPositions({Vec3(0.1, 0.0, 0.0)});
-    usedContext.setVelocities({Vec3(0.0, 3.0, 0.0)});
-    used.step(20);
-    usedContext.setPositions({q});
-    usedContext.setVelocities({v});
-    freshContext.setPositions({q});
-    freshContext.setVelocities({v});
-    used.step(1);
-    fresh.step(1);
-    // The new Context measures its stiff modes at q, the used one measured them at its first position: they agree to
-    // rounding (with the history kept, the step differs by 7e-5 nm and 1.4e-3 nm/ps).
-    const Vec3 dq = positionsOf(freshContext)[0] - positionsOf(usedContext)[0];
-    const Vec3 dv = velocitiesOf(freshContext)[0] - velocitiesOf(usedContext)[0];
-    EXPECT_LT(std::sqrt(dq.dot(dq)), 1e-13);
-    EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-11);
+    for (auto splitting : BiasFree) {
+        SCOPED_TRACE(nameOf(splitting));
+        StochasticImpulseIntegrator used(0.0, 0.0, 0.005, StiffMask), fresh(0.0, 0.0, 0.005, StiffMask);
+        used.setSplitting(splitting);
+        fresh.setSplitting(splitting);
+        Context usedContext(system, used, platform(), properties());
+        Context freshContext(system, fresh, platform(), properties());
+        usedContext.setPositions({Vec3(0.1, 0.0, 0.0)});
+        usedContext.setVelocities({Vec3(0.0, 3.0, 0.0)});
+        used.step(20);
+        usedContext.setPositions({q});
+        usedContext.setVelocities({v});
+        freshContext.setPositions({q});
+        freshContext.setVelocities({v});
+        used.step(1);
+        fresh.step(1);
+        // The new Context measures its stiff modes at q, the used one measured them at its first position: they agree
+        // to rounding (with the history kept, the Filtered step differs by 7e-5 nm and 1.4e-3 nm/ps).
+        const Vec3 dq = positionsOf(freshContext)[0] - positionsOf(usedContext)[0];
+        const Vec3 dv = velocitiesOf(freshContext)[0] - velocitiesOf(usedContext)[0];
+        EXPECT_LT(std::sqrt(dq.dot(dq)), 1e-13);
+        EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-11);
+    }
 }
 
 TEST_P(ImpulseFiltered, ASoftForceStiffAlongAModeIsStableExactlyBelowItsThreshold) {
     // A tethered particle (omega = 1000/ps, no friction) whose soft force is itself a spring r k along the stiff mode.
-    // The Filtered step's transfer matrix has trace 2 (cos xi - r (1 - cos xi)): stable while tan^2(xi/2) < 1/r, and
-    // Strang's 2 cos xi - r xi sin xi: stable while r < 2 (1 + cos xi)/(xi sin xi).  For r = 0.3 both thresholds are
-    // found by bisection here; 200 steps 2% below a threshold stay within 20 times the start, 2% above they grow past
-    // 1000 times it.
+    // The Filtered step's transfer matrix has trace 2 (cos xi - r (1 - cos xi)): stable while tan^2(xi/2) < 1/r; the
+    // Warped step's 2 - 4 (1 + r) sin^2(xi~/2): stable while (1 + r) sin^2(xi~/2) < 1, the same condition at xi~
+    // (warpedTurn); Strang's 2 cos xi - r xi sin xi: stable while r < 2 (1 + cos xi)/(xi sin xi).  For r = 0.3 the
+    // thresholds are found by bisection here (xi = 2.29, 2.80, 2.47); 200 steps 2% below a threshold stay within 20
+    // times the start, 2% above they grow past 1000 times it.
     const double omega = 1000.0, mass = 1.0, r = 0.3, k = mass * omega * omega;
     System system;
     system.addParticle(mass);
@@ -327,12 +377,19 @@ TEST_P(ImpulseFiltered, ASoftForceStiffAlongAModeIsStableExactlyBelowItsThreshol
     };
     const double filteredLimit = threshold([&](double xi) { return std::pow(std::tan(0.5 * xi), 2) < 1 / r; });
     const double strangLimit = threshold([&](double xi) { return r < 2 * (1 + std::cos(xi)) / (xi * std::sin(xi)); });
+    const double warpedLimit = threshold([&](double xi) {
+        const double halfSine = std::sin(0.5 * warpedTurn(xi));
+        return (1 + r) * halfSine * halfSine < 1;
+    });
     EXPECT_NEAR(2 * std::atan(1 / std::sqrt(r)), filteredLimit, 1e-9);
-    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
-        const double limit = splitting == StochasticImpulseIntegrator::Filtered ? filteredLimit : strangLimit;
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Warped,
+                           StochasticImpulseIntegrator::Strang}) {
+        const double limit = splitting == StochasticImpulseIntegrator::Filtered ? filteredLimit
+                             : splitting == StochasticImpulseIntegrator::Warped ? warpedLimit
+                                                                                : strangLimit;
         for (double factor : {0.98, 1.02}) {
-            SCOPED_TRACE(std::string(splitting == StochasticImpulseIntegrator::Filtered ? "Filtered" : "Strang") +
-                         " at " + std::to_string(factor) + " of omega H = " + std::to_string(limit));
+            SCOPED_TRACE(nameOf(splitting) + " at " + std::to_string(factor) +
+                         " of omega H = " + std::to_string(limit));
             StochasticImpulseIntegrator integrator(0.0, 0.0, factor * limit / omega, StiffMask);
             integrator.setSplitting(splitting);
             Context context(system, integrator, platform(), properties());

@@ -31,8 +31,8 @@ class IntegrateStochasticImpulseStepKernel;
  * solve leaves the stiff (relative) coordinates as the stiff flow made them.  The true constraint force acts on the
  * carrier alone; the share of it that moves the relative coordinates (each carried particle's mass over the
  * component's: 0.4/16 = 2.5% of the oxygen's in SWM4-NDP water) acts in the next step as a soft force, from the
- * constraint impulses of this one, so that a Filtered step gives it the exact mean response too.  It is part of the
- * integrator's checkpoint.
+ * constraint impulses of this one, so that a Filtered or Warped step gives it the exact mean response too.  It is part
+ * of the integrator's checkpoint.
  */
 class OPENMM_EXPORT_FLAVORS StochasticImpulseIntegrator : public OpenMM::Integrator {
 public:
@@ -84,7 +84,31 @@ public:
          * forces (modes with xi < 0.9 pi).  After setPositions() or
          * setVelocities() the next step starts without it, as the first one does; checkpoints keep it.
          */
-        Filtered = 3
+        Filtered = 3,
+        /**
+         * Strang with warped stiff frequencies, also without the impulse bias: K(H/2) E~(H) K(H/2) with plain half
+         * kicks, where E~ is the exact flow (friction and noise as for Strang) of each stiff mode at its warped
+         * frequency omega~ instead of omega, the one frequency for which the step's response to a constant soft force
+         * f is the exact mean displacement f/omega^2 (with any friction).  Without friction xi~ = omega~ H solves
+         *
+         *     xi~ tan(xi~/2) = xi^2/2,   so   xi~ = xi (1 - xi^2/24 + ...),   0 < xi~ < pi for every xi,
+         *
+         * (the static stiffness of Strang at omega~ is omega~^2 tan(xi~/2)/(xi~/2) = omega^2); in each mode the step
+         * is the symmetric two-step method x_(n+1) - 2 cos(xi~) x_n + x_(n-1) = H^2 sinc(xi~) f_n.  The constant part
+         * of the stiff force is scaled by (omega~/omega)^2 in E~, so the stiff potential's minimum stays where it is.
+         * Why: a soft force that is itself stiff along a mode (r omega^2 along it, r > 0: the mutual polarization of
+         * neighbouring Drude particles) makes the step unstable where (1 + r) sin^2(xi~/2) >= 1, the condition of
+         * Filtered (r tan^2(xi/2) >= 1) at xi~ instead of xi.  The warped mode turns by less than pi per step however
+         * large xi is and its kicks are not amplified, so for a given r it stays stable to a longer step than
+         * Filtered and Strang: for r = 0.37 the thresholds are xi = 2.60, 2.05 and 2.33 (2.5, 2.0 and 2.2 fs for a
+         * Drude oscillator at 1036/ps).  There are no resonances: E~ never turns by 2 pi k.  What it gives up: the
+         * stiff modes oscillate at omega~, not omega (0.79 omega at xi = 2.59), so their position variance is
+         * kT/omega~^2 and their dynamics are those of a heavier particle; use it where, as for a cold Drude oscillator,
+         * the mean displacement is the physics and the oscillation is not.  Order 2 for a fixed omega; symmetric.
+         * Velocities are processed as for Filtered (exact for constant and steadily changing soft forces where xi~ <
+         * 0.9 pi).
+         */
+        Warped = 4
     };
     /**
      * Create a StochasticImpulseIntegrator.

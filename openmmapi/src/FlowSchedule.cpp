@@ -186,7 +186,9 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
         s.push_back(kick(H, soft));
     } else if (p.splitting == StochasticImpulseIntegrator::Strang) {
         strang(H);
-    } else if (p.splitting == StochasticImpulseIntegrator::Filtered) {
+    } else if (p.splitting == StochasticImpulseIntegrator::Filtered ||
+               p.splitting == StochasticImpulseIntegrator::Warped) {
+        // The same flows; the runner's bias removal says whether the kicks are scaled or the flow warped.
         if (soft == 0) {
             s.push_back(stiffFlow(H));
         } else {

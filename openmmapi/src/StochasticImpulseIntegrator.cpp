@@ -86,9 +86,10 @@ void StochasticImpulseIntegrator::setIntegrationForceGroups(int groups) {
 }
 
 void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
-    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4 && newSplitting != Filtered)
+    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4 && newSplitting != Filtered &&
+        newSplitting != Warped)
         throwInvalidParameter(Owner, "splitting", std::to_string((int)newSplitting),
-                              "splitting must be LieTrotter (0), Strang (1), Yoshida4 (2) or Filtered (3)");
+                              "splitting must be LieTrotter (0), Strang (1), Yoshida4 (2), Filtered (3) or Warped (4)");
     requireSplittingAllowsFriction(newSplitting, friction, "splitting");
     requireSplittingAllowsFriction(newSplitting, getStiffModeFriction(), "splitting");
     splitting = newSplitting;

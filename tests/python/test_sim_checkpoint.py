@@ -24,6 +24,8 @@ CASES = {
     "filtered-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=3.0, seed=8,
                                                stiff_mode_bath=(1.0, 20.0)),
     "filtered-friction0": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=0.0),
+    "warped-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Warped, friction=3.0, seed=9,
+                                             stiff_mode_bath=(1.0, 20.0)),
 }
 LANGEVIN = [case for case in CASES if "langevin" in case]
 
@@ -171,7 +173,8 @@ def rigid_drude_water(molecules=8):
     return system, positions
 
 
-@pytest.mark.parametrize("splitting", [StochasticImpulseIntegrator.Strang, StochasticImpulseIntegrator.Filtered])
+@pytest.mark.parametrize("splitting", [StochasticImpulseIntegrator.Strang, StochasticImpulseIntegrator.Filtered,
+                                       StochasticImpulseIntegrator.Warped])
 def test_checkpoint_carries_the_constraint_shares_of_carried_drude_particles(platform_name, splitting):
     # The constraint share of a step acts in the next one: a checkpoint must hold it, also when it is loaded into a
     # Context that has not taken a step (its carried pairs are not known until then).

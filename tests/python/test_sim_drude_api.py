@@ -1,4 +1,4 @@
-"""The stiff modes' own bath and the Filtered splitting from Python: Quantities in and out, defaults that follow the
+"""The stiff modes' own bath and the Filtered and Warped splittings from Python: Quantities in and out, defaults that follow the
 integrator, rejected values that leave the old ones, and XmlSerializer round trips."""
 import math
 
@@ -64,9 +64,19 @@ def test_xml_round_trip_keeps_the_bath():
     assert not plain.hasStiffModeTemperature() and not plain.hasStiffModeFriction()
 
 
-def test_filtered_splitting_is_exposed_and_serialized():
-    assert StochasticImpulseIntegrator.Filtered == 3
+@pytest.mark.parametrize("name, value", [("Filtered", 3), ("Warped", 4)])
+def test_bias_free_splittings_are_exposed_and_serialized(name, value):
+    splitting = getattr(StochasticImpulseIntegrator, name)
+    assert splitting == value
     integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
-    integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
+    integrator.setSplitting(splitting)
     copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
-    assert copy.getSplitting() == StochasticImpulseIntegrator.Filtered
+    assert copy.getSplitting() == splitting
+
+
+def test_an_unknown_splitting_names_every_allowed_one():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+    with pytest.raises(openmm.OpenMMException, match="splitting = 5.*Filtered \\(3\\) or Warped \\(4\\)"):
+        integrator.setSplitting(5)
+    assert integrator.getSplitting() == StochasticImpulseIntegrator.Warped

@@ -61,7 +61,7 @@ BAD_SETTER_CALLS = [
     ("setStepSize", 0.0, "stepSize"),
     ("setStepSize", -1 * unit.femtosecond, "stepSize"),
     ("setStiffGroups", 0, "stiffGroups"),
-    ("setSplitting", 4, "splitting"),
+    ("setSplitting", 5, "splitting"),
     ("setSplitting", -1, "splitting"),
 ]
 

@@ -272,6 +272,40 @@ inline ModeFlow computeModeFlow(double omega, double gamma, double h) {
     return ModeFlowDetail::flowAndCovariance(omega, gamma, h).flow;
 }
 
+/**
+ * The displacement per unit constant force at which the Strang step K(h/2) E(h) K(h/2) of a mode with flow f stands
+ * still: the fixed point x* = h f.xv / det(I - Phi).  For the mode's own flow it is (1/omega^2) (xi/2) cot(xi/2)
+ * without friction (xi = omega h), not the exact 1/omega^2: the impulse bias of Strang.
+ */
+inline double strangStaticResponse(const ModeFlow& f, double h) {
+    return h * f.xv / ((1.0 - f.xx) * (1.0 - f.vv) - f.xv * f.vx);
+}
+
+/**
+ * The warped angular frequency of a mode (omega > 0, friction gamma >= 0, step h > 0): the one frequency omega~ for
+ * which the Strang step K(h/2) E~(h) K(h/2), with E~ the exact flow at omega~ and friction gamma, has the exact static
+ * response 1/omega^2, i.e. strangStaticResponse(computeModeFlow(omega~, gamma, h), h) = 1/omega^2.  Without friction
+ * xi~ = omega~ h solves xi~ tan(xi~/2) = xi^2/2, so xi~ = xi (1 - xi^2/24 + ...) and 0 < xi~ < pi for every xi:
+ * the warped mode never turns by pi per step, whatever omega h is.  The response decreases monotonically from
+ * 1/omega~^2 at omega~ h -> 0 to 0 where the damped mode turns by pi, which brackets the root; bisection finds it to
+ * rounding.  Below omega h = 1e-4 the warp (xi^2/24 < 5e-10) is below the cancellation in det(I - Phi) and omega is
+ * returned.
+ */
+inline double warpedFrequency(double omega, double gamma, double h) {
+    if (omega * h < 1e-4)
+        return omega;
+    const double target = 1.0 / (omega * omega);
+    double low = 0.0, high = std::sqrt(M_PI * M_PI + 0.25 * gamma * gamma * h * h) / h;
+    for (int i = 0; i < 200 && high - low > 1e-15 * high; ++i) {
+        const double middle = 0.5 * (low + high);
+        if (strangStaticResponse(computeModeFlow(middle, gamma, h), h) > target)
+            low = middle;
+        else
+            high = middle;
+    }
+    return 0.5 * (low + high);
+}
+
 /** The exact Ornstein-Uhlenbeck flow of a velocity alone: v' = decay v + noise sqrt(kT/m) xi. */
 struct VelocityFlow {
     double decay, noise;

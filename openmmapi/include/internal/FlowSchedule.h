@@ -25,12 +25,13 @@ struct SubFlow {
         /** Exact flow of the quadratic stiff potential with friction and noise, E(h, gamma). */
         StiffFlow,
         /**
-         * The opening half kick of the Filtered splitting by the forces of groups, then E(h, gamma): the half kick is
-         * scaled in each stiff mode (omega > 0) by the filter kappa of StochasticImpulseIntegrator::Filtered, plain in
-         * the zero modes and free particles.  The kick is applied as the flow's image of it, after the flow.
+         * The opening half kick of the Filtered (or Warped) splitting by the forces of groups, then E(h, gamma): the
+         * half kick is scaled in each stiff mode (omega > 0) by the filter kappa of
+         * StochasticImpulseIntegrator::Filtered (Warped: plain, and E flows at the warped frequencies), plain in the
+         * zero modes and free particles.  The kick is applied as the flow's image of it, after the flow.
          */
         FilteredStiffFlow,
-        /** The closing half kick of the Filtered splitting by the forces of groups, scaled by kappa as above. */
+        /** The closing half kick of the Filtered (Warped) splitting by the forces of groups, as above. */
         FilteredKick,
         /** Exact flow of the quadratic stiff potential without friction or noise, E(h, 0). */
         HarmonicFlow,
@@ -108,7 +109,7 @@ struct ImpulseParameters {
 /**
  * Builds the schedule of one stochastic impulse step (docs/ARCHITECTURE.md): E(H) K_soft(H) (LieTrotter),
  * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
- * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered; E(H) alone without soft groups).
+ * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered and Warped; E(H) alone without soft groups).
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 

@@ -68,6 +68,12 @@ public:
      */
     void setStiffModeBath(double kT, double friction);
     /**
+     * Sets how FilteredStiffFlow and FilteredKick sub-flows remove the impulse bias of the stiff modes: kicks scaled
+     * by kappa with the exact flow (the Filtered splitting, the default) or plain kicks with the flow at the warped
+     * frequencies (Warped).  Cheap when nothing changed.
+     */
+    void setBiasRemoval(StiffModes::BiasRemoval removal);
+    /**
      * Sets the frozen distances along which FrozenDrift and FrozenKick hold stiff bonded forces (instead of the
      * zero modes of a quadratic stiff potential); null returns to the modes.
      */
@@ -155,6 +161,7 @@ private:
     double kT, friction;
     // Negative: as kT and friction.
     double stiffKT, stiffFriction;
+    StiffModes::BiasRemoval biasRemoval = StiffModes::BiasRemoval::ScaledKicks;
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.

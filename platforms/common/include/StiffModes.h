@@ -97,10 +97,21 @@ public:
      * Computes the propagator over a step h.  The zero modes (omega = 0: free particles, a component's translations)
      * have friction gamma and thermal energy kT, the stiff modes (omega > 0) stiffGamma and stiffKT: friction that is
      * diagonal in the mode basis commutes with Omega, so every mode stays an independent, exactly integrated damped
-     * oscillator.  h < 0 is allowed when both frictions are 0 (the inverse flow).
+     * oscillator.  h < 0 is allowed when both frictions are 0 (the inverse flow).  warped (h > 0): each stiff mode
+     * flows at its warped frequency omega~ = warpedFrequency(omega, stiffGamma, h) instead of omega, with its constant
+     * force scaled by (omega~/omega)^2 so that its equilibrium stays where the true potential has it (the Warped
+     * splitting).
      */
-    void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
-                           Propagator& propagator) const;
+    void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT, Propagator& propagator,
+                           bool warped = false) const;
+
+    /** How a splitting without the impulse bias gives each stiff mode its exact static response. */
+    enum class BiasRemoval {
+        /** Filtered: the exact flow, half kicks scaled by kappa. */
+        ScaledKicks,
+        /** Warped: plain half kicks, the flow at the warped frequency (computePropagator with warped = true). */
+        WarpedFlow
+    };
 
     /**
      * The response of positions and velocities to a force F held by each mode: per component, for each of its D modes
@@ -112,16 +123,18 @@ public:
         std::vector<double> data;
     };
     /**
-     * Computes the force responses of the Filtered splitting over a step h > 0 (see SubFlow::FilteredStiffFlow and
-     * FilteredKick): a half kick h/2 scaled in each stiff mode (friction stiffGamma) by kappa, with
-     * kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v, and plain in the zero modes (friction gamma).  The opening response
-     * (closing = false) is the flow's image of the half kick, (Phi_xv, Phi_vv) (kappa h/2 + lambda), added after the
-     * flow with the forces where it began; the closing one is (0, kappa h/2 - lambda).  lambda f is the velocity that
-     * the constant-force fixed point has at the step's end with friction (0 without): moving it from the closing to
-     * the next opening kick processes the velocities to the exact 0 and leaves positions unchanged (modes with
-     * omega h < 0.9 pi only; lambda has poles at omega h = k pi).
+     * Computes the force responses of the Filtered and Warped splittings over a step h > 0 (see
+     * SubFlow::FilteredStiffFlow and FilteredKick): a half kick h/2 in each stiff mode (friction stiffGamma), scaled
+     * by kappa with kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v (ScaledKicks) or plain (WarpedFlow, where Phi is the flow
+     * at the warped frequency), and plain in the zero modes (friction gamma).  The opening response (closing = false)
+     * is the flow's image of the half kick, (Phi_xv, Phi_vv) (kappa h/2 + lambda), added after the flow with the
+     * forces where it began; the closing one is (0, kappa h/2 - lambda).  lambda f is the velocity that the
+     * constant-force fixed point has at the step's end with friction (0 without): moving it from the closing to the
+     * next opening kick processes the velocities to the exact 0 and leaves positions unchanged (modes whose flow
+     * turns by less than 0.9 pi per step only; lambda has poles at k pi).
      */
-    void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, ForceResponse& response) const;
+    void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, BiasRemoval removal,
+                              ForceResponse& response) const;
     /**
      * Computes the velocity processing of the Filtered splitting over a step h > 0.  Under a soft force that grows
      * steadily, f_n = f_0 + n s h, the Filtered step's positions are exact (x_n = f_n/omega^2) but its velocities at
@@ -129,9 +142,11 @@ public:
      * 2.07).  The closing response (0, -beta) with beta = (c - 1)/(omega^2 h), applied to the force change over the
      * step, makes them exact; the opening one, (Phi_xv, Phi_vv) beta, puts it back in the flow's image before the next
      * step, so positions are unchanged.  c is computed with the friction stiffGamma (the step's particular solution
-     * for a linearly growing force, lambda f removed).  Zero modes and modes with omega h >= 0.9 pi: none.
+     * for a linearly growing force, lambda f removed).  Zero modes and modes whose flow turns by 0.9 pi or more per
+     * step: none.  With WarpedFlow the same with the warped flow and plain kicks (c = xi~/sin xi~ without friction).
      */
-    void computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const;
+    void computeVelocityProcessing(double h, double stiffGamma, bool closing, BiasRemoval removal,
+                                   ForceResponse& response) const;
 
 private:
     /** Lays out response per mode (two values each) and fills each mode's pair with modeResponse(omega, pair). */

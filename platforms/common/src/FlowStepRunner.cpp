@@ -101,6 +101,13 @@ void FlowStepRunner::setStiffModeBath(double newKT, double newFriction) {
     prepare();
 }
 
+void FlowStepRunner::setBiasRemoval(StiffModes::BiasRemoval removal) {
+    if (removal == biasRemoval)
+        return;
+    biasRemoval = removal;
+    prepare();
+}
+
 void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     stiffModes = modes;
     carriedConstraints.reset();
@@ -206,13 +213,18 @@ void FlowStepRunner::prepare() {
                 const ModeFlow zeroMode = computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
                 p.constraintImpulseScale = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
                 p.constraintVelocityScale = zeroMode.vv * p.constraintImpulseScale;
+                const bool warped =
+                    flow.kind == SubFlow::FilteredStiffFlow && biasRemoval == StiffModes::BiasRemoval::WarpedFlow;
                 if (stiffModes)
-                    stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex]);
+                    stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex],
+                                                  warped);
             }
             if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick)) {
                 const bool closing = flow.kind == SubFlow::FilteredKick;
-                stiffModes->computeForceResponse(flow.h, friction, modeFriction, closing, forceResponses[passIndex]);
-                stiffModes->computeVelocityProcessing(flow.h, modeFriction, closing, processingResponses[passIndex]);
+                stiffModes->computeForceResponse(flow.h, friction, modeFriction, closing, biasRemoval,
+                                                 forceResponses[passIndex]);
+                stiffModes->computeVelocityProcessing(flow.h, modeFriction, closing, biasRemoval,
+                                                      processingResponses[passIndex]);
             }
             if (flow.kind == SubFlow::HarmonicFlow && stiffModes)
                 stiffModes->computePropagator(flow.h, 0.0, kT, 0.0, kT, stiffFlows[passIndex]);

@@ -52,6 +52,9 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
         stiffFriction = integrator.getStiffModeFriction();
         runner->setSchedule(impulseSchedule(parameters), kT, friction);
         runner->setStiffModeBath(stiffKT, stiffFriction);
+        runner->setBiasRemoval(parameters.splitting == StochasticImpulseIntegrator::Warped
+                                   ? StiffModes::BiasRemoval::WarpedFlow
+                                   : StiffModes::BiasRemoval::ScaledKicks);
         configured = true;
     }
     if (!stiffModesValid || !measurement->getModes()) {

@@ -23,7 +23,7 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
 } // namespace
 
 void StiffModes::computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
-                                   Propagator& propagator) const {
+                                   Propagator& propagator, bool warped) const {
     bool hasStiffModes = false;
     for (const Component& comp : components)
         hasStiffModes = hasStiffModes || comp.stiff;
@@ -49,6 +49,12 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
         for (int k = 0; k < D; ++k) {
             const double w = omega[comp.firstMode + C * k];
             flows[k] = modeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
+            if (warped && w > 0.0 && h > 0.0) {
+                const double warpedW = warpedFrequency(w, stiffGamma, h), scale = (warpedW / w) * (warpedW / w);
+                flows[k] = computeModeFlow(warpedW, stiffGamma, h);
+                flows[k].gx *= scale;
+                flows[k].gv *= scale;
+            }
             modeThermalScale[k] = w > 0.0 ? stiffThermalScale : thermalScale;
         }
         double* out = &propagator.data[propagator.offset[c]];
@@ -100,7 +106,7 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
 
 namespace {
 
-// Modes with omega h beyond this keep unprocessed velocities (lambda and beta have poles at omega h = k pi).
+// Modes whose flow turns by more than this per step keep unprocessed velocities (lambda and beta have poles at k pi).
 constexpr double ProcessingLimit = 0.9 * M_PI;
 
 /** The kicks of one stiff mode in a Filtered step of length h (see StiffModes::computeForceResponse). */
@@ -112,13 +118,16 @@ struct FilteredModeKicks {
     double lambda, beta;
 };
 
-FilteredModeKicks filteredModeKicks(double w, double gamma, double h) {
+FilteredModeKicks filteredModeKicks(double w, double gamma, double h, StiffModes::BiasRemoval removal) {
     FilteredModeKicks kicks;
-    const ModeFlow& f = kicks.flow = computeModeFlow(w, gamma, h);
-    // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2.
-    const double a = kicks.halfKick = 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
+    const bool warped = removal == StiffModes::BiasRemoval::WarpedFlow;
+    const double flowW = warped ? warpedFrequency(w, gamma, h) : w;
+    const ModeFlow& f = kicks.flow = computeModeFlow(flowW, gamma, h);
+    // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2; the
+    // warped flow has it with plain kicks.
+    const double a = kicks.halfKick = warped ? 0.5 * h : 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
     kicks.lambda = kicks.beta = 0.0;
-    if (w * h >= ProcessingLimit)
+    if (flowW * h >= ProcessingLimit)
         return kicks;
     // With friction the fixed point's velocity at the step's end is lambda f, not 0 (the velocity row of the fixed
     // point).
@@ -153,13 +162,13 @@ void StiffModes::fillModeResponses(ForceResponse& response,
     }
 }
 
-void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
+void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing, BiasRemoval removal,
                                       ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (w > 0.0) {
             // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one of the
             // next step puts back.
-            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
+            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, removal);
             const double opening = kicks.halfKick + kicks.lambda;
             out[0] = closing ? 0.0 : opening * kicks.flow.xv;
             out[1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
@@ -171,11 +180,12 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
     });
 }
 
-void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing, ForceResponse& response) const {
+void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing, BiasRemoval removal,
+                                           ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (!(w > 0.0))
             return;
-        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h);
+        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, removal);
         out[0] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
         out[1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
     });

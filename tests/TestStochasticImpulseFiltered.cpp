@@ -229,8 +229,9 @@ TEST_P(ImpulseFiltered, SecondOrderOnASmoothProblem) {
 TEST_P(ImpulseFiltered, NoResonanceSpikeOnTheFpuChainAtOmegaHTwoPi) {
     // The FPU chain (omega = 50), no friction, 20 ps: the largest total-energy error over the run at omega H within
     // 0.3 of 2 pi.  Strang resonates there (errors of several kJ/mol, far above its 0.6 at omega H = 5 and 7.5);
-    // Filtered's filters vanish at 2 pi, and Warped's modes turn by less than pi per step: the error of each there must
-    // stay below its own error at omega H = 5 and 7.5.
+    // Filtered's filters vanish at 2 pi: its error there must stay below its own error at omega H = 5 and 7.5.  (Warped
+    // is not checked here: its modes turn by less than pi per step at every omega H, TestExactModeFlow, and it does not
+    // keep this energy, whose stiff springs it runs at omega~: 3 to 34 kJ/mol at omega H = 1 to 8.)
     std::unique_ptr<System> system(fpuSystem(3, 50.0));
     const vector<Vec3> q0 = fpuPositions({-0.4, 0.1, 0.35}, {0.02, -0.03, 0.01});
     const vector<Vec3> v0 = {Vec3(0.3, 0, 0),  Vec3(-0.2, 0, 0), Vec3(0.5, 0, 0),
@@ -254,8 +255,7 @@ TEST_P(ImpulseFiltered, NoResonanceSpikeOnTheFpuChainAtOmegaHTwoPi) {
         }
         return worst;
     };
-    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Warped,
-                           StochasticImpulseIntegrator::Strang}) {
+    for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Strang}) {
         SCOPED_TRACE(nameOf(splitting));
         const double away = std::max(energyError(splitting, 5.0), energyError(splitting, 7.5));
         double nearResonance = 0;

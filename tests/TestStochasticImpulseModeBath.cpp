@@ -97,6 +97,23 @@ struct TwoBathPair {
     }
 };
 
+/**
+ * The warped frequency of a mode (omega, friction gamma, step h) found here from the mode's exact 2x2 flow by
+ * bisection: the frequency at which the Strang step's static response h Phi_xv / det(I - Phi) is 1/omega^2.
+ */
+double warpedOmega(double omega, double gamma, double h) {
+    auto response = [&](double w) {
+        MatrixL a(2, 2);
+        a << 0, 1, -w * w, -gamma;
+        const MatrixL p = exponential(a * (long double)h);
+        return (double)(h * p(0, 1) / ((1 - p(0, 0)) * (1 - p(1, 1)) - p(0, 1) * p(1, 0)));
+    };
+    double low = 0, high = std::sqrt(M_PI * M_PI + 0.25 * gamma * gamma * h * h) / h;
+    for (int i = 0; i < 100; ++i)
+        (response(0.5 * (low + high)) > 1 / (omega * omega) ? low : high) = 0.5 * (low + high);
+    return 0.5 * (low + high);
+}
+
 VectorL pairState(const vector<Vec3>& q, const vector<Vec3>& v, int pair) {
     VectorL s(12);
     for (int i = 0; i < 2; ++i)
@@ -105,6 +122,34 @@ VectorL pairState(const vector<Vec3>& q, const vector<Vec3>& v, int pair) {
             s[6 + 3 * i + d] = v[2 * pair + i][d];
         }
     return s;
+}
+
+} // namespace
+
+namespace {
+
+/** The sample mean and covariance of the pairs' 12 coordinates against the exact ones, within 5 standard errors. */
+void expectPairStatistics(const vector<Vec3>& q1, const vector<Vec3>& v1, int copies, const VectorL& mean,
+                          const MatrixL& covariance) {
+    const int dims = 12;
+    VectorL sampleMean = VectorL::Zero(dims);
+    for (int c = 0; c < copies; ++c)
+        sampleMean += pairState(q1, v1, c) / (long double)copies;
+    MatrixL sampleCovariance = MatrixL::Zero(dims, dims);
+    for (int c = 0; c < copies; ++c) {
+        const VectorL d = pairState(q1, v1, c) - sampleMean;
+        sampleCovariance += d * d.transpose() / (long double)(copies - 1);
+    }
+    for (int i = 0; i < dims; ++i) {
+        EXPECT_NEAR((double)mean[i], (double)sampleMean[i], 5 * std::sqrt((double)covariance(i, i) / copies))
+            << "mean of coordinate " << i;
+        for (int j = 0; j <= i; ++j) {
+            const double se =
+                std::sqrt((double)(covariance(i, i) * covariance(j, j) + covariance(i, j) * covariance(i, j)) / copies);
+            EXPECT_NEAR((double)covariance(i, j), (double)sampleCovariance(i, j), 5 * se)
+                << "covariance " << i << "," << j;
+        }
+    }
 }
 
 } // namespace
@@ -137,31 +182,55 @@ TEST_P(ImpulseModeBath, OneStepHasTheExactMeanAndCovarianceWithTwoBaths) {
     const vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
 
     const TwoBathPair exact(k, gamma, BOLTZ * temperature, stiffGamma, BOLTZ * stiffTemperature);
-    const VectorL mean = exact.mean(pairState(q, v, 0), H);
     const MatrixL covariance = exact.covariance(H);
-    const int dims = 12;
-    VectorL sampleMean = VectorL::Zero(dims);
-    for (int c = 0; c < copies; ++c)
-        sampleMean += pairState(q1, v1, c) / (long double)copies;
-    MatrixL sampleCovariance = MatrixL::Zero(dims, dims);
-    for (int c = 0; c < copies; ++c) {
-        const VectorL d = pairState(q1, v1, c) - sampleMean;
-        sampleCovariance += d * d.transpose() / (long double)(copies - 1);
-    }
-    for (int i = 0; i < dims; ++i) {
-        EXPECT_NEAR((double)mean[i], (double)sampleMean[i], 5 * std::sqrt((double)covariance(i, i) / copies))
-            << "mean of coordinate " << i;
-        for (int j = 0; j <= i; ++j) {
-            const double se =
-                std::sqrt((double)(covariance(i, i) * covariance(j, j) + covariance(i, j) * covariance(i, j)) / copies);
-            EXPECT_NEAR((double)covariance(i, j), (double)sampleCovariance(i, j), 5 * se)
-                << "covariance " << i << "," << j;
-        }
-    }
+    expectPairStatistics(q1, v1, copies, exact.mean(pairState(q, v, 0), H), covariance);
     // The relative velocity's variance is set by the cold bath: a check that the two baths are not swapped, far
     // outside the statistical bound above (kT_rel/mu and kT/M differ by a factor 2.6 here).
     const double relativeVariance = (double)(covariance(6, 6) + covariance(9, 9) - 2 * covariance(6, 9));
     EXPECT_LT(relativeVariance, 1.2 * BOLTZ * stiffTemperature / mu);
+}
+
+TEST_P(ImpulseModeBath, AWarpedStepIsTheExactStepOfTheWarpedSpring) {
+    // The same one step, Warped: with a soft force that is zero, the step is the exact flow of the pair with its
+    // relative mode at the warped frequency omega~ (omega H = 3: omega~ H = 2.2, found in the test from the damped
+    // 2x2 flow) and the same two baths.  The sample statistics of 4000 pairs match it within 5 standard errors; the
+    // unwarped flow's mean is hundreds of standard errors away.
+    const int copies = 4000;
+    const double mu = DrudePairs::CoreMass * DrudePairs::DrudeMass / (DrudePairs::CoreMass + DrudePairs::DrudeMass);
+    const double omega = 300, k = omega * omega * mu, H = 0.01;
+    const double temperature = 300, gamma = 5, stiffTemperature = 20, stiffGamma = 40;
+    DrudePairs pairs(copies, k, 0.0);
+    CustomExternalForce* nothing = new CustomExternalForce("0*x");
+    for (int i = 0; i < 2 * copies; ++i)
+        nothing->addParticle(i);
+    pairs.system.addForce(nothing);
+    StochasticImpulseIntegrator integrator(temperature, gamma, H, StiffMask);
+    integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+    integrator.setStiffModeTemperature(stiffTemperature);
+    integrator.setStiffModeFriction(stiffGamma);
+    integrator.setRandomNumberSeed(12);
+    Context context(pairs.system, integrator, platform(), properties());
+    const Vec3 q0[2] = {Vec3(0.1, -0.2, 0.05), Vec3(0.104, -0.197, 0.049)};
+    const Vec3 v0[2] = {Vec3(0.5, -0.3, 0.2), Vec3(-4.0, 6.0, 2.5)};
+    vector<Vec3> q, v;
+    for (int c = 0; c < copies; ++c)
+        for (int i = 0; i < 2; ++i) {
+            q.push_back(q0[i]);
+            v.push_back(v0[i]);
+        }
+    context.setPositions(q);
+    context.setVelocities(v);
+    integrator.step(1);
+    const vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
+    const double warped = warpedOmega(omega, stiffGamma, H);
+    EXPECT_NEAR(2.2, warped * H, 0.1);
+    const TwoBathPair exact(warped * warped * mu, gamma, BOLTZ * temperature, stiffGamma, BOLTZ * stiffTemperature);
+    expectPairStatistics(q1, v1, copies, exact.mean(pairState(q, v, 0), H), exact.covariance(H));
+    // Against the unwarped flow: the relative velocity's mean differs by far more than its standard error.
+    const TwoBathPair unwarped(k, gamma, BOLTZ * temperature, stiffGamma, BOLTZ * stiffTemperature);
+    const VectorL a = exact.mean(pairState(q, v, 0), H), b = unwarped.mean(pairState(q, v, 0), H);
+    const MatrixL covariance = exact.covariance(H);
+    EXPECT_GT(std::abs((double)(a[9] - b[9])), 100 * std::sqrt((double)covariance(9, 9) / copies));
 }
 
 TEST_P(ImpulseModeBath, LongRunsHoldTheCentreOfMassAtTAndTheRelativeMotionAtTheStiffTemperature) {

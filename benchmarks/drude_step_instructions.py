@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Instructions per step of StochasticImpulseIntegrator (Filtered, H = 2 fs) against DrudeLangevinIntegrator (1 fs)
-and VerletIntegrator (1 fs) on the drude_water system (256 SWM4-NDP molecules, rigid, PME, CPU platform with one
+"""Instructions per step of StochasticImpulseIntegrator (Filtered at H = 2 fs, Warped at 2.5 fs) against
+DrudeLangevinIntegrator (1 fs) and VerletIntegrator (1 fs) on the drude_water system (256 SWM4-NDP molecules, rigid, PME, CPU platform with one
 thread), counted by valgrind's callgrind: load-independent, unlike wall times on a shared machine.
 
 Each integrator is run from one saved state for 10 and for 40 steps in a child process under callgrind; the difference
@@ -9,7 +9,7 @@ integrator's own work (the openmm-flavors engine, or OpenMM's DrudeLangevin kern
 and the rest.  The neighbour list is rebuilt when a particle has moved far enough, so its cost per simulated time does
 not fall with a longer step: it is part of the price of any 2-fs step.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/drude_step_instructions.py [--out DIR]   # about 4 min
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/drude_step_instructions.py [--out DIR]   # about 5 min
 
 Needs valgrind (apt-get install valgrind).  Outputs: DIR/drude_step_instructions.json and .png (default
 results/bench).
@@ -27,7 +27,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(HERE), "examples", "drude_water"
 
 # (label, integrator kind of drude_water.make_integrator or "Verlet", step in fs)
 RUNS = [("DrudeLangevin 1 fs", "DrudeLangevin", 1.0), ("SIM Filtered 2 fs", "Filtered", 2.0),
-        ("Verlet 1 fs", "Verlet", 1.0)]
+        ("SIM Warped 2.5 fs", "Warped", 2.5), ("Verlet 1 fs", "Verlet", 1.0)]
 STEPS = (10, 40)
 CATEGORIES = ["nonbonded and PME forces", "neighbour list", "integrator", "SETTLE", "rest"]
 
@@ -109,7 +109,7 @@ def plot(data, path):
         ax.tick_params(axis="x", labelsize=8)
     fig.legend(loc="lower center", ncol=len(CATEGORIES), fontsize=9)
     fig.suptitle("SWM4-NDP water (256 molecules, PME), CPU platform with 1 thread: instructions of "
-                 "SIM Filtered at H = 2 fs against DrudeLangevin and Verlet at 1 fs (callgrind)")
+                 "SIM Filtered at H = 2 fs and Warped at 2.5 fs against DrudeLangevin and Verlet at 1 fs (callgrind)")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
 

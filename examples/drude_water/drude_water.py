@@ -218,13 +218,14 @@ def plot(data, path):
         for index, label in enumerate(labels):
             run = runs[label]
             ax.errorbar(index, run[key][0], yerr=run[key][1], fmt="o", color=colors[run["integrator"]])
-        ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
-                   label="reference ±1 s.e. (DrudeLangevin, H = %g fs)" % reference["step_fs"])
+        band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
+                          label="reference ±1 s.e. (DrudeLangevin, H = %g fs)" % reference["step_fs"])
         ax.set_xticks(range(len(labels)))
         ax.set_xticklabels([f"{runs[lb]['integrator']}\nH = {runs[lb]['step_fs']:g} fs" for lb in labels],
                            rotation=90, fontsize=7)
         ax.set_ylabel(title)
-        ax.legend(fontsize=7)
+    # One legend for the reference band, outside the panels, so that it hides no point.
+    fig.legend(handles=[band], loc="lower left", fontsize=9)
     ax = axes.flat[6]
     for label in labels:
         ax.bar(label, runs[label]["ns_per_day"], color=colors[runs[label]["integrator"]])
@@ -246,7 +247,7 @@ def plot(data, path):
         fig.text(0.5, 0.005, "not shown, failed (the water fell apart: NaN coordinates): " + ", ".join(failed),
                  ha="center", fontsize=9, color="tab:red")
     fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
-                 "SIM (Strang, Filtered; Drude modes at 1 K, 20/ps) against DrudeLangevinIntegrator "
+                 "SIM (Strang blue, Filtered red, Warped green; Drude modes at 1 K, 20/ps) against DrudeLangevinIntegrator "
                  "(black; error bars: ±1 s.e. of block means)")
     fig.tight_layout(rect=(0, 0.02, 1, 1))
     fig.savefig(path, dpi=110)
@@ -433,6 +434,102 @@ def filter_bias(out):
         json.dump(report, f, indent=1)
 
 
+def step_end_velocity_variance(omega, h, gamma=5.0):
+    """<v^2>/kT at the ends of a step K(h/2) E(h) K(h/2) for a harmonic motion of angular frequency omega, where E is
+    the exact free flow with friction gamma and its noise (a zero mode of the SIM): the stationary covariance of the
+    step's linear map, iterated to its fixed point."""
+    e = math.exp(-gamma * h)
+    flow = np.array([[1.0, (1 - e) / gamma], [0.0, e]])
+    noise = np.array([[(2 * gamma * h - 3 + 4 * e - e * e) / gamma**2, (1 - e)**2 / gamma],
+                      [(1 - e)**2 / gamma, 1 - e * e]])
+    kick = np.array([[1.0, 0.0], [-0.5 * h * omega**2, 1.0]])
+    step = kick @ flow @ kick
+    source = kick @ noise @ kick.T
+    covariance = np.eye(2)
+    for _ in range(20000):
+        covariance = step @ covariance @ step.T + source
+    return covariance[1, 1]
+
+
+def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
+    """What the step-end velocities of a kick-flow-kick step do to the centre-of-mass temperature of rigid water:
+    <Omega^2> of the molecules' translations and rotations from the mean squared force and torque of 20 frames of
+    DrudeLangevin at 0.5 fs (<F^2/M> = 3 kT <Omega^2> for harmonic motion), and the step-end <v^2>/kT of a harmonic
+    motion at each rms frequency (step_end_velocity_variance, about 1 - (Omega H)^2/6).  Writes velocity_bias.json."""
+    system, topology, positions, _ = build_water(256)
+    state = equilibrated_state(system, positions, 1.0, 1000, 3)
+    integrator = make_integrator("DrudeLangevin", 0.5, 4)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+    context.setState(state)
+    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
+    molecules = [[atom.index for atom in residue.atoms()] for residue in topology.residues()]
+    kT = BOLTZ * 300
+    translation, rotation = [], []
+    for _ in range(20):
+        integrator.step(200)
+        st = context.getState(getPositions=True, getForces=True)
+        x = st.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+        f = st.getForces(asNumpy=True).value_in_unit(unit.kilojoule_per_mole / unit.nanometer)
+        for molecule in molecules:
+            body = [i for i in molecule if masses[i] > 0]  # O, its Drude and the hydrogens (the M site is massless)
+            m = masses[body]
+            arm = x[body] - (m[:, None] * x[body]).sum(axis=0) / m.sum()
+            force = f[molecule].sum(axis=0)
+            torque = np.cross(arm, f[body]).sum(axis=0)
+            inertia = sum(mi * (a @ a * np.eye(3) - np.outer(a, a)) for mi, a in zip(m, arm))
+            translation.append(force @ force / m.sum())
+            rotation.append(torque @ np.linalg.solve(inertia, torque))
+    omega2 = {"translation": float(np.mean(translation) / (3 * kT)), "rotation": float(np.mean(rotation) / (3 * kT))}
+    report = {"omega_rms_per_ps": {k: math.sqrt(v) for k, v in omega2.items()}, "predicted_t_com_bias_K": {}}
+    print("rms angular frequency: translation %.1f/ps, rotation %.1f/ps" % (
+        report["omega_rms_per_ps"]["translation"], report["omega_rms_per_ps"]["rotation"]))
+    for h in steps_fs:
+        ratio = np.mean([step_end_velocity_variance(math.sqrt(w2), h * 1e-3) for w2 in omega2.values()])
+        report["predicted_t_com_bias_K"][h] = 300 * (ratio - 1)
+        print("H = %g fs: step-end T_COM %.2f K from 300 K" % (h, 300 * (ratio - 1)))
+    with open(os.path.join(out, "velocity_bias.json"), "w") as f:
+        json.dump(report, f, indent=1)
+
+
+def interleaved_timing(out, rounds, picoseconds=0.5):
+    """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs and Warped at 2.5 fs on the scene's system, with 1
+    and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which every Context steps
+    `picoseconds` in turn, so that a change of the machine's load hits them alike.  Writes interleaved_timing.json
+    with each round's ns/day and, per thread count, each SIM's median ratio to DrudeLangevin over the rounds."""
+    import time
+    system, _, positions, _ = build_water(256)
+    state = equilibrated_state(system, positions, 1.0, 1000, 1)
+    peers = [("DrudeLangevin", 1.0), ("Filtered", 2.0), ("Warped", 2.5)]
+    report = {"system": "256 SWM4-NDP molecules, rigid, PME", "ps_per_round": picoseconds, "threads": {}}
+    for threads in (1, 2):
+        contexts = []
+        for kind, step_fs in peers:
+            integrator = make_integrator(kind, step_fs, 7)
+            context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"),
+                                     {"Threads": str(threads)})
+            context.setState(state)
+            integrator.step(10)
+            contexts.append((kind, step_fs, integrator, context))
+        speeds = {kind: [] for kind, _ in peers}
+        for round_ in range(rounds):
+            for kind, step_fs, integrator, context in contexts:
+                steps = int(round(picoseconds * 1000 / step_fs))
+                start = time.perf_counter()
+                integrator.step(steps)
+                context.getState(getEnergy=True)
+                speeds[kind].append(steps * step_fs * 1e-6 / ((time.perf_counter() - start) / 86400))
+            print(f"{threads} thread(s), round {round_ + 1}/{rounds}: " +
+                  ", ".join(f"{kind} {speeds[kind][-1]:.1f}" for kind, _ in peers) + " ns/day", flush=True)
+        ratios = {kind: float(np.median(np.array(speeds[kind]) / np.array(speeds["DrudeLangevin"])))
+                  for kind, _ in peers[1:]}
+        report["threads"][threads] = {"ns_per_day": speeds, "median_ratio_to_DrudeLangevin_1fs": ratios}
+        print(f"{threads} thread(s): median ratio to DrudeLangevin 1 fs: " +
+              ", ".join(f"{kind} {ratio:.2f}" for kind, ratio in ratios.items()), flush=True)
+        del contexts
+    with open(os.path.join(out, "interleaved_timing.json"), "w") as f:
+        json.dump(report, f, indent=1)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
@@ -443,22 +540,37 @@ def main():
                         help="only measure the cost of carrying Drude particles through the constraint solve")
     parser.add_argument("--filter-bias", action="store_true",
                         help="only measure the mean displacement of a stiff mode and the FPU energy error against omega H")
+    parser.add_argument("--velocity-bias", action="store_true",
+                        help="only predict the step-end bias of the centre-of-mass temperature from forces and torques")
+    parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",
+                        help="only time DrudeLangevin 1 fs, Filtered 2 fs and Warped 2.5 fs in turn, ROUNDS rounds")
     parser.add_argument("--production", type=float, default=3.0, help="ps sampled per run (default 3)")
     parser.add_argument("--burn-in", type=float, default=0.5, help="ps per run before sampling (default 0.5)")
     parser.add_argument("--reference-steps", type=float, nargs="+", default=[0.5, 1.0],
                         help="DrudeLangevinIntegrator steps in fs; the first is the reference (default 0.5 1)")
-    parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.0, 1.5, 2.0, 3.0, 4.0],
-                        help="StochasticImpulseIntegrator steps in fs (default 1 1.5 2 3 4)")
+    parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.0, 1.5, 2.0, 2.5, 3.0, 4.0],
+                        help="StochasticImpulseIntegrator steps in fs (default 1 1.5 2 2.5 3 4)")
     parser.add_argument("--seed", type=int, default=0,
                         help="added to every random seed: independent replicas of a run (default 0)")
-    parser.add_argument("--splittings", nargs="+", choices=["Strang", "Filtered", "Warped"], default=["Strang", "Filtered"],
-                        help="StochasticImpulseIntegrator splittings (default Strang Filtered)")
+    parser.add_argument("--splittings", nargs="+", choices=["Strang", "Filtered", "Warped"],
+                        default=["Strang", "Filtered", "Warped"],
+                        help="StochasticImpulseIntegrator splittings (default Strang Filtered Warped)")
     args = parser.parse_args()
     if args.seed < 0:
         parser.error("--seed must be non-negative (got %d)" % args.seed)
     if args.filter_bias:
         os.makedirs(args.out, exist_ok=True)
         filter_bias(args.out)
+        return
+    if args.velocity_bias:
+        os.makedirs(args.out, exist_ok=True)
+        velocity_bias(args.out)
+        return
+    if args.interleaved_timing is not None:
+        if args.interleaved_timing < 1:
+            parser.error("--interleaved-timing needs at least 1 round (got %d)" % args.interleaved_timing)
+        os.makedirs(args.out, exist_ok=True)
+        interleaved_timing(args.out, args.interleaved_timing)
         return
     if args.constraint_cost:
         os.makedirs(args.out, exist_ok=True)
@@ -479,7 +591,7 @@ def main():
     edges = np.linspace(0.2, min(0.8, 0.5 * box), 61)
     runs = {}
     peers = [("DrudeLangevin", h) for h in ([0.5, 1.0] if args.quick else args.reference_steps)]
-    peers += [(kind, h) for kind in (("Strang", "Filtered") if args.quick else args.splittings)
+    peers += [(kind, h) for kind in (("Strang", "Filtered", "Warped") if args.quick else args.splittings)
               for h in settings["sim_steps"]]
     for seed, (kind, step_fs) in enumerate(peers, start=10 + args.seed):
         label = f"{kind}_{step_fs:g}fs"

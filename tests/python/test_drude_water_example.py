@@ -18,7 +18,7 @@ def test_drude_water_quick(tmp_path):
     with open(tmp_path / "drude_water.json") as f:
         data = json.load(f)
     runs = data["runs"]
-    expected = {"DrudeLangevin_0.5fs", "DrudeLangevin_1fs"} | {f"{k}_{h}fs" for k in ("Strang", "Filtered")
+    expected = {"DrudeLangevin_0.5fs", "DrudeLangevin_1fs"} | {f"{k}_{h}fs" for k in ("Strang", "Filtered", "Warped")
                                                                for h in ("1", "2", "4")}
     assert set(runs) == expected
     for label, run in runs.items():
@@ -31,8 +31,8 @@ def test_drude_water_quick(tmp_path):
             value, error = run[key]
             assert math.isfinite(value) and error >= 0, (label, key)
     # Loose sanity bounds on the short run (not the benchmark's claims): self-consistent polarization and cold
-    # Drudes for the reference and for Filtered at 2 fs.
-    for label in ("DrudeLangevin_0.5fs", "Filtered_2fs"):
+    # Drudes for the reference and for Filtered and Warped at 2 fs.
+    for label in ("DrudeLangevin_0.5fs", "Filtered_2fs", "Warped_2fs"):
         assert abs(runs[label]["induced_ratio"][0] - 1) < 0.05, label
         assert runs[label]["t_drude"][0] < 20, label
 
@@ -41,3 +41,22 @@ def test_a_negative_seed_offset_is_rejected(tmp_path):
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed", "-1"))
     assert result.returncode != 0
     assert "--seed must be non-negative (got -1)" in result.stderr
+
+
+def test_interleaved_timing_needs_a_round(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--interleaved-timing", "0"))
+    assert result.returncode != 0
+    assert "--interleaved-timing needs at least 1 round (got 0)" in result.stderr
+
+
+def test_step_end_velocity_variance_is_one_minus_omega_h_squared_over_six():
+    # The stationary step-end <v^2>/kT of K(h/2) E(h) K(h/2) for a harmonic motion, with the friction in the free flow
+    # E, against the closed form 1 - (omega h)^2/6 (friction 5/ps changes it by less than 1e-6 here); and 1 for
+    # omega = 0, where the kicks vanish.
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("drude_water", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    for omega, h in [(40.0, 0.002), (150.0, 0.0025), (200.0, 0.002)]:
+        assert abs(module.step_end_velocity_variance(omega, h) - (1 - (omega * h)**2 / 6)) < 2e-6
+    assert abs(module.step_end_velocity_variance(0.0, 0.0025) - 1) < 1e-12

@@ -148,6 +148,43 @@ TEST_P(ImpulseFiltered, ConstantSoftForceGivesTheExactMeanDisplacement) {
     }
 }
 
+TEST_P(ImpulseFiltered, WarpedKeepsTheMinimumOfTheStiffPotential) {
+    // A tether whose minimum is away from the origin, k |q - q0|^2/2 (a constant stiff force k q0 in U = q^T K q/2 -
+    // b^T q), and a constant soft force F: the exact equilibrium q0 + F/k is Warped's fixed point, with and without
+    // friction, at omega H = 2.59.  Warped scales b with the flow's (omega~/omega)^2; unscaled, the point would sit
+    // at q0 (omega/omega~)^2 + F/k, 0.6 q0 away.
+    const double omega = 1036, mass = 0.4, k = mass * omega * omega, H = 0.0025;
+    const Vec3 q0(0.02, -0.01, 0.015), force(3.0, 1.0, -2.0);
+    System system;
+    system.addParticle(mass);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*k*((x-x0)^2+(y-y0)^2+(z-z0)^2)");
+    tether->addGlobalParameter("k", k);
+    tether->addPerParticleParameter("x0");
+    tether->addPerParticleParameter("y0");
+    tether->addPerParticleParameter("z0");
+    tether->addParticle(0, {q0[0], q0[1], q0[2]});
+    tether->setForceGroup(StiffGroup);
+    CustomExternalForce* push = new CustomExternalForce("-(fx*x+fy*y+fz*z)");
+    push->addGlobalParameter("fx", force[0]);
+    push->addGlobalParameter("fy", force[1]);
+    push->addGlobalParameter("fz", force[2]);
+    push->addParticle(0);
+    system.addForce(tether);
+    system.addForce(push);
+    const Vec3 exact = q0 + force / k;
+    for (double friction : {0.0, 20.0}) {
+        SCOPED_TRACE(friction);
+        StochasticImpulseIntegrator integrator(0.0, friction, H, StiffMask);
+        integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions({friction > 0 ? Vec3() : exact});
+        context.setVelocities({Vec3()});
+        integrator.step(friction > 0 ? 2000 : 30);
+        const Vec3 dq = positionsOf(context)[0] - exact;
+        EXPECT_LT(std::sqrt(dq.dot(dq)), 1e-9 * std::sqrt(exact.dot(exact)));
+    }
+}
+
 TEST_P(ImpulseFiltered, DrudePairWithFrictionReachesTheSelfConsistentDisplacement) {
     // A core (15.2) and a Drude particle (0.4) on a spring with omega_rel = 1036/ps, a constant force F on the Drude
     // particle only (a field on its charge): the pair's centre of mass is a zero mode (driven, at 300 K with 5/ps)

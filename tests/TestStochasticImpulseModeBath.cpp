@@ -128,6 +128,44 @@ VectorL pairState(const vector<Vec3>& q, const vector<Vec3>& v, int pair) {
 
 namespace {
 
+/** The one-step experiment: 4000 pairs (omega_rel = 300/ps) from one state, one step H = 0.01 ps with two baths. */
+struct OneStepOfManyPairs {
+    static constexpr int Copies = 4000;
+    static constexpr double Omega = 300, H = 0.01, Temperature = 300, Gamma = 5, StiffTemperature = 20, StiffGamma = 40;
+    const double mu = DrudePairs::CoreMass * DrudePairs::DrudeMass / (DrudePairs::CoreMass + DrudePairs::DrudeMass);
+    const double k = Omega * Omega * mu;
+    DrudePairs pairs{Copies, k, 0.0};
+    vector<Vec3> q, v, q1, v1;
+    /** Takes the step with splitting; withZeroSoftForce adds a soft force that is 0 (so that soft kicks exist). */
+    void run(Platform& platform, const std::map<std::string, std::string>& properties,
+             StochasticImpulseIntegrator::Splitting splitting, bool withZeroSoftForce, int seed) {
+        if (withZeroSoftForce) {
+            CustomExternalForce* nothing = new CustomExternalForce("0*x");
+            for (int i = 0; i < 2 * Copies; ++i)
+                nothing->addParticle(i);
+            pairs.system.addForce(nothing);
+        }
+        StochasticImpulseIntegrator integrator(Temperature, Gamma, H, StiffMask);
+        integrator.setSplitting(splitting);
+        integrator.setStiffModeTemperature(StiffTemperature);
+        integrator.setStiffModeFriction(StiffGamma);
+        integrator.setRandomNumberSeed(seed);
+        Context context(pairs.system, integrator, platform, properties);
+        const Vec3 q0[2] = {Vec3(0.1, -0.2, 0.05), Vec3(0.104, -0.197, 0.049)};
+        const Vec3 v0[2] = {Vec3(0.5, -0.3, 0.2), Vec3(-4.0, 6.0, 2.5)};
+        for (int c = 0; c < Copies; ++c)
+            for (int i = 0; i < 2; ++i) {
+                q.push_back(q0[i]);
+                v.push_back(v0[i]);
+            }
+        context.setPositions(q);
+        context.setVelocities(v);
+        integrator.step(1);
+        q1 = positionsOf(context);
+        v1 = velocitiesOf(context);
+    }
+};
+
 /** The sample mean and covariance of the pairs' 12 coordinates against the exact ones, within 5 standard errors. */
 void expectPairStatistics(const vector<Vec3>& q1, const vector<Vec3>& v1, int copies, const VectorL& mean,
                           const MatrixL& covariance) {
@@ -158,36 +196,15 @@ TEST_P(ImpulseModeBath, OneStepHasTheExactMeanAndCovarianceWithTwoBaths) {
     // 4000 pairs with omega_rel = sqrt(k/mu) = 300/ps take one step H = 0.01 ps (omega H = 3) from the same state:
     // the centre of mass at 300 K with 5/ps, the relative motion at 20 K with 40/ps.  The sample mean and covariance of
     // a pair's 12 coordinates must match the exact ones within 5 standard errors.
-    const int copies = 4000;
-    const double mu = DrudePairs::CoreMass * DrudePairs::DrudeMass / (DrudePairs::CoreMass + DrudePairs::DrudeMass);
-    const double omega = 300, k = omega * omega * mu, H = 0.01;
-    const double temperature = 300, gamma = 5, stiffTemperature = 20, stiffGamma = 40;
-    DrudePairs pairs(copies, k, 0.0);
-    StochasticImpulseIntegrator integrator(temperature, gamma, H, StiffMask);
-    integrator.setStiffModeTemperature(stiffTemperature);
-    integrator.setStiffModeFriction(stiffGamma);
-    integrator.setRandomNumberSeed(11);
-    Context context(pairs.system, integrator, platform(), properties());
-    const Vec3 q0[2] = {Vec3(0.1, -0.2, 0.05), Vec3(0.104, -0.197, 0.049)};
-    const Vec3 v0[2] = {Vec3(0.5, -0.3, 0.2), Vec3(-4.0, 6.0, 2.5)};
-    vector<Vec3> q, v;
-    for (int c = 0; c < copies; ++c)
-        for (int i = 0; i < 2; ++i) {
-            q.push_back(q0[i]);
-            v.push_back(v0[i]);
-        }
-    context.setPositions(q);
-    context.setVelocities(v);
-    integrator.step(1);
-    const vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
-
-    const TwoBathPair exact(k, gamma, BOLTZ * temperature, stiffGamma, BOLTZ * stiffTemperature);
-    const MatrixL covariance = exact.covariance(H);
-    expectPairStatistics(q1, v1, copies, exact.mean(pairState(q, v, 0), H), covariance);
+    OneStepOfManyPairs e;
+    e.run(platform(), properties(), StochasticImpulseIntegrator::Strang, false, 11);
+    const TwoBathPair exact(e.k, e.Gamma, BOLTZ * e.Temperature, e.StiffGamma, BOLTZ * e.StiffTemperature);
+    const MatrixL covariance = exact.covariance(e.H);
+    expectPairStatistics(e.q1, e.v1, e.Copies, exact.mean(pairState(e.q, e.v, 0), e.H), covariance);
     // The relative velocity's variance is set by the cold bath: a check that the two baths are not swapped, far
     // outside the statistical bound above (kT_rel/mu and kT/M differ by a factor 2.6 here).
     const double relativeVariance = (double)(covariance(6, 6) + covariance(9, 9) - 2 * covariance(6, 9));
-    EXPECT_LT(relativeVariance, 1.2 * BOLTZ * stiffTemperature / mu);
+    EXPECT_LT(relativeVariance, 1.2 * BOLTZ * e.StiffTemperature / e.mu);
 }
 
 TEST_P(ImpulseModeBath, AWarpedStepIsTheExactStepOfTheWarpedSpring) {
@@ -195,42 +212,18 @@ TEST_P(ImpulseModeBath, AWarpedStepIsTheExactStepOfTheWarpedSpring) {
     // relative mode at the warped frequency omega~ (omega H = 3: omega~ H = 2.2, found in the test from the damped
     // 2x2 flow) and the same two baths.  The sample statistics of 4000 pairs match it within 5 standard errors; the
     // unwarped flow's mean is hundreds of standard errors away.
-    const int copies = 4000;
-    const double mu = DrudePairs::CoreMass * DrudePairs::DrudeMass / (DrudePairs::CoreMass + DrudePairs::DrudeMass);
-    const double omega = 300, k = omega * omega * mu, H = 0.01;
-    const double temperature = 300, gamma = 5, stiffTemperature = 20, stiffGamma = 40;
-    DrudePairs pairs(copies, k, 0.0);
-    CustomExternalForce* nothing = new CustomExternalForce("0*x");
-    for (int i = 0; i < 2 * copies; ++i)
-        nothing->addParticle(i);
-    pairs.system.addForce(nothing);
-    StochasticImpulseIntegrator integrator(temperature, gamma, H, StiffMask);
-    integrator.setSplitting(StochasticImpulseIntegrator::Warped);
-    integrator.setStiffModeTemperature(stiffTemperature);
-    integrator.setStiffModeFriction(stiffGamma);
-    integrator.setRandomNumberSeed(12);
-    Context context(pairs.system, integrator, platform(), properties());
-    const Vec3 q0[2] = {Vec3(0.1, -0.2, 0.05), Vec3(0.104, -0.197, 0.049)};
-    const Vec3 v0[2] = {Vec3(0.5, -0.3, 0.2), Vec3(-4.0, 6.0, 2.5)};
-    vector<Vec3> q, v;
-    for (int c = 0; c < copies; ++c)
-        for (int i = 0; i < 2; ++i) {
-            q.push_back(q0[i]);
-            v.push_back(v0[i]);
-        }
-    context.setPositions(q);
-    context.setVelocities(v);
-    integrator.step(1);
-    const vector<Vec3> q1 = positionsOf(context), v1 = velocitiesOf(context);
-    const double warped = warpedOmega(omega, stiffGamma, H);
-    EXPECT_NEAR(2.2, warped * H, 0.1);
-    const TwoBathPair exact(warped * warped * mu, gamma, BOLTZ * temperature, stiffGamma, BOLTZ * stiffTemperature);
-    expectPairStatistics(q1, v1, copies, exact.mean(pairState(q, v, 0), H), exact.covariance(H));
+    OneStepOfManyPairs e;
+    e.run(platform(), properties(), StochasticImpulseIntegrator::Warped, true, 12);
+    const double warped = warpedOmega(e.Omega, e.StiffGamma, e.H);
+    EXPECT_NEAR(2.2, warped * e.H, 0.1);
+    const TwoBathPair exact(warped * warped * e.mu, e.Gamma, BOLTZ * e.Temperature, e.StiffGamma,
+                            BOLTZ * e.StiffTemperature);
+    const MatrixL covariance = exact.covariance(e.H);
+    expectPairStatistics(e.q1, e.v1, e.Copies, exact.mean(pairState(e.q, e.v, 0), e.H), covariance);
     // Against the unwarped flow: the relative velocity's mean differs by far more than its standard error.
-    const TwoBathPair unwarped(k, gamma, BOLTZ * temperature, stiffGamma, BOLTZ * stiffTemperature);
-    const VectorL a = exact.mean(pairState(q, v, 0), H), b = unwarped.mean(pairState(q, v, 0), H);
-    const MatrixL covariance = exact.covariance(H);
-    EXPECT_GT(std::abs((double)(a[9] - b[9])), 100 * std::sqrt((double)covariance(9, 9) / copies));
+    const TwoBathPair unwarped(e.k, e.Gamma, BOLTZ * e.Temperature, e.StiffGamma, BOLTZ * e.StiffTemperature);
+    const VectorL a = exact.mean(pairState(e.q, e.v, 0), e.H), b = unwarped.mean(pairState(e.q, e.v, 0), e.H);
+    EXPECT_GT(std::abs((double)(a[9] - b[9])), 100 * std::sqrt((double)covariance(9, 9) / e.Copies));
 }
 
 TEST_P(ImpulseModeBath, LongRunsHoldTheCentreOfMassAtTAndTheRelativeMotionAtTheStiffTemperature) {

@@ -350,12 +350,13 @@ TEST(ImpulseModeBathInput, DefaultsFollowTheIntegratorAndBadValuesAreRejected) {
 }
 
 TEST(ImpulseModeBathInput, SerializationKeepsTheBathAndReadsVersion1) {
+    // Written as version 3 (version 2 added the bath, version 3 the thermostat placement).
     StochasticImpulseIntegrator integrator(300, 5.0, 0.002, StiffMask);
     integrator.setStiffModeTemperature(1.0);
     integrator.setStiffModeFriction(20.0);
     std::stringstream buffer;
     XmlSerializer::serialize<Integrator>(&integrator, "Integrator", buffer);
-    EXPECT_NE(std::string::npos, buffer.str().find("version=\"2\""));
+    EXPECT_NE(std::string::npos, buffer.str().find("version=\"3\""));
     std::unique_ptr<Integrator> copy(XmlSerializer::deserialize<Integrator>(buffer));
     auto* sim = dynamic_cast<StochasticImpulseIntegrator*>(copy.get());
     ASSERT_NE(nullptr, sim);

@@ -143,7 +143,11 @@ def make_integrator(kind, step_fs, seed):
         return integrator
     integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, step_fs * unit.femtosecond,
                                              {DRUDE_GROUP})
-    integrator.setSplitting(getattr(StochasticImpulseIntegrator, kind))
+    # "WarpedMiddle", "FilteredMiddle": the splitting with the zero modes' thermostat placed as LangevinMiddle's.
+    middle = kind.endswith("Middle")
+    integrator.setSplitting(getattr(StochasticImpulseIntegrator, kind[:-len("Middle")] if middle else kind))
+    if middle:
+        integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
     integrator.setStiffModeTemperature(1 * unit.kelvin)
     integrator.setStiffModeFriction(20 / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
@@ -212,7 +216,8 @@ def plot(data, path):
     panels = [("induced_ratio", "induced dipole / self-consistent"), ("dipole", "mean molecular dipole (D)"),
               ("pe_per_molecule", "potential energy per molecule (kJ/mol)"), ("g_oo_peak", "first peak of g_OO"),
               ("t_com", "centre-of-mass temperature (K)"), ("t_drude", "Drude temperature (K)")]
-    colors = {"DrudeLangevin": "black", "Strang": "tab:blue", "Filtered": "tab:red", "Warped": "tab:green"}
+    colors = {"DrudeLangevin": "black", "Strang": "tab:blue", "Filtered": "tab:red", "Warped": "tab:green",
+              "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive"}
     fig, axes = plt.subplots(2, 4, figsize=(18, 8))
     for ax, (key, title) in zip(axes.flat, panels):
         for index, label in enumerate(labels):
@@ -247,7 +252,8 @@ def plot(data, path):
         fig.text(0.5, 0.005, "not shown, failed (the water fell apart: NaN coordinates): " + ", ".join(failed),
                  ha="center", fontsize=9, color="tab:red")
     fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
-                 "SIM (Strang blue, Filtered red, Warped green; Drude modes at 1 K, 20/ps) against DrudeLangevinIntegrator "
+                 "SIM (Strang blue, Filtered red, Warped green, Warped with Middle olive; Drude modes at 1 K, 20/ps) against "
+                 "DrudeLangevinIntegrator "
                  "(black; error bars: ±1 s.e. of block means)")
     fig.tight_layout(rect=(0, 0.02, 1, 1))
     fig.savefig(path, dpi=110)
@@ -552,9 +558,11 @@ def main():
                         help="StochasticImpulseIntegrator steps in fs (default 1 1.5 2 2.5 3 4)")
     parser.add_argument("--seed", type=int, default=0,
                         help="added to every random seed: independent replicas of a run (default 0)")
-    parser.add_argument("--splittings", nargs="+", choices=["Strang", "Filtered", "Warped"],
+    parser.add_argument("--splittings", nargs="+",
+                        choices=["Strang", "Filtered", "Warped", "FilteredMiddle", "WarpedMiddle"],
                         default=["Strang", "Filtered", "Warped"],
-                        help="StochasticImpulseIntegrator splittings (default Strang Filtered Warped)")
+                        help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
+                             "(default Strang Filtered Warped)")
     args = parser.parse_args()
     if args.seed < 0:
         parser.error("--seed must be non-negative (got %d)" % args.seed)

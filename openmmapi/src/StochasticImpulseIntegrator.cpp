@@ -30,7 +30,8 @@ void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting split
 StochasticImpulseIntegrator::StochasticImpulseIntegrator(double temperature, double frictionCoeff, double stepSize,
                                                          int stiffGroups)
     : temperature(0.0), friction(0.0), stiffModeTemperature(-1.0), stiffModeFriction(-1.0), stiffGroups(0),
-      splitting(Strang), randomNumberSeed(0), forcesAreValid(false), stiffModesValid(false), stepKernel(nullptr) {
+      splitting(Strang), thermostatPlacement(Throughout), randomNumberSeed(0), forcesAreValid(false),
+      stiffModesValid(false), stepKernel(nullptr) {
     requireNonNegative(Owner, "temperature", temperature, "K");
     requireNonNegative(Owner, "friction", frictionCoeff, "1/ps");
     requirePositive(Owner, "stepSize", stepSize, "ps");
@@ -93,6 +94,14 @@ void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
     requireSplittingAllowsFriction(newSplitting, friction, "splitting");
     requireSplittingAllowsFriction(newSplitting, getStiffModeFriction(), "splitting");
     splitting = newSplitting;
+}
+
+void StochasticImpulseIntegrator::setThermostatPlacement(ThermostatPlacement placement) {
+    if (placement != Throughout && placement != Middle)
+        throwInvalidParameter(Owner, "thermostatPlacement", std::to_string((int)placement),
+                              "thermostatPlacement must be StochasticImpulseIntegrator::Throughout (0) or "
+                              "StochasticImpulseIntegrator::Middle (1)");
+    thermostatPlacement = placement;
 }
 
 vector<double> StochasticImpulseIntegrator::getStiffModeFrequencies() {

@@ -13,7 +13,7 @@ StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
 
 void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
-    node.setIntProperty("version", 2);
+    node.setIntProperty("version", 3);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
@@ -27,13 +27,15 @@ void StochasticImpulseIntegratorProxy::serialize(const void* object, Serializati
         node.setDoubleProperty("stiffModeTemperature", integrator.getStiffModeTemperature());
     if (integrator.hasStiffModeFriction())
         node.setDoubleProperty("stiffModeFriction", integrator.getStiffModeFriction());
+    // Version 3: where the zero modes' thermostat acts.
+    node.setIntProperty("thermostatPlacement", integrator.getThermostatPlacement());
 }
 
 void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version < 1 || version > 2)
+    if (version < 1 || version > 3)
         throw OpenMMException("StochasticImpulseIntegrator: unsupported serialization version " +
-                              std::to_string(version) + "; this library reads versions 1 and 2");
+                              std::to_string(version) + "; this library reads versions 1 to 3");
     auto integrator = std::make_unique<StochasticImpulseIntegrator>(
         node.getDoubleProperty("temperature"), node.getDoubleProperty("friction"), node.getDoubleProperty("stepSize"),
         node.getIntProperty("stiffGroups"));
@@ -42,6 +44,9 @@ void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& nod
     if (version >= 2 && node.hasProperty("stiffModeFriction"))
         integrator->setStiffModeFriction(node.getDoubleProperty("stiffModeFriction"));
     integrator->setSplitting((StochasticImpulseIntegrator::Splitting)node.getIntProperty("splitting"));
+    if (version >= 3) // earlier versions had the thermostat throughout the flow
+        integrator->setThermostatPlacement(
+            (StochasticImpulseIntegrator::ThermostatPlacement)node.getIntProperty("thermostatPlacement"));
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));

@@ -26,6 +26,8 @@ CASES = {
     "filtered-friction0": dict(splitting=StochasticImpulseIntegrator.Filtered, friction=0.0),
     "warped-langevin-cold-stiff-modes": dict(splitting=StochasticImpulseIntegrator.Warped, friction=3.0, seed=9,
                                              stiff_mode_bath=(1.0, 20.0)),
+    "warped-middle-langevin": dict(splitting=StochasticImpulseIntegrator.Warped, friction=3.0, seed=10,
+                                   placement=StochasticImpulseIntegrator.Middle),
 }
 LANGEVIN = [case for case in CASES if "langevin" in case]
 
@@ -34,6 +36,8 @@ def case_integrator(case, seed=None):
     options = CASES[case]
     integrator = StochasticImpulseIntegrator(300.0, options["friction"], STEP, {1})
     integrator.setSplitting(options["splitting"])
+    if "placement" in options:
+        integrator.setThermostatPlacement(options["placement"])
     if "stiff_mode_bath" in options:
         integrator.setStiffModeTemperature(options["stiff_mode_bath"][0])
         integrator.setStiffModeFriction(options["stiff_mode_bath"][1])

@@ -80,3 +80,46 @@ def test_an_unknown_splitting_names_every_allowed_one():
     with pytest.raises(openmm.OpenMMException, match="splitting = 5.*Filtered \\(3\\) or Warped \\(4\\)"):
         integrator.setSplitting(5)
     assert integrator.getSplitting() == StochasticImpulseIntegrator.Warped
+
+
+def test_thermostat_placement_is_exposed_checked_and_serialized():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    assert (StochasticImpulseIntegrator.Throughout, StochasticImpulseIntegrator.Middle) == (0, 1)
+    assert integrator.getThermostatPlacement() == StochasticImpulseIntegrator.Throughout
+    integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+    integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
+    copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
+    assert copy.getThermostatPlacement() == StochasticImpulseIntegrator.Middle
+    assert copy.getSplitting() == StochasticImpulseIntegrator.Warped
+    with pytest.raises(openmm.OpenMMException, match="thermostatPlacement = 2"):
+        integrator.setThermostatPlacement(2)
+    assert integrator.getThermostatPlacement() == StochasticImpulseIntegrator.Middle
+
+
+def test_version_2_xml_loads_with_the_thermostat_throughout():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+    xml = openmm.XmlSerializer.serialize(integrator)
+    old = xml.replace('version="3"', 'version="2"').replace(' thermostatPlacement="0"', '')
+    assert 'version="2"' in old and "thermostatPlacement" not in old
+    copy = openmm.XmlSerializer.deserialize(old)
+    assert copy.getThermostatPlacement() == StochasticImpulseIntegrator.Throughout
+
+
+def test_middle_with_strang_is_rejected_when_stepping_and_the_context_stays_usable():
+    system = openmm.System()
+    system.addParticle(16.0)
+    system.addParticle(0.4)
+    spring = openmm.HarmonicBondForce()
+    spring.addBond(0, 1, 0.0, 4e5)
+    spring.setForceGroup(1)
+    system.addForce(spring)
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions([openmm.Vec3(0, 0, 0), openmm.Vec3(0.001, 0, 0)])
+    with pytest.raises(openmm.OpenMMException, match=r"thermostatPlacement = Middle \(1\)"):
+        integrator.step(1)
+    integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
+    integrator.step(2)
+    assert context.getState().getStepCount() == 2

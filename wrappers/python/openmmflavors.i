@@ -96,6 +96,9 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setSplitting %{
     splitting = _toInt(splitting, "splitting")
 %}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setThermostatPlacement %{
+    placement = _toInt(placement, "thermostatPlacement")
+%}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setRandomNumberSeed %{
     seed = _toInt(seed, "randomNumberSeed")
 %}

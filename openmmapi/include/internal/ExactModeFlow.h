@@ -273,6 +273,20 @@ inline ModeFlow computeModeFlow(double omega, double gamma, double h) {
 }
 
 /**
+ * The flow of a free (omega = 0) mode over h > 0 with its friction as LangevinMiddleIntegrator places it: a drift of
+ * h/2, one exact Ornstein-Uhlenbeck step of h (decay e = e^-gamma h, noise sqrt(1 - e^2) per sqrt(kT)), a drift of
+ * h/2; a constant force acts during the drifts.  Phi = [[1, (1 + e) h/2], [0, e]], g = ((1 + e) h^2/4, (1 + e) h/2),
+ * and the noise enters both rows through one normal draw: L = [[s h/2, 0], [s, 0]] with s = sqrt(1 - e^2).  Within a
+ * kick-flow-kick step it samples a harmonic motion's positions exactly (BAOAB), and its velocity before the closing
+ * kick exactly (LFMiddle).
+ */
+inline ModeFlow computeMiddleFreeFlow(double gamma, double h) {
+    const double e = std::exp(-gamma * h), s = std::sqrt(-std::expm1(-2.0 * gamma * h));
+    return ModeFlow{1.0, 0.5 * (1.0 + e) * h, 0.0, e, 0.25 * (1.0 + e) * h * h, 0.5 * (1.0 + e) * h, 0.5 * s * h, s,
+                    0.0};
+}
+
+/**
  * The displacement per unit constant force at which the Strang step K(h/2) E(h) K(h/2) of a mode with flow f stands
  * still: the fixed point x* = h f.xv / det(I - Phi).  For the mode's own flow it is (1/omega^2) (xi/2) cot(xi/2)
  * without friction (xi = omega h), not the exact 1/omega^2: the impulse bias of Strang.

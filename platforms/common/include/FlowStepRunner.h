@@ -74,6 +74,12 @@ public:
      */
     void setBiasRemoval(StiffModes::BiasRemoval removal);
     /**
+     * Sets whether the zero modes of FilteredStiffFlow passes flow as computeMiddleFreeFlow, with both of their half
+     * kicks at the opening (the Middle thermostat placement), or exactly between the half kicks (the default).
+     * Cheap when nothing changed.
+     */
+    void setMiddleZeroModes(bool middle);
+    /**
      * Sets the frozen distances along which FrozenDrift and FrozenKick hold stiff bonded forces (instead of the
      * zero modes of a quadratic stiff potential); null returns to the modes.
      */
@@ -162,6 +168,7 @@ private:
     // Negative: as kT and friction.
     double stiffKT, stiffFriction;
     StiffModes::BiasRemoval biasRemoval = StiffModes::BiasRemoval::ScaledKicks;
+    bool middleZeroModes = false;
     StepPlan plan;
     std::vector<std::vector<PreparedFlow>> preparedPasses;
     // For each pass, whether it is a single kick that the StiffFlow pass after it applies as it reads velocities.

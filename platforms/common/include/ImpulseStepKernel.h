@@ -36,6 +36,7 @@ private:
     std::unique_ptr<StiffModesMeasurement> measurement;
     bool configured;
     ImpulseParameters parameters;
+    StochasticImpulseIntegrator::ThermostatPlacement placement;
     double kT, friction, stiffKT, stiffFriction;
 };
 

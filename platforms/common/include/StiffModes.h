@@ -100,10 +100,11 @@ public:
      * oscillator.  h < 0 is allowed when both frictions are 0 (the inverse flow).  warped (h > 0): each stiff mode
      * flows at its warped frequency omega~ = warpedFrequency(omega, stiffGamma, h) instead of omega, with its constant
      * force scaled by (omega~/omega)^2 so that its equilibrium stays where the true potential has it (the Warped
-     * splitting).
+     * splitting).  middleZeroModes (h > 0): the zero modes flow as computeMiddleFreeFlow (the Middle thermostat
+     * placement) instead of the exact free flow.
      */
     void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT, Propagator& propagator,
-                           bool warped = false) const;
+                           bool warped = false, bool middleZeroModes = false) const;
 
     /** How a splitting without the impulse bias gives each stiff mode its exact static response. */
     enum class BiasRemoval {
@@ -131,10 +132,12 @@ public:
      * forces where it began; the closing one is (0, kappa h/2 - lambda).  lambda f is the velocity that the
      * constant-force fixed point has at the step's end with friction (0 without): moving it from the closing to the
      * next opening kick processes the velocities to the exact 0 and leaves positions unchanged (modes whose flow
-     * turns by less than 0.9 pi per step only; lambda has poles at k pi).
+     * turns by less than 0.9 pi per step only; lambda has poles at k pi).  middleZeroModes: the zero modes take a
+     * full kick h in the opening response, as the image of the Middle free flow, and none in the closing one, so that
+     * their velocities at the step's end are half-step velocities.
      */
     void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, BiasRemoval removal,
-                              ForceResponse& response) const;
+                              bool middleZeroModes, ForceResponse& response) const;
     /**
      * Computes the velocity processing of the Filtered splitting over a step h > 0.  Under a soft force that grows
      * steadily, f_n = f_0 + n s h, the Filtered step's positions are exact (x_n = f_n/omega^2) but its velocities at

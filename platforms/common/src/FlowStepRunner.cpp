@@ -108,6 +108,13 @@ void FlowStepRunner::setBiasRemoval(StiffModes::BiasRemoval removal) {
     prepare();
 }
 
+void FlowStepRunner::setMiddleZeroModes(bool middle) {
+    if (middle == middleZeroModes)
+        return;
+    middleZeroModes = middle;
+    prepare();
+}
+
 void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     stiffModes = modes;
     carriedConstraints.reset();
@@ -210,18 +217,20 @@ void FlowStepRunner::prepare() {
             if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
                 p.streamOffset = thermostatsPerStep++;
                 // Constrained particles are free particles or carry their component as a rigid body: zero modes.
-                const ModeFlow zeroMode = computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
+                const bool filtered = flow.kind == SubFlow::FilteredStiffFlow;
+                const bool middle = filtered && middleZeroModes && flow.h > 0;
+                const ModeFlow zeroMode = middle ? computeMiddleFreeFlow(friction, flow.h)
+                                                 : computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
                 p.constraintImpulseScale = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
                 p.constraintVelocityScale = zeroMode.vv * p.constraintImpulseScale;
-                const bool warped =
-                    flow.kind == SubFlow::FilteredStiffFlow && biasRemoval == StiffModes::BiasRemoval::WarpedFlow;
+                const bool warped = filtered && biasRemoval == StiffModes::BiasRemoval::WarpedFlow;
                 if (stiffModes)
                     stiffModes->computePropagator(flow.h, friction, kT, modeFriction, modeKT, stiffFlows[passIndex],
-                                                  warped);
+                                                  warped, middle);
             }
             if (stiffModes && (flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick)) {
                 const bool closing = flow.kind == SubFlow::FilteredKick;
-                stiffModes->computeForceResponse(flow.h, friction, modeFriction, closing, biasRemoval,
+                stiffModes->computeForceResponse(flow.h, friction, modeFriction, closing, biasRemoval, middleZeroModes,
                                                  forceResponses[passIndex]);
                 stiffModes->computeVelocityProcessing(flow.h, modeFriction, closing, biasRemoval,
                                                       processingResponses[passIndex]);

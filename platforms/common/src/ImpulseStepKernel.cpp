@@ -11,8 +11,8 @@ using namespace FlavorPlugin;
 using namespace OpenMM;
 
 ImpulseStepKernel::ImpulseStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
-    : IntegrateStochasticImpulseStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0),
-      friction(0.0), stiffKT(0.0), stiffFriction(0.0) {}
+    : IntegrateStochasticImpulseStepKernel(name, platform), loop(std::move(loop)), configured(false),
+      placement(StochasticImpulseIntegrator::Throughout), kT(0.0), friction(0.0), stiffKT(0.0), stiffFriction(0.0) {}
 
 void ImpulseStepKernel::initialize(const System& system, const StochasticImpulseIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
@@ -40,12 +40,23 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
                                 bool& stiffModesValid) {
     ImpulseParameters current{integrator.getSplitting(), integrator.getStepSize(), integrator.getStiffGroups(),
                               integrator.getIntegrationForceGroups()};
+    const StochasticImpulseIntegrator::ThermostatPlacement currentPlacement = integrator.getThermostatPlacement();
+    if (currentPlacement == StochasticImpulseIntegrator::Middle &&
+        current.splitting != StochasticImpulseIntegrator::Filtered &&
+        current.splitting != StochasticImpulseIntegrator::Warped)
+        throw OpenMMException("StochasticImpulseIntegrator: thermostatPlacement = Middle (1) is not allowed with "
+                              "splitting = " +
+                              std::to_string((int)current.splitting) +
+                              " (its kicks act on whole particles, not mode by mode); allowed: Throughout (0) with "
+                              "every splitting, Middle with Filtered (3) and Warped (4)");
     const double currentKT = BOLTZ * integrator.getTemperature();
     const double currentStiffKT = BOLTZ * integrator.getStiffModeTemperature();
-    if (!configured || !(current == parameters) || currentKT != kT || integrator.getFriction() != friction ||
-        currentStiffKT != stiffKT || integrator.getStiffModeFriction() != stiffFriction) {
+    if (!configured || !(current == parameters) || currentPlacement != placement || currentKT != kT ||
+        integrator.getFriction() != friction || currentStiffKT != stiffKT ||
+        integrator.getStiffModeFriction() != stiffFriction) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;
+        placement = currentPlacement;
         kT = currentKT;
         friction = integrator.getFriction();
         stiffKT = currentStiffKT;
@@ -55,6 +66,7 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
         runner->setBiasRemoval(parameters.splitting == StochasticImpulseIntegrator::Warped
                                    ? StiffModes::BiasRemoval::WarpedFlow
                                    : StiffModes::BiasRemoval::ScaledKicks);
+        runner->setMiddleZeroModes(placement == StochasticImpulseIntegrator::Middle);
         configured = true;
     }
     if (!stiffModesValid || !measurement->getModes()) {

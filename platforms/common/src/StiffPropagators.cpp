@@ -23,7 +23,7 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
 } // namespace
 
 void StiffModes::computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
-                                   Propagator& propagator, bool warped) const {
+                                   Propagator& propagator, bool warped, bool middleZeroModes) const {
     bool hasStiffModes = false;
     for (const Component& comp : components)
         hasStiffModes = hasStiffModes || comp.stiff;
@@ -49,6 +49,8 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
         for (int k = 0; k < D; ++k) {
             const double w = omega[comp.firstMode + C * k];
             flows[k] = modeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
+            if (middleZeroModes && w == 0.0 && h > 0.0)
+                flows[k] = computeMiddleFreeFlow(gamma, h);
             if (warped && w > 0.0 && h > 0.0) {
                 const double warpedW = warpedFrequency(w, stiffGamma, h), scale = (warpedW / w) * (warpedW / w);
                 flows[k] = computeModeFlow(warpedW, stiffGamma, h);
@@ -163,7 +165,7 @@ void StiffModes::fillModeResponses(ForceResponse& response,
 }
 
 void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing, BiasRemoval removal,
-                                      ForceResponse& response) const {
+                                      bool middleZeroModes, ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (w > 0.0) {
             // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one of the
@@ -172,6 +174,11 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
             const double opening = kicks.halfKick + kicks.lambda;
             out[0] = closing ? 0.0 : opening * kicks.flow.xv;
             out[1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
+        } else if (middleZeroModes) {
+            // Both half kicks at the opening, as the image of the Middle free flow: half-step velocities at the end.
+            const ModeFlow f = computeMiddleFreeFlow(gamma, h);
+            out[0] = closing ? 0.0 : h * f.xv;
+            out[1] = closing ? 0.0 : h * f.vv;
         } else {
             const ModeFlow f = computeModeFlow(w, gamma, h);
             out[0] = closing ? 0.0 : 0.5 * h * f.xv;

@@ -498,14 +498,15 @@ def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
 
 
 def interleaved_timing(out, rounds, picoseconds=0.5):
-    """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs and Warped at 2.5 fs on the scene's system, with 1
-    and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which every Context steps
-    `picoseconds` in turn, so that a change of the machine's load hits them alike.  Writes interleaved_timing.json
-    with each round's ns/day and, per thread count, each SIM's median ratio to DrudeLangevin over the rounds."""
+    """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs and Warped at 2.5 fs (both placements) on the
+    scene's system, with 1 and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which
+    every Context steps `picoseconds` in turn, so that a change of the machine's load hits them alike.  Writes
+    interleaved_timing.json with each round's ns/day and, per thread count, each SIM's median ratio to DrudeLangevin
+    over the rounds."""
     import time
     system, _, positions, _ = build_water(256)
     state = equilibrated_state(system, positions, 1.0, 1000, 1)
-    peers = [("DrudeLangevin", 1.0), ("Filtered", 2.0), ("Warped", 2.5)]
+    peers = [("DrudeLangevin", 1.0), ("Filtered", 2.0), ("Warped", 2.5), ("WarpedMiddle", 2.5)]
     report = {"system": "256 SWM4-NDP molecules, rigid, PME", "ps_per_round": picoseconds, "threads": {}}
     for threads in (1, 2):
         contexts = []
@@ -549,7 +550,8 @@ def main():
     parser.add_argument("--velocity-bias", action="store_true",
                         help="only predict the step-end bias of the centre-of-mass temperature from forces and torques")
     parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",
-                        help="only time DrudeLangevin 1 fs, Filtered 2 fs and Warped 2.5 fs in turn, ROUNDS rounds")
+                        help="only time DrudeLangevin 1 fs, Filtered 2 fs and Warped 2.5 fs (Throughout, Middle) in "
+                             "turn, ROUNDS rounds")
     parser.add_argument("--production", type=float, default=3.0, help="ps sampled per run (default 3)")
     parser.add_argument("--burn-in", type=float, default=0.5, help="ps per run before sampling (default 0.5)")
     parser.add_argument("--reference-steps", type=float, nargs="+", default=[0.5, 1.0],

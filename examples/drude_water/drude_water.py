@@ -252,10 +252,10 @@ def plot(data, path):
         fig.text(0.5, 0.005, "not shown, failed (the water fell apart: NaN coordinates): " + ", ".join(failed),
                  ha="center", fontsize=9, color="tab:red")
     fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
-                 "SIM (Strang blue, Filtered red, Warped green, Warped with Middle olive; Drude modes at 1 K, 20/ps) against "
-                 "DrudeLangevinIntegrator "
-                 "(black; error bars: ±1 s.e. of block means)")
-    fig.tight_layout(rect=(0, 0.02, 1, 1))
+                 "StochasticImpulseIntegrator against DrudeLangevinIntegrator (black)\n"
+                 "SIM: Strang blue, Filtered red, Warped green, Warped with the Middle placement olive; Drude modes at "
+                 "1 K, 20/ps; error bars ±1 s.e. of block means")
+    fig.tight_layout(rect=(0, 0.02, 1, 0.97))
     fig.savefig(path, dpi=110)
 
 

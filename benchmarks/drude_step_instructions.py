@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Instructions per step of StochasticImpulseIntegrator (Filtered at H = 2 fs, Warped at 2.5 fs) against
-DrudeLangevinIntegrator (1 fs) and VerletIntegrator (1 fs) on the drude_water system (256 SWM4-NDP molecules, rigid, PME, CPU platform with one
-thread), counted by valgrind's callgrind: load-independent, unlike wall times on a shared machine.
+DrudeLangevinIntegrator (1 fs) and VerletIntegrator (1 fs) on the drude_water system (256 SWM4-NDP molecules, rigid,
+PME, CPU platform with one thread), counted by valgrind's callgrind: load-independent, unlike wall times on a shared
+machine.
 
 Each integrator is run from one saved state for 10 and for 40 steps in a child process under callgrind; the difference
 over 30 steps is the cost of a step, split by function into: the nonbonded and PME forces, the neighbour list, the

@@ -546,7 +546,8 @@ def main():
     parser.add_argument("--constraint-cost", action="store_true",
                         help="only measure the cost of carrying Drude particles through the constraint solve")
     parser.add_argument("--filter-bias", action="store_true",
-                        help="only measure the mean displacement of a stiff mode and the FPU energy error against omega H")
+                        help="only measure the mean displacement of a stiff mode, the FPU energy error and the "
+                             "stability threshold against omega H")
     parser.add_argument("--velocity-bias", action="store_true",
                         help="only predict the step-end bias of the centre-of-mass temperature from forces and torques")
     parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",

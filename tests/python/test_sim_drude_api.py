@@ -1,7 +1,9 @@
-"""The stiff modes' own bath and the Filtered and Warped splittings from Python: Quantities in and out, defaults that follow the
-integrator, rejected values that leave the old ones, and XmlSerializer round trips."""
+"""The stiff modes' own bath, the Filtered and Warped splittings and the thermostat placement from Python: Quantities
+in and out, defaults that follow the integrator, rejected values that leave the old ones, and XmlSerializer round
+trips."""
 import math
 
+import conftest
 import openmm
 import openmm.unit as unit
 import pytest
@@ -107,17 +109,10 @@ def test_version_2_xml_loads_with_the_thermostat_throughout():
 
 
 def test_middle_with_strang_is_rejected_when_stepping_and_the_context_stays_usable():
-    system = openmm.System()
-    system.addParticle(16.0)
-    system.addParticle(0.4)
-    spring = openmm.HarmonicBondForce()
-    spring.addBond(0, 1, 0.0, 4e5)
-    spring.setForceGroup(1)
-    system.addForce(spring)
-    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {conftest.STIFF_GROUP})
     integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
-    context.setPositions([openmm.Vec3(0, 0, 0), openmm.Vec3(0.001, 0, 0)])
+    context = openmm.Context(conftest.build_fpu_system(), integrator, openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions(conftest.fpu_positions())
     with pytest.raises(openmm.OpenMMException, match=r"thermostatPlacement = Middle \(1\)"):
         integrator.step(1)
     integrator.setSplitting(StochasticImpulseIntegrator.Filtered)

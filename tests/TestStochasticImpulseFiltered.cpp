@@ -378,7 +378,7 @@ TEST_P(ImpulseFiltered, ASoftForceStiffAlongAModeIsStableExactlyBelowItsThreshol
     // The Filtered step's transfer matrix has trace 2 (cos xi - r (1 - cos xi)): stable while tan^2(xi/2) < 1/r; the
     // Warped step's 2 - 4 (1 + r) sin^2(xi~/2): stable while (1 + r) sin^2(xi~/2) < 1, the same condition at xi~
     // (warpedTurn); Strang's 2 cos xi - r xi sin xi: stable while r < 2 (1 + cos xi)/(xi sin xi).  For r = 0.3 the
-    // thresholds are found by bisection here (xi = 2.29, 2.80, 2.47); 200 steps 2% below a threshold stay within 20
+    // thresholds are found by bisection here (xi = 2.14, 2.79, 2.44); 200 steps 2% below a threshold stay within 20
     // times the start, 2% above they grow past 1000 times it.
     const double omega = 1000.0, mass = 1.0, r = 0.3, k = mass * omega * omega;
     System system;

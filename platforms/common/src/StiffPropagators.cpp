@@ -20,6 +20,23 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
     return inverse;
 }
 
+/**
+ * The flow of one mode over a step h as computePropagator describes it: the exact flow, or for h > 0 the Middle free
+ * flow of a zero mode or the warped flow of a stiff mode (constant force scaled so that its equilibrium stays).
+ */
+ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool warped, bool middleZeroModes) {
+    if (middleZeroModes && omega == 0.0 && h > 0.0)
+        return computeMiddleFreeFlow(gamma, h);
+    if (warped && omega > 0.0 && h > 0.0) {
+        const double warpedOmega = warpedFrequency(omega, stiffGamma, h), scale = std::pow(warpedOmega / omega, 2);
+        ModeFlow f = computeModeFlow(warpedOmega, stiffGamma, h);
+        f.gx *= scale;
+        f.gv *= scale;
+        return f;
+    }
+    return modeFlow(omega, omega > 0.0 ? stiffGamma : gamma, h);
+}
+
 } // namespace
 
 void StiffModes::computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
@@ -48,15 +65,7 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
         vector<double> modeThermalScale(D);
         for (int k = 0; k < D; ++k) {
             const double w = omega[comp.firstMode + C * k];
-            flows[k] = modeFlow(w, w > 0.0 ? stiffGamma : gamma, h);
-            if (middleZeroModes && w == 0.0 && h > 0.0)
-                flows[k] = computeMiddleFreeFlow(gamma, h);
-            if (warped && w > 0.0 && h > 0.0) {
-                const double warpedW = warpedFrequency(w, stiffGamma, h), scale = (warpedW / w) * (warpedW / w);
-                flows[k] = computeModeFlow(warpedW, stiffGamma, h);
-                flows[k].gx *= scale;
-                flows[k].gv *= scale;
-            }
+            flows[k] = stepFlow(w, gamma, stiffGamma, h, warped, middleZeroModes);
             modeThermalScale[k] = w > 0.0 ? stiffThermalScale : thermalScale;
         }
         double* out = &propagator.data[propagator.offset[c]];

@@ -10,6 +10,10 @@
 #include <utility>
 #include <vector>
 
+namespace OpenMM {
+class System;
+}
+
 namespace FlavorPlugin {
 
 class IntegrateFlavorStepKernel;
@@ -65,9 +69,11 @@ public:
          * the nonzero modes of its stiffness matrix (an exact projection); otherwise the distances that the stiff
          * bonded forces act on (each bond of a HarmonicBondForce or CustomBondForce, the 1-3 distances of the angles
          * of a HarmonicAngleForce, 2k - 3 at a centre with k neighbours, less those nearly dependent on the others,
-         * as in planar rings) and those added with addFrozenDistance(), held by RATTLE steps next to the System's
-         * own constraints.  A stiff force that can never be frozen (nonbonded forces, torsions) is an error when
-         * the Context is created, unless frozen distances have been added.
+         * as in planar rings; harmonic terms with force constant 0 are left out) and those added with
+         * addFrozenDistance(), held by RATTLE steps next to the System's own constraints.  Angles at planar centres
+         * are better integrated with the soft forces (separatePlanarAngles()).  A stiff force that can never be frozen
+         * (nonbonded forces, torsions) is an error when the Context is created, unless frozen distances have been
+         * added.
          */
         Artificial = 1,
         /**
@@ -191,6 +197,27 @@ public:
      * Get the particles of a distance added with addFrozenDistance().
      */
     void getFrozenDistance(int index, int& particle1, int& particle2) const;
+    /**
+     * Move the angles of every planar centre of a System's HarmonicAngleForces into a new HarmonicAngleForce in force
+     * group group, so that the artificial FLAVOR integrates them with the soft forces when the other angles are
+     * stiff.  A planar centre is a particle that is the centre of exactly three angles, with three distinct
+     * neighbours, whose equilibrium angles add up to at least minAngleSum (sp2 carbons and nitrogens: carbonyls,
+     * amides, aromatic rings).  Distances cannot hold such a centre: at planarity its motion out of its neighbours'
+     * plane changes none of its distances at first order, so frozen 1-3 distances would leave that motion free while
+     * its stiff angles resist it, and the frozen stage would feed energy into it.
+     *
+     * The moved angles keep their place in their original force with force constant 0 (so that pointers to the
+     * forces and angle indices stay valid); the frozen set leaves out bonds and angles whose force constant is 0.
+     * HarmonicAngleForces already in group are left as they are, so a second call moves nothing.  Call it before
+     * the Context is created.
+     *
+     * @param system       the System to change
+     * @param group        the force group of the new HarmonicAngleForce (0 to 31; a soft group of the integrator)
+     * @param minAngleSum  the smallest sum of a centre's three equilibrium angles (in radians) that makes it planar;
+     *                     the default, 350 degrees, separates sp2 (360 degrees) from sp3 centres (about 328 degrees)
+     * @return the number of angles moved (0 if none: then no force is added)
+     */
+    static int separatePlanarAngles(OpenMM::System& system, int group, double minAngleSum = 6.1086523819801535);
     /**
      * Get the temperature of the heat bath (in Kelvin).
      */

@@ -90,6 +90,10 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %pythonprepend FlavorPlugin::FlavorIntegrator::setRandomNumberSeed %{
     seed = _toInt(seed, "randomNumberSeed")
 %}
+%pythonprepend FlavorPlugin::FlavorIntegrator::separatePlanarAngles %{
+    group = _toInt(group, "group")
+    minAngleSum = _stripUnits(minAngleSum, unit.radian, "minAngleSum")
+%}
 %pythonprepend FlavorPlugin::FlavorIntegrator::step %{
     steps = _toInt(steps, "steps")
 %}

@@ -72,7 +72,8 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
                 int p1, p2;
                 double length, k;
                 bonds->getBondParameters(b, p1, p2, length, k);
-                add(p1, p2);
+                if (k != 0.0) // no stiff force, nothing to hold
+                    add(p1, p2);
             }
         } else if (const CustomBondForce* custom = dynamic_cast<const CustomBondForce*>(&force)) {
             for (int b = 0; b < custom->getNumBonds(); ++b) {
@@ -86,7 +87,8 @@ vector<pair<int, int>> FlavorPlugin::bondedFrozenPairs(const ContextImpl& contex
                 std::array<int, 3> angle;
                 double theta, k;
                 angleForce->getAngleParameters(a, angle[0], angle[1], angle[2], theta, k);
-                angles.push_back(angle);
+                if (k != 0.0)
+                    angles.push_back(angle);
             }
         } else {
             unsupported.push_back(describeForce(system, f));

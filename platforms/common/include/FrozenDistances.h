@@ -33,8 +33,8 @@ nonredundantAngleDistances(const std::vector<std::array<int, 3>>& angles);
 /**
  * The distances that the stiff bonded forces of groups stiffGroups act on: each bond of a HarmonicBondForce (force
  * constant nonzero) or CustomBondForce, the 1-3 distances of the angles of the HarmonicAngleForces with a nonzero
- * force constant (nonredundantAngleDistances), then the extra pairs, without repeats.  Stiff forces of other types are described in unsupported (one entry per force: its
- * index and type).
+ * force constant (nonredundantAngleDistances), then the extra pairs, without repeats.  Stiff forces of other types are
+ * described in unsupported (one entry per force: its index and type).
  */
 OPENMM_EXPORT_FLAVORS std::vector<std::pair<int, int>> bondedFrozenPairs(const OpenMM::ContextImpl& context,
                                                                          int stiffGroups,

@@ -140,8 +140,10 @@ def test_frozen_energy_drift_quick_runs_every_peer_on_both_molecules_and_replots
     assert [m["name"] for m in data["molecules"]] == ["villin", "POPC"]
     assert [m["atoms"] for m in data["molecules"]] == [582, 134]
     for molecule in data["molecules"]:
-        assert [r["label"] for r in molecule["runs"]] == ["Verlet 0.5 fs", "FLAVOR δ=2 fs τ=1 fs",
-                                                          "FLAVOR δ=2.5 fs τ=1 fs", "FLAVOR δ=3 fs τ=1 fs"]
+        assert [r["label"] for r in molecule["runs"]] == [
+            "Verlet 0.5 fs", "FLAVOR δ=2 fs τ=1 fs", "FLAVOR δ=2.5 fs τ=1 fs", "FLAVOR δ=3 fs τ=1 fs",
+            "FLAVOR δ=2 fs τ=1 fs, planar angles soft", "FLAVOR δ=2.5 fs τ=1 fs, planar angles soft",
+            "FLAVOR δ=3 fs τ=1 fs, planar angles soft"]
         for r in molecule["runs"]:
             assert len(r["time_ps"]) == len(r["total_energy"]) == 3
             assert r["gain_per_atom_by_residue"]

@@ -4,15 +4,17 @@ X-H bonds constrained, rigid water), on the CPU platform: the artificial FLAVOR 
 integrators, every peer run here from the same equilibrated start.
 
 Force groups: HarmonicBondForce (the heavy-atom bonds; the X-H bonds are constraints) in group 1,
-HarmonicAngleForce in group 2, everything else (PME, torsions) in group 0.
+HarmonicAngleForce in group 2 but the angles of the planar centres (sp2 carbons and nitrogens: carbonyls, amides,
+aromatic rings; FlavorIntegrator.separatePlanarAngles) in group 3, everything else (PME, torsions) in group 0.
 
 Peers (Langevin, 300 K, friction 1/ps):
   - LangevinMiddleIntegrator 2 fs (the reference for the observables);
   - MTSLangevinIntegrator 4 fs outer, the bonds and angles 4 times per step (1 fs);
   - LangevinMiddleIntegrator at the further steps of --langevin-steps (e.g. 0.5 fs: the small-step limit);
   - FlavorIntegrator, ArtificialProjected averaging, Verlet scheme, at the mesostep delta and microstep tau of
-    --flavors, with the bonds and angles stiff ("4:1") or the bonds alone ("4:1:bonds", angles soft), the thermostat
-    at the edges of the mesostep or in the middle of the microstep ("4:1:middle").
+    --flavors, with the bonds and angles stiff ("4:1", groups 1-3), the bonds and the angles of the other centres
+    stiff ("2.5:1:planar", groups 1-2: the angles of the planar centres soft), or the bonds alone ("4:1:bonds",
+    angles soft), the thermostat at the edges of the mesostep or in the middle of the microstep ("4:1:middle").
 
 Observables, each with a block-average error bar (the standard error of the block means): kinetic temperature of
 the whole system and of the protein (degrees of freedom less the constraints), RMS deviation of the bond lengths
@@ -45,13 +47,15 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 PDB = os.path.join(HERE, "villin.pdb")
 TEMPERATURE = 300.0  # K
 FRICTION = 1.0  # 1/ps
-BOND_GROUP, ANGLE_GROUP = 1, 2
+BOND_GROUP, ANGLE_GROUP, PLANAR_ANGLE_GROUP = 1, 2, 3
 
 
 def make_system(forcefield, topology):
     system = forcefield.createSystem(topology, nonbondedMethod=app.PME, nonbondedCutoff=1.0 * unit.nanometer,
                                      constraints=app.HBonds, rigidWater=True, removeCMMotion=False)
-    return assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
+    assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
+    openmmflavors.FlavorIntegrator.separatePlanarAngles(system, PLANAR_ANGLE_GROUP)
+    return system
 
 
 def peers(flavor_settings, langevin_steps=()):
@@ -59,13 +63,15 @@ def peers(flavor_settings, langevin_steps=()):
     result = [
         ("LangevinMiddle 2 fs", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 2e-3)),
         ("MTSLangevin 4 fs / 4",
-         lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 4e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4)])),
+         lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 4e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4),
+                                                                        (PLANAR_ANGLE_GROUP, 4)])),
     ]
     for step in langevin_steps:
         result.append(("LangevinMiddle %g fs" % step,
                        lambda step=step: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, step * 1e-3)))
-    for delta, tau, bonds_only, middle in flavor_settings:
-        stiff = {BOND_GROUP} if bonds_only else {BOND_GROUP, ANGLE_GROUP}
+    for delta, tau, stiff_terms, middle in flavor_settings:
+        stiff = {"bonds": {BOND_GROUP}, "bonds+angles": {BOND_GROUP, ANGLE_GROUP, PLANAR_ANGLE_GROUP},
+                 "bonds+nonplanar angles": {BOND_GROUP, ANGLE_GROUP}}[stiff_terms]
 
         def factory(delta=delta, tau=tau, stiff=stiff, middle=middle):
             integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, tau * unit.femtosecond, stiff)
@@ -77,7 +83,7 @@ def peers(flavor_settings, langevin_steps=()):
             integrator.setRandomNumberSeed(1234)
             return integrator
 
-        what = ("bonds" if bonds_only else "bonds+angles") + (" Middle" if middle else "")
+        what = stiff_terms + (" Middle" if middle else "")
         result.append(("FLAVOR ArtificialProjected %s δ=%g fs τ=%g fs" % (what, delta, tau), factory))
     return result
 
@@ -100,7 +106,7 @@ class Geometry:
         self.protein_dof = 3 * len(self.protein) - sum(1 for i, j in constraints if in_protein[i] and in_protein[j])
         self.backbone = np.array([a.index for a in atoms if in_protein[a.index] and a.name in ("N", "CA", "C")])
         bonds = next(f for f in system.getForces() if isinstance(f, mm.HarmonicBondForce))
-        angles = next(f for f in system.getForces() if isinstance(f, mm.HarmonicAngleForce))
+        angles = [f for f in system.getForces() if isinstance(f, mm.HarmonicAngleForce)]
         b = [bonds.getBondParameters(i) for i in range(bonds.getNumBonds())]
         self.bond_i = np.array([x[0] for x in b])
         self.bond_j = np.array([x[1] for x in b])
@@ -109,7 +115,9 @@ class Geometry:
         for n, (i, j) in enumerate(zip(self.bond_i, self.bond_j)):
             self.bond_class.setdefault("–".join(sorted((element[i], element[j]))), []).append(n)
         self.bond_class = {k: np.array(v) for k, v in sorted(self.bond_class.items())}
-        a = [angles.getAngleParameters(i) for i in range(angles.getNumAngles())]
+        # Each angle once: separatePlanarAngles leaves the moved ones behind with force constant 0.
+        a = [x for x in (f.getAngleParameters(i) for f in angles for i in range(f.getNumAngles()))
+             if x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) != 0]
         self.angle_ijk = np.array([x[:3] for x in a])
         self.angle_t0 = np.degrees(np.array([x[3].value_in_unit(unit.radian) for x in a]))
         has_h = np.array([any(element[p] == "H" for p in x[:3]) for x in a])
@@ -282,8 +290,9 @@ def main():
     p.add_argument("--timing", type=float, default=0.4, help="ps per peer timed with 1 thread")
     p.add_argument("--start", type=float, default=2.0, help="ps of common LangevinMiddle 2 fs before the peers")
     p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1,4:0.5,3:0.5",
-                   help="delta:tau[:bonds][:middle] in fs, comma separated (':bonds': only the bonds stiff; ':middle': "
-                        "the thermostat in the middle of the microstep, FlavorIntegrator.Middle)")
+                   help="delta:tau[:bonds|:planar][:middle] in fs, comma separated (':bonds': only the bonds stiff; "
+                        "':planar': the angles of the planar centres soft; ':middle': the thermostat in the middle "
+                        "of the microstep, FlavorIntegrator.Middle)")
     p.add_argument("--langevin-steps", type=float, nargs="+", default=[], metavar="FS",
                    help="further LangevinMiddle peers at these steps in fs (e.g. 0.5: how far the 2-fs reference is "
                         "from the small-step limit)")
@@ -298,9 +307,10 @@ def main():
     for setting in args.flavors.split(","):
         fields = setting.split(":")
         flags = set(fields[2:])
-        if len(fields) < 2 or not flags <= {"bonds", "middle"}:
-            p.error("--flavors: %r is not delta:tau[:bonds][:middle]" % setting)
-        flavor_settings.append((float(fields[0]), float(fields[1]), "bonds" in flags, "middle" in flags))
+        if len(fields) < 2 or not flags <= {"bonds", "planar", "middle"} or {"bonds", "planar"} <= flags:
+            p.error("--flavors: %r is not delta:tau[:bonds|:planar][:middle]" % setting)
+        stiff_terms = "bonds" if "bonds" in flags else "bonds+nonplanar angles" if "planar" in flags else "bonds+angles"
+        flavor_settings.append((float(fields[0]), float(fields[1]), stiff_terms, "middle" in flags))
     if args.quick:
         args.equilibration, args.production, args.timing, args.start = 0.008, 0.04, 0.008, 0.01
         flavor_settings = flavor_settings[-1:]

@@ -38,9 +38,20 @@ def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path
         peers = json.load(f)["peers"]
     assert peers[-1]["name"] == "FLAVOR ArtificialProjected bonds+angles Middle δ=3 fs τ=0.5 fs"
     assert peers[-1]["stable"]
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "2.5:1:planar"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "villin.json") as f:
+        data = json.load(f)
+    assert data["peers"][-1]["name"] == "FLAVOR ArtificialProjected bonds+nonplanar angles δ=2.5 fs τ=1 fs"
+    assert data["peers"][-1]["stable"]
+    # Every angle counted once in the observables: the separated planar ones are not counted twice.
+    assert data["angles"] == 1067
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "2.5:1:planar:bonds"))
+    assert result.returncode != 0
+    assert "'2.5:1:planar:bonds' is not delta:tau[:bonds|:planar][:middle]" in result.stderr
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:0.5:sideways"))
     assert result.returncode != 0
-    assert "'3:0.5:sideways' is not delta:tau[:bonds][:middle]" in result.stderr
+    assert "'3:0.5:sideways' is not delta:tau[:bonds|:planar][:middle]" in result.stderr
 
 
 def test_a_small_step_langevin_peer_runs_and_a_step_out_of_range_is_an_error(tmp_path):

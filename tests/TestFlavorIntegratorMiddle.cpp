@@ -1,6 +1,7 @@
 // The Middle thermostat placement of the artificial Verlet FLAVOR: with tau = delta it is LangevinMiddleIntegrator,
 // it samples a harmonic stiff coordinate with its exact variance where Edges gives 1/(1 - (omega tau/2)^2) times it,
-// and combinations it is not defined for are rejected with the Context left usable.
+// a harmonic soft coordinate too where Edges gives 1/(1 - (omega delta/2)^2) times it, and combinations it is not
+// defined for are rejected with the Context left usable.
 
 #include "Diatomics.h"
 #include "ExpectRejected.h"
@@ -141,6 +142,78 @@ TEST_P(FlavorMiddle, AHarmonicStiffBondKeepsItsExactVarianceWhereEdgesWidenIt) {
             << "placement " << c.placement << " stiff friction " << c.stiffFriction << ": " << mean / kT << " kT";
         // The error bar resolves the difference between the placements.
         EXPECT_LT(4 * standardError, 0.5 * (edgesFactor - 1) * kT);
+    }
+}
+
+TEST_P(FlavorMiddle, AHarmonicSoftCoordinateKeepsItsExactVarianceWhereEdgesWidenIt) {
+    // Independent diatomics (unit masses, stiff bond at omega tau = 0.89) on a soft tether k_s |x|^2 / 2 on both
+    // atoms: their centres of mass X are harmonic soft coordinates, decoupled from the bond, of frequency
+    // omega_s = sqrt(k_s), here omega_s delta = 0.9, with k_s <|X|^2> * 2/3 = kT exactly.  Edges integrates them by
+    // an O-B-A-B-O step over delta (variance 1/(1 - (omega_s delta/2)^2) = 1.25 times too large); Middle by B-A-O-A
+    // over delta with positions taken where the kicks act, which keeps it exact.  (With the step starting at the
+    // stiff kicks instead, positions (delta - tau)/2 of drift away from that point, it was 1 - omega_s^2 (delta^2 -
+    // tau^2)/4 = 0.81 times it.)
+    const double temperature = 300, kT = BOLTZ * temperature, tau = 1e-3, delta = 4 * tau;
+    const double omegaSoft = 0.9 / delta, kSoft = omegaSoft * omegaSoft;
+    const int molecules = 150;
+    System system;
+    HarmonicBondForce* bonds = new HarmonicBondForce();
+    bonds->setForceGroup(StiffGroup);
+    CustomExternalForce* tether = new CustomExternalForce("0.5*ks*(x^2+y^2+z^2)");
+    tether->addGlobalParameter("ks", kSoft);
+    tether->setForceGroup(SoftGroup);
+    for (int m = 0; m < molecules; ++m) {
+        system.addParticle(1.0);
+        system.addParticle(1.0);
+        bonds->addBond(2 * m, 2 * m + 1, 0.1, 4e5);
+        tether->addParticle(2 * m);
+        tether->addParticle(2 * m + 1);
+    }
+    system.addForce(bonds);
+    system.addForce(tether);
+    const double edgesFactor = 1 / (1 - 0.9 * 0.9 / 4);
+    std::mt19937 generator(11);
+    std::normal_distribution<double> normal;
+    for (auto [placement, expected] :
+         {std::pair<FlavorIntegrator::ThermostatPlacement, double>{FlavorIntegrator::Edges, edgesFactor},
+          {FlavorIntegrator::Middle, 1.0}}) {
+        FlavorIntegrator integrator(delta, tau, StiffMask);
+        integrator.setAveraging(FlavorIntegrator::ArtificialProjected);
+        integrator.setTemperature(temperature);
+        integrator.setFriction(50.0);
+        integrator.setThermostatPlacement(placement);
+        integrator.setRandomNumberSeed(9);
+        Context context(system, integrator, platform(), properties());
+        vector<Vec3> q(2 * molecules), v(2 * molecules);
+        const double sigmaX = std::sqrt(kT / (2 * kSoft)), sigmaV = std::sqrt(kT);
+        for (int m = 0; m < molecules; ++m) {
+            const Vec3 centre(sigmaX * normal(generator), sigmaX * normal(generator), sigmaX * normal(generator));
+            Vec3 axis(normal(generator), normal(generator), normal(generator));
+            axis *= 0.05 / std::sqrt(axis.dot(axis));
+            q[2 * m] = centre - axis;
+            q[2 * m + 1] = centre + axis;
+            for (int i : {2 * m, 2 * m + 1})
+                v[i] = Vec3(sigmaV * normal(generator), sigmaV * normal(generator), sigmaV * normal(generator));
+        }
+        context.setPositions(q);
+        context.setVelocities(v);
+        integrator.step(300);
+        const int samples = 200;
+        vector<double> average(molecules, 0.0);
+        for (int s = 0; s < samples; ++s) {
+            integrator.step(10);
+            const vector<Vec3> x = positionsOf(context);
+            for (int m = 0; m < molecules; ++m) {
+                const Vec3 centre = (x[2 * m] + x[2 * m + 1]) * 0.5;
+                average[m] += kSoft * centre.dot(centre) * 2.0 / 3.0 / samples;
+            }
+        }
+        const BlockMean measured = blockMean(average);
+        std::cout << "[ measured ] placement " << placement << ": k_s <|X|^2> 2/3 / kT = " << measured.mean / kT
+                  << " +- " << measured.standardError / kT << " (expected " << expected << ")" << std::endl;
+        EXPECT_LE(std::abs(measured.mean - expected * kT), 4 * measured.standardError) << "placement " << placement;
+        // The error bar resolves the differences between the placements, and the 0.81 of the shifted step.
+        EXPECT_LT(4 * measured.standardError, 0.5 * (edgesFactor - 1) * kT);
     }
 }
 

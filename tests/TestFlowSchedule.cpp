@@ -212,13 +212,13 @@ TEST(FlowSchedule, ArtificialLangevinPlacesTheThermostatsAsTheNonintrusiveScheme
     }
 }
 
-TEST(FlowSchedule, MiddlePlacementShiftsTheVerletStepAndThermostatsInTheMicrostepDrift) {
+TEST(FlowSchedule, MiddlePlacementKicksFirstAndThermostatsInTheMiddleOfBothDrifts) {
     const double delta = 0.01, tau = 0.002, half = (delta - tau) / 2;
     for (bool stiff : {false, true}) {
         FlavorParameters p = artificial(FlavorIntegrator::Verlet, delta, tau, false, false, 1.0, stiff);
         p.thermostatPlacement = FlavorIntegrator::Middle;
-        EXPECT_EQ((Schedule{kick(tau / 2, Stiff), frozenDrift(half), kick(delta, Soft), frozenDrift(half),
-                            kick(tau / 2, Stiff), drift(tau / 2), thermostat(stiff ? tau : delta), drift(tau / 2)}),
+        EXPECT_EQ((Schedule{kick(tau, Stiff), kick(delta, Soft), frozenDrift(half), drift(tau / 2),
+                            thermostat(stiff ? tau : delta), drift(tau / 2), frozenDrift(half)}),
                   flavorSchedule(p));
         // Without friction there is nothing to place: the Edges schedule.
         p.friction = 0.0;
@@ -226,12 +226,15 @@ TEST(FlowSchedule, MiddlePlacementShiftsTheVerletStepAndThermostatsInTheMicroste
         edges.thermostatPlacement = FlavorIntegrator::Edges;
         EXPECT_EQ(flavorSchedule(edges), flavorSchedule(p));
     }
-    // Projected: one soft kick over delta, its frozen component weighted by tau/delta.
+    // Projected: one soft kick over delta, its frozen component weighted by tau/delta; its plain part apart from the
+    // stiff kick over the same tau (merged, they would be an evaluation of every group besides the soft one).
     FlavorParameters p = artificial(FlavorIntegrator::Verlet, delta, tau, true, false, 1.0);
     p.thermostatPlacement = FlavorIntegrator::Middle;
-    EXPECT_EQ((Schedule{kick(tau / 2, Stiff), frozenDrift(half), kick(tau, Soft), frozenKick(delta - tau, Soft),
-                        frozenDrift(half), kick(tau / 2, Stiff), drift(tau / 2), thermostat(delta), drift(tau / 2)}),
-              flavorSchedule(p));
+    const Schedule projected = flavorSchedule(p);
+    EXPECT_EQ((Schedule{kick(tau, Stiff), frozenKick(delta - tau, Soft), kick(tau, Soft), frozenDrift(half),
+                        drift(tau / 2), thermostat(delta), drift(tau / 2), frozenDrift(half)}),
+              projected);
+    EXPECT_EQ((std::vector<int>{Stiff, Soft}), compileStepPlan(projected, false).slotGroups);
     // With tau = delta: the kicks merge into one kick with every force, then D O D (LangevinMiddleIntegrator).
     p = artificial(FlavorIntegrator::Verlet, delta, delta, true, false, 1.0);
     p.thermostatPlacement = FlavorIntegrator::Middle;

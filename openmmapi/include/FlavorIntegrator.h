@@ -33,8 +33,8 @@ class IntegrateFlavorStepKernel;
  * With a nonzero friction the integrator is a Langevin FLAVOR: friction and noise are applied as exact
  * Ornstein-Uhlenbeck steps, either over the whole mesostep (the default) or, if stiff friction is enabled, only
  * while the stiff forces are on; at the edges of the mesostep (the default) or, for the artificial Verlet scheme, in
- * the middle of the stiff microstep (setThermostatPlacement(Middle), where velocities are LangevinMiddleIntegrator's,
- * half a microstep's drift before the positions).
+ * the middle of the step's drifts (setThermostatPlacement(Middle), where velocities are LangevinMiddleIntegrator's,
+ * those of the middle of the step's drift).
  */
 class OPENMM_EXPORT_FLAVORS FlavorIntegrator : public OpenMM::Integrator {
 public:
@@ -94,12 +94,13 @@ public:
          */
         Edges = 0,
         /**
-         * Over the mesostep in the middle of the stiff microstep's drift, as LangevinMiddleIntegrator places it: each
-         * mesostep is K_stiff(tau/2) frozen drift((delta-tau)/2) K_soft(delta) frozen drift((delta-tau)/2)
-         * K_stiff(tau/2) D(tau/2) O D(tau/2), a cyclic shift of the Edges step with the thermostat moved into its
-         * microstep.  Harmonic stiff coordinates are then sampled with their exact variance for every tau, and with
-         * tau = delta the step is LangevinMiddleIntegrator's.  Velocities are those after the thermostat, half a
-         * microstep's drift before the positions (as LangevinMiddleIntegrator's).  It needs the Verlet scheme, an
+         * Over the mesostep in the middle of the step's drifts, as LangevinMiddleIntegrator places it, for the soft
+         * and the stiff time scale at once: each mesostep is K_soft(delta) K_stiff(tau) frozen drift((delta-tau)/2)
+         * D(tau/2) O D(tau/2) frozen drift((delta-tau)/2), the position form of the Verlet step shifted to start at
+         * its kicks.  For the stiff coordinates it is B-A-O-A over tau, for the others B-A-O-A over delta, so that
+         * harmonic coordinates of either kind are sampled with their exact variance for every tau and delta (the
+         * Edges step widens both), and with tau = delta the step is LangevinMiddleIntegrator's.  Velocities are those
+         * after the thermostat (as LangevinMiddleIntegrator's).  It needs the Verlet scheme, an
          * artificial averaging and the symplectic fast microstep (setExactFastFlow(false)); other combinations are
          * rejected when a step is taken.
          */

@@ -83,16 +83,18 @@ Schedule artificialSchedule(const FlavorParameters& p) {
             s.push_back(thermostat(rest));
         s.push_back(frozenDrift(rest));
     } else if (friction && p.thermostatPlacement == FlavorIntegrator::Middle) {
-        // The Verlet step shifted to start at the microstep's first kick, the thermostat in the middle of its drift
-        // (B A O A, as LangevinMiddleIntegrator): a harmonic stiff coordinate keeps its exact variance for every tau.
-        s.push_back(kick(tau / 2, stiff));
+        // B A O A, as LangevinMiddleIntegrator, for both time scales at once: the soft kick over delta and the stiff
+        // kick over tau at the same positions, then the drifts with the thermostat in the middle of both the
+        // microstep's drift and the mesostep's.  Harmonic coordinates, stiff or soft, keep their exact variance at
+        // the step's end, where the next kicks act.  The stiff kick comes first: next to the soft kick's plain part
+        // over the same tau the two would merge into one evaluation of every group, a second soft evaluation.
+        s.push_back(kick(tau, stiff));
+        softKick(delta, true);
         s.push_back(frozenDrift(rest / 2));
-        softKick(delta, false);
-        s.push_back(frozenDrift(rest / 2));
-        s.push_back(kick(tau / 2, stiff));
         s.push_back(drift(tau / 2));
         s.push_back(thermostat(p.stiffFriction ? tau : delta));
         s.push_back(drift(tau / 2));
+        s.push_back(frozenDrift(rest / 2));
     } else {
         const double edge = p.stiffFriction ? tau / 2 : delta / 2;
         if (friction)

@@ -116,12 +116,22 @@ class Geometry:
             self.bond_class.setdefault("–".join(sorted((element[i], element[j]))), []).append(n)
         self.bond_class = {k: np.array(v) for k, v in sorted(self.bond_class.items())}
         # Each angle once: separatePlanarAngles leaves the moved ones behind with force constant 0.
-        a = [x for x in (f.getAngleParameters(i) for f in angles for i in range(f.getNumAngles()))
-             if x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) != 0]
+        a, planar = [], []
+        for f in angles:
+            for i in range(f.getNumAngles()):
+                x = f.getAngleParameters(i)
+                if x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) != 0:
+                    a.append(x)
+                    planar.append(f.getForceGroup() == PLANAR_ANGLE_GROUP)
         self.angle_ijk = np.array([x[:3] for x in a])
         self.angle_t0 = np.degrees(np.array([x[3].value_in_unit(unit.radian) for x in a]))
         has_h = np.array([any(element[p] == "H" for p in x[:3]) for x in a])
-        self.angle_class = {"with H": np.flatnonzero(has_h), "heavy atoms": np.flatnonzero(~has_h)}
+        planar = np.array(planar)
+        self.angle_class = {"with H": np.flatnonzero(has_h), "heavy atoms": np.flatnonzero(~has_h),
+                            "planar centres, with H": np.flatnonzero(planar & has_h),
+                            "planar centres, heavy atoms": np.flatnonzero(planar & ~has_h),
+                            "other centres, with H": np.flatnonzero(~planar & has_h),
+                            "other centres, heavy atoms": np.flatnonzero(~planar & ~has_h)}
 
     def frame(self, q, v, reference_backbone):
         """Per-frame values: T (whole system, protein), bond RMS deviation per class (nm), angle RMS deviation per

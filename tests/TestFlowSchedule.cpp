@@ -217,7 +217,7 @@ TEST(FlowSchedule, MiddlePlacementKicksFirstAndThermostatsInTheMiddleOfBothDrift
     for (bool stiff : {false, true}) {
         FlavorParameters p = artificial(FlavorIntegrator::Verlet, delta, tau, false, false, 1.0, stiff);
         p.thermostatPlacement = FlavorIntegrator::Middle;
-        EXPECT_EQ((Schedule{kick(tau, Stiff), kick(delta, Soft), frozenDrift(half), drift(tau / 2),
+        EXPECT_EQ((Schedule{kick(delta, Soft), frozenDrift(half), kick(tau, Stiff), drift(tau / 2),
                             thermostat(stiff ? tau : delta), drift(tau / 2), frozenDrift(half)}),
                   flavorSchedule(p));
         // Without friction there is nothing to place: the Edges schedule.
@@ -226,15 +226,15 @@ TEST(FlowSchedule, MiddlePlacementKicksFirstAndThermostatsInTheMiddleOfBothDrift
         edges.thermostatPlacement = FlavorIntegrator::Edges;
         EXPECT_EQ(flavorSchedule(edges), flavorSchedule(p));
     }
-    // Projected: one soft kick over delta, its frozen component weighted by tau/delta; its plain part apart from the
-    // stiff kick over the same tau (merged, they would be an evaluation of every group besides the soft one).
+    // Projected: one soft kick over delta, its frozen component weighted by tau/delta; one soft and one stiff
+    // evaluation per step.
     FlavorParameters p = artificial(FlavorIntegrator::Verlet, delta, tau, true, false, 1.0);
     p.thermostatPlacement = FlavorIntegrator::Middle;
     const Schedule projected = flavorSchedule(p);
-    EXPECT_EQ((Schedule{kick(tau, Stiff), frozenKick(delta - tau, Soft), kick(tau, Soft), frozenDrift(half),
+    EXPECT_EQ((Schedule{kick(tau, Soft), frozenKick(delta - tau, Soft), frozenDrift(half), kick(tau, Stiff),
                         drift(tau / 2), thermostat(delta), drift(tau / 2), frozenDrift(half)}),
               projected);
-    EXPECT_EQ((std::vector<int>{Stiff, Soft}), compileStepPlan(projected, false).slotGroups);
+    EXPECT_EQ((std::vector<int>{Soft, Stiff}), compileStepPlan(projected, false).slotGroups);
     // With tau = delta: the kicks merge into one kick with every force, then D O D (LangevinMiddleIntegrator).
     p = artificial(FlavorIntegrator::Verlet, delta, delta, true, false, 1.0);
     p.thermostatPlacement = FlavorIntegrator::Middle;

@@ -95,14 +95,14 @@ public:
         Edges = 0,
         /**
          * Over the mesostep in the middle of the step's drifts, as LangevinMiddleIntegrator places it, for the soft
-         * and the stiff time scale at once: each mesostep is K_soft(delta) K_stiff(tau) frozen drift((delta-tau)/2)
-         * D(tau/2) O D(tau/2) frozen drift((delta-tau)/2), the position form of the Verlet step shifted to start at
-         * its kicks.  For the stiff coordinates it is B-A-O-A over tau, for the others B-A-O-A over delta, so that
+         * and the stiff time scale at once: each mesostep is K_soft(delta) frozen drift((delta-tau)/2) K_stiff(tau)
+         * D(tau/2) O D(tau/2) frozen drift((delta-tau)/2).  For the stiff coordinates (which the frozen drifts and
+         * the soft kick leave where they are) it is B-A-O-A over tau, for the others B-A-O-A over delta, so that
          * harmonic coordinates of either kind are sampled with their exact variance for every tau and delta (the
-         * Edges step widens both), and with tau = delta the step is LangevinMiddleIntegrator's.  Velocities are those
-         * after the thermostat (as LangevinMiddleIntegrator's).  It needs the Verlet scheme, an
-         * artificial averaging and the symplectic fast microstep (setExactFastFlow(false)); other combinations are
-         * rejected when a step is taken.
+         * Edges step widens both), and with tau = delta the step is LangevinMiddleIntegrator's.  Velocities are
+         * those after the thermostat (as LangevinMiddleIntegrator's).  It needs the Verlet scheme, an artificial
+         * averaging and the symplectic fast microstep (setExactFastFlow(false)); other combinations are rejected when
+         * a step is taken.
          */
         Middle = 1
     };

@@ -83,14 +83,14 @@ Schedule artificialSchedule(const FlavorParameters& p) {
             s.push_back(thermostat(rest));
         s.push_back(frozenDrift(rest));
     } else if (friction && p.thermostatPlacement == FlavorIntegrator::Middle) {
-        // B A O A, as LangevinMiddleIntegrator, for both time scales at once: the soft kick over delta and the stiff
-        // kick over tau at the same positions, then the drifts with the thermostat in the middle of both the
-        // microstep's drift and the mesostep's.  Harmonic coordinates, stiff or soft, keep their exact variance at
-        // the step's end, where the next kicks act.  The stiff kick comes first: next to the soft kick's plain part
-        // over the same tau the two would merge into one evaluation of every group, a second soft evaluation.
-        s.push_back(kick(tau, stiff));
-        softKick(delta, true);
+        // B A O A, as LangevinMiddleIntegrator, on both time scales: the soft kick over delta, the frozen drift, the
+        // microstep K_stiff(tau) D(tau/2) O D(tau/2), the frozen drift.  The soft coordinates drift delta/2 on each
+        // side of the thermostat and the stiff ones tau/2; the step ends where both kicks act (the stiff
+        // coordinates do not move in the frozen drift and the soft kick), so harmonic coordinates of either kind
+        // keep their exact variance there.
+        softKick(delta, false);
         s.push_back(frozenDrift(rest / 2));
+        s.push_back(kick(tau, stiff));
         s.push_back(drift(tau / 2));
         s.push_back(thermostat(p.stiffFriction ? tau : delta));
         s.push_back(drift(tau / 2));

@@ -180,6 +180,8 @@ private:
     // outside the frozen clusters anyway (a kick or thermostat projects them, a drift's position constraint absorbs
     // their normal part and sets them to the chord), so the frozen pass leaves them unprojected.
     std::vector<bool> otherVelocitiesFixedLater;
+    // For each pass, whether the next one is a FrozenDrift or FrozenKick (a drift before it projects its velocities).
+    std::vector<bool> frozenFlowNext;
     std::shared_ptr<const StiffModes> stiffModes;
     std::unique_ptr<StiffFlowTask> stiffFlowTask;
     std::unique_ptr<FrozenFlowTask> frozenFlowTask;

@@ -248,6 +248,11 @@ void FlowStepRunner::prepare() {
         const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
         kickProjectsNext[p] = isVelocityFlow(next) || next == SubFlow::FilteredKick;
     }
+    frozenFlowNext.assign(plan.passes.size(), false);
+    for (size_t p = 0; p + 1 < plan.passes.size(); ++p) {
+        const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
+        frozenFlowNext[p] = next == SubFlow::FrozenDrift || next == SubFlow::FrozenKick;
+    }
     auto particlePass = [&](size_t p) { return !isModeFlow(plan.passes[p].flows[0].kind); };
     otherVelocitiesFixedLater.assign(plan.passes.size(), false);
     for (size_t after = plan.passes.size(); after > 1; --after) {
@@ -371,6 +376,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
                 for (int i = 0; i < numParticles; ++i)
                     if (inverseMasses[i] != 0.0)
                         velocities[i] = (positions[i] - previousPositions[i]) * inverseTime;
+                // The chord's rates along the constraints are small but not zero; a frozen flow reads the rates of
+                // its frozen distances from velocities it takes to satisfy the System's constraints.
+                if (frozenFlowNext[p])
+                    constrainVelocities(context, constraintTolerance);
             } else {
                 constrainVelocities(context, constraintTolerance);
             }

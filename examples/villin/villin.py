@@ -299,7 +299,7 @@ def main():
     p.add_argument("--production", type=float, default=4.0, help="ps per peer")
     p.add_argument("--timing", type=float, default=0.4, help="ps per peer timed with 1 thread")
     p.add_argument("--start", type=float, default=2.0, help="ps of common LangevinMiddle 2 fs before the peers")
-    p.add_argument("--flavors", default="2:0.5:bonds,3:0.5:bonds,4:0.5:bonds,4:1,2:1,4:0.5,3:0.5",
+    p.add_argument("--flavors", default="2.5:1:planar:middle,3:1:planar:middle,2.5:1:planar,2:1",
                    help="delta:tau[:bonds|:planar][:middle] in fs, comma separated (':bonds': only the bonds stiff; "
                         "':planar': the angles of the planar centres soft; ':middle': the thermostat in the middle "
                         "of the microstep, FlavorIntegrator.Middle)")

@@ -36,6 +36,7 @@ import openmm.unit as unit
 import openmmflavors
 from flavorbench import reporting
 from flavorbench.progress import Progress
+from flavorbench.systems import harmonic_angles
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 VILLIN_PDB = os.path.join(HERE, "..", "examples", "villin", "villin.pdb")
@@ -110,14 +111,11 @@ class StiffTerms:
         atoms = list(topology.atoms())
         self.names = []
         bonds = next(f for f in system.getForces() if isinstance(f, mm.HarmonicBondForce))
-        angles = [f for f in system.getForces() if isinstance(f, mm.HarmonicAngleForce)]
         b = [bonds.getBondParameters(i) for i in range(bonds.getNumBonds())]
         self.bond_ij = np.array([x[:2] for x in b], dtype=int).reshape(-1, 2)
         self.bond_r0 = np.array([x[2].value_in_unit(unit.nanometer) for x in b])
         self.bond_k = np.array([x[3].value_in_unit(unit.kilojoule_per_mole / unit.nanometer**2) for x in b])
-        # Each angle once: separatePlanarAngles leaves the moved ones behind with force constant 0.
-        a = [x for x in (f.getAngleParameters(i) for f in angles for i in range(f.getNumAngles()))
-             if x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) != 0]
+        a = [x for x, _ in harmonic_angles(system)]
         self.angle_ijk = np.array([x[:3] for x in a], dtype=int).reshape(-1, 3)
         self.angle_t0 = np.array([x[3].value_in_unit(unit.radian) for x in a])
         self.angle_k = np.array([x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) for x in a])

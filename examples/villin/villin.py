@@ -14,7 +14,7 @@ Peers (Langevin, 300 K, friction 1/ps):
   - FlavorIntegrator, ArtificialProjected averaging, Verlet scheme, at the mesostep delta and microstep tau of
     --flavors, with the bonds and angles stiff ("4:1", groups 1-3), the bonds and the angles of the other centres
     stiff ("2.5:1:planar", groups 1-2: the angles of the planar centres soft), or the bonds alone ("4:1:bonds",
-    angles soft), the thermostat at the edges of the mesostep or in the middle of the microstep ("4:1:middle").
+    angles soft), the thermostat at the edges of the mesostep or in the middle of the drifts ("4:1:middle").
 
 Observables, each with a block-average error bar (the standard error of the block means): kinetic temperature of
 the whole system and of the protein (degrees of freedom less the constraints), RMS deviation of the bond lengths
@@ -41,7 +41,7 @@ from flavorbench import reporting
 from flavorbench.timeseries import ProductionFrames, add_block_errors
 from flavorbench.progress import Progress
 from flavorbench.runners import KB
-from flavorbench.systems import assign_force_groups
+from flavorbench.systems import assign_force_groups, harmonic_angles
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PDB = os.path.join(HERE, "villin.pdb")
@@ -106,7 +106,6 @@ class Geometry:
         self.protein_dof = 3 * len(self.protein) - sum(1 for i, j in constraints if in_protein[i] and in_protein[j])
         self.backbone = np.array([a.index for a in atoms if in_protein[a.index] and a.name in ("N", "CA", "C")])
         bonds = next(f for f in system.getForces() if isinstance(f, mm.HarmonicBondForce))
-        angles = [f for f in system.getForces() if isinstance(f, mm.HarmonicAngleForce)]
         b = [bonds.getBondParameters(i) for i in range(bonds.getNumBonds())]
         self.bond_i = np.array([x[0] for x in b])
         self.bond_j = np.array([x[1] for x in b])
@@ -115,14 +114,9 @@ class Geometry:
         for n, (i, j) in enumerate(zip(self.bond_i, self.bond_j)):
             self.bond_class.setdefault("–".join(sorted((element[i], element[j]))), []).append(n)
         self.bond_class = {k: np.array(v) for k, v in sorted(self.bond_class.items())}
-        # Each angle once: separatePlanarAngles leaves the moved ones behind with force constant 0.
-        a, planar = [], []
-        for f in angles:
-            for i in range(f.getNumAngles()):
-                x = f.getAngleParameters(i)
-                if x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) != 0:
-                    a.append(x)
-                    planar.append(f.getForceGroup() == PLANAR_ANGLE_GROUP)
+        terms = harmonic_angles(system)
+        a = [x for x, _ in terms]
+        planar = [group == PLANAR_ANGLE_GROUP for _, group in terms]
         self.angle_ijk = np.array([x[:3] for x in a])
         self.angle_t0 = np.degrees(np.array([x[3].value_in_unit(unit.radian) for x in a]))
         has_h = np.array([any(element[p] == "H" for p in x[:3]) for x in a])

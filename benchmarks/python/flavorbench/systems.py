@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import openmm as mm
+import openmm.unit as unit
 
 SQRT2 = math.sqrt(2.0)
 SOFT_GROUP, STIFF_GROUP = 0, 1
@@ -130,3 +131,11 @@ def assign_force_groups(system, groups_by_type):
     for force in system.getForces():
         force.setForceGroup(groups_by_type.get(type(force), 0))
     return system
+
+
+def harmonic_angles(system):
+    """(parameters, force group) of every angle of the System's HarmonicAngleForces with a nonzero force constant:
+    each angle once, as FlavorIntegrator.separatePlanarAngles leaves the angles it moves behind with force constant 0."""
+    return [(x, force.getForceGroup()) for force in system.getForces() if isinstance(force, mm.HarmonicAngleForce)
+            for x in (force.getAngleParameters(i) for i in range(force.getNumAngles()))
+            if x[4].value_in_unit(unit.kilojoule_per_mole / unit.radian**2) != 0]

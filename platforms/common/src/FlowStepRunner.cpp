@@ -243,14 +243,12 @@ void FlowStepRunner::prepare() {
     }
     // A stiff flow whose next pass is a kick leaves its velocities to that kick's projection: the projection is linear
     // at fixed positions, so projecting once after the kick is the same as before and after it.
+    // A drift whose next pass is a frozen flow projects its chord velocities for it (see step()).
     kickProjectsNext.assign(plan.passes.size(), false);
-    for (size_t p = 0; p + 1 < plan.passes.size(); ++p) {
-        const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
-        kickProjectsNext[p] = isVelocityFlow(next) || next == SubFlow::FilteredKick;
-    }
     frozenFlowNext.assign(plan.passes.size(), false);
     for (size_t p = 0; p + 1 < plan.passes.size(); ++p) {
         const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
+        kickProjectsNext[p] = isVelocityFlow(next) || next == SubFlow::FilteredKick;
         frozenFlowNext[p] = next == SubFlow::FrozenDrift || next == SubFlow::FrozenKick;
     }
     auto particlePass = [&](size_t p) { return !isModeFlow(plan.passes[p].flows[0].kind); };

@@ -251,10 +251,14 @@ def plot(data, path):
     if failed:
         fig.text(0.5, 0.005, "not shown, failed (the water fell apart: NaN coordinates): " + ", ".join(failed),
                  ha="center", fontsize=9, color="tab:red")
+    # The colours of the SIM kinds this run has, in the title: no legend entry for a kind that is not shown.
+    kind_names = {"Strang": "Strang", "Filtered": "Filtered", "Warped": "Warped",
+                  "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement"}
+    shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
     fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
                  "StochasticImpulseIntegrator against DrudeLangevinIntegrator (black)\n"
-                 "SIM: Strang blue, Filtered red, Warped green, Warped with the Middle placement olive; Drude modes at "
-                 "1 K, 20/ps; error bars ±1 s.e. of block means")
+                 "SIM: " + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
+                 "; Drude modes at 1 K, 20/ps; error bars ±1 s.e. of block means")
     fig.tight_layout(rect=(0, 0.02, 1, 0.97))
     fig.savefig(path, dpi=110)
 

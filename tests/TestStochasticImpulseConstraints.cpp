@@ -2,6 +2,7 @@
 // carries its Drude particle through the constraint solve, and the relative coordinate gets its share of the core's
 // constraint force as a soft force; constraints are held to tolerance.
 
+#include "DrudeWater.h"
 #include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
@@ -17,64 +18,6 @@ using std::vector;
 
 class ImpulseConstraints : public PlatformTest {};
 INSTANTIATE_ON_ALL_PLATFORMS(ImpulseConstraints);
-
-namespace {
-
-// SWM4-NDP: the oxygen keeps 15.59943 - 0.4 of its mass, the Drude spring has k = 418400 kJ/mol/nm^2 (a relative
-// frequency of 1036/ps), rigid O-H 0.09572 nm and H-H 0.15139 nm.
-constexpr double OxygenMass = 15.59943, HydrogenMass = 1.008, DrudeMass = 0.4, DrudeK = 418400.0;
-constexpr double OH = 0.09572, HH = 0.15139;
-
-/**
- * Rigid Drude waters (O, H, H, D per molecule) on a lattice.  The soft forces are a tether on the hydrogens only
- * (hydrogensOnly) or, otherwise, a tether on every particle and a field pulling on the Drude particles.
- */
-struct DrudeWater {
-    System system;
-    vector<Vec3> positions;
-    int molecules;
-    DrudeWater(int molecules, bool hydrogensOnly) : molecules(molecules) {
-        HarmonicBondForce* drude = new HarmonicBondForce();
-        drude->setForceGroup(StiffGroup);
-        CustomExternalForce* tether = new CustomExternalForce("0.5*a*((x-x0)^2+2*(y-y0)^2+3*(z-z0)^2)");
-        tether->addGlobalParameter("a", 2e3);
-        for (const char* p : {"x0", "y0", "z0"})
-            tether->addPerParticleParameter(p);
-        CustomExternalForce* field = new CustomExternalForce("-e*(x+0.5*y)");
-        field->addGlobalParameter("e", 300.0);
-        const double angle = 2 * std::asin(0.5 * HH / OH);
-        for (int m = 0; m < molecules; ++m) {
-            const int o = 4 * m;
-            for (double mass : {OxygenMass - DrudeMass, HydrogenMass, HydrogenMass, DrudeMass})
-                system.addParticle(mass);
-            system.addConstraint(o, o + 1, OH);
-            system.addConstraint(o, o + 2, OH);
-            system.addConstraint(o + 1, o + 2, HH);
-            drude->addBond(o, o + 3, 0.0, DrudeK);
-            const Vec3 origin(0.4 * (m % 4), 0.4 * ((m / 4) % 4), 0.4 * (m / 16));
-            positions.push_back(origin);
-            positions.push_back(origin + Vec3(OH, 0, 0));
-            positions.push_back(origin + Vec3(OH * std::cos(angle), OH * std::sin(angle), 0));
-            positions.push_back(origin + Vec3(0.002, -0.001, 0.0015));
-            for (int i = 0; i < 4; ++i) {
-                if (hydrogensOnly && (i == 0 || i == 3))
-                    continue;
-                const Vec3 rest = positions[o + i] + Vec3(0.01 * ((m + i) % 3), -0.01, 0.005 * i);
-                tether->addParticle(o + i, {rest[0], rest[1], rest[2]});
-            }
-            if (!hydrogensOnly)
-                field->addParticle(o + 3);
-        }
-        system.addForce(drude);
-        system.addForce(tether);
-        if (!hydrogensOnly)
-            system.addForce(field);
-        else
-            delete field;
-    }
-};
-
-} // namespace
 
 TEST_P(ImpulseConstraints, AnAcceleratedConstrainedCoreHoldsItsDrudeAtTheExactLagUnderFiltered) {
     // A core A with its Drude particle D, constrained to an atom B that a constant soft force F pulls along the bond

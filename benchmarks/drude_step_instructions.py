@@ -18,13 +18,12 @@ results/bench).
 import argparse
 import json
 import os
-import re
-import shutil
 import subprocess
 import sys
 
+from flavorbench.callgrind import per_step, require_valgrind, scene_module
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "examples", "drude_water"))
 
 # (label, integrator kind of drude_water.make_integrator or "Verlet", step in fs)
 RUNS = [("DrudeLangevin 1 fs", "DrudeLangevin", 1.0), ("SIM Filtered 2 fs", "Filtered", 2.0),
@@ -49,7 +48,7 @@ def category(function):
 
 def child(kind, steps, state_dir):
     import openmm
-    from drude_water import make_integrator
+    make_integrator = scene_module("drude_water").make_integrator
     with open(os.path.join(state_dir, "system.xml")) as f:
         system = openmm.XmlSerializer.deserialize(f.read())
     with open(os.path.join(state_dir, "state.xml")) as f:
@@ -64,25 +63,14 @@ def child(kind, steps, state_dir):
 
 def save_state(state_dir):
     import openmm
-    from drude_water import build_water, equilibrated_state
+    drude_water = scene_module("drude_water")
+    build_water, equilibrated_state = drude_water.build_water, drude_water.equilibrated_state
     system, _, positions, _ = build_water(256)
     state = equilibrated_state(system, positions, 1.0, 300, 1, threads=1)
     with open(os.path.join(state_dir, "system.xml"), "w") as f:
         f.write(openmm.XmlSerializer.serialize(system))
     with open(os.path.join(state_dir, "state.xml"), "w") as f:
         f.write(openmm.XmlSerializer.serialize(state))
-
-
-def per_function(path):
-    """Self instructions of every function in one callgrind output file."""
-    out = subprocess.run(["callgrind_annotate", "--inclusive=no", "--threshold=100", path], capture_output=True,
-                         text=True, check=True).stdout
-    counts = {}
-    for line in out.splitlines():
-        match = re.match(r"^\s*([\d,]+)\s+\([^)]*\)\s+(.*)$", line)
-        if match and "PROGRAM TOTALS" not in match.group(2):
-            counts[match.group(2)] = counts.get(match.group(2), 0) + int(match.group(1).replace(",", ""))
-    return counts
 
 
 def plot(data, path):
@@ -129,9 +117,7 @@ def main():
     if args.child:
         child(args.child[0], int(args.child[1]), state_dir)
         return
-    valgrind = shutil.which("valgrind")
-    if valgrind is None or shutil.which("callgrind_annotate") is None:
-        parser.error("valgrind and callgrind_annotate are needed (apt-get install valgrind)")
+    valgrind = require_valgrind(parser)
     os.makedirs(state_dir, exist_ok=True)
     print("saving an equilibrated state (300 DrudeLangevin steps)", file=sys.stderr, flush=True)
     save_state(state_dir)
@@ -149,17 +135,16 @@ def main():
                 sys.exit("callgrind run failed: %s, %d steps\n%s" % (label, steps, errors[-2000:]))
     runs = []
     for label, kind, step_fs in RUNS:
-        short, long_ = (per_function(os.path.join(state_dir, "callgrind.%s.%d" % (kind, n))) for n in STEPS)
-        per_step = dict.fromkeys(CATEGORIES, 0.0)
+        functions = per_step(*(os.path.join(state_dir, "callgrind.%s.%d" % (kind, n)) for n in STEPS), STEPS)
+        step_counts = dict.fromkeys(CATEGORIES, 0.0)
         top = []
-        for function in set(short) | set(long_):
-            difference = (long_.get(function, 0) - short.get(function, 0)) / (STEPS[1] - STEPS[0])
-            per_step[category(function)] += difference
+        for function, difference in functions.items():
+            step_counts[category(function)] += difference
             top.append((difference, function))
         top.sort(reverse=True)
-        runs.append({"label": label, "step_fs": step_fs, "per_step": per_step,
-                     "per_fs": {k: v / step_fs for k, v in per_step.items()},
-                     "total_per_step": sum(per_step.values()),
+        runs.append({"label": label, "step_fs": step_fs, "per_step": step_counts,
+                     "per_fs": {k: v / step_fs for k, v in step_counts.items()},
+                     "total_per_step": sum(step_counts.values()),
                      "top_functions": [{"function": f[:200], "per_step": d} for d, f in top[:25]]})
     reference = next(run for run in runs if run["label"].startswith("DrudeLangevin"))
     for run in runs:

@@ -21,14 +21,26 @@ SubFlow kick(double h, int groups) {
 SubFlow drift(double h) {
     return SubFlow{SubFlow::Drift, h, 0};
 }
+// The Langevin schedules below all have friction 1/ps at kT = 0.
 SubFlow thermostat(double h) {
-    return SubFlow{SubFlow::Thermostat, h, 0};
+    SubFlow flow{SubFlow::Thermostat, h, 0};
+    flow.bath.friction = 1.0;
+    return flow;
 }
 SubFlow frozenDrift(double h) {
-    return SubFlow{SubFlow::FrozenDrift, h, 0};
+    SubFlow flow{SubFlow::FrozenDrift, h, 0};
+    flow.frozen = SubFlow::FrozenSet::StiffModes;
+    return flow;
 }
 SubFlow frozenKick(double h, int groups) {
-    return SubFlow{SubFlow::FrozenKick, h, groups};
+    SubFlow flow{SubFlow::FrozenKick, h, groups};
+    flow.frozen = SubFlow::FrozenSet::StiffModes;
+    return flow;
+}
+SubFlow filteredStep(SubFlow::Kind kind, double h, int groups) {
+    SubFlow flow{kind, h, groups};
+    flow.response = SubFlow::KickResponse::Scaled;
+    return flow;
 }
 SubFlow harmonicFlow(double h) {
     return SubFlow{SubFlow::HarmonicFlow, h, 0};
@@ -107,17 +119,17 @@ TEST(FlowSchedule, SimplifyDropsEmptyFlowsAndMergesExactCompositions) {
 }
 
 TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
-    StepPlan plan = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), false);
+    StepPlan plan = analyzeStep(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), false);
     // K_A D | K_S D | K_S D | K_A: three force evaluations per step once the last one is reused.
     ASSERT_EQ(4u, plan.passes.size());
     EXPECT_EQ(2u, plan.passes[0].flows.size());
     EXPECT_EQ(1u, plan.passes[3].flows.size());
     EXPECT_EQ((std::vector<int>{AllForceGroups, Soft}), plan.slotGroups);
-    StepPlan constrained = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), true);
+    StepPlan constrained = analyzeStep(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001)), true);
     EXPECT_EQ(7u, constrained.passes.size());
     // With constraints a thermostat and the kick beside it share a pass (one velocity projection): O K_A | D | K_S |
     // D | K_S | D | K_A O.
-    StepPlan langevin = compileStepPlan(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001, 1.0)), true);
+    StepPlan langevin = analyzeStep(flavorSchedule(parameters(FlavorIntegrator::Verlet, 0.01, 0.001, 1.0)), true);
     ASSERT_EQ(7u, langevin.passes.size());
     EXPECT_EQ((std::vector<SubFlow>{thermostat(0.005), kick(0.0005, AllForceGroups)}), langevin.passes[0].flows);
     EXPECT_EQ((std::vector<SubFlow>{kick(0.0005, AllForceGroups), thermostat(0.005)}), langevin.passes[6].flows);
@@ -125,7 +137,7 @@ TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
         EXPECT_EQ(1u, langevin.passes[p].flows.size());
     // The projected artificial FLAVOR: O K_S | FK | FD | K_f | D | K_f | FD | FK | K_S O.
     StepPlan projected =
-        compileStepPlan(flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.001, true, false, 1.0)), true);
+        analyzeStep(flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.001, true, false, 1.0)), true);
     ASSERT_EQ(9u, projected.passes.size());
     EXPECT_EQ(2u, projected.passes[0].flows.size());
     EXPECT_EQ(2u, projected.passes[8].flows.size());
@@ -134,10 +146,11 @@ TEST(FlowSchedule, PassesBreakWhereKicksNeedNewPositions) {
 TEST(FlowSchedule, FilteredIsTheFilteredStiffFlowAndItsClosingKickWithOneForceSlot) {
     const ImpulseParameters filtered{StochasticImpulseIntegrator::Filtered, 0.002, Stiff, AllForceGroups};
     const Schedule s = impulseSchedule(filtered);
-    EXPECT_EQ((Schedule{SubFlow{SubFlow::FilteredStiffFlow, 0.002, Soft}, SubFlow{SubFlow::FilteredKick, 0.002, Soft}}),
+    EXPECT_EQ((Schedule{filteredStep(SubFlow::FilteredStiffFlow, 0.002, Soft),
+                        filteredStep(SubFlow::FilteredKick, 0.002, Soft)}),
               s);
     // Both read the soft forces, each in a pass of its own: one force evaluation per step.
-    StepPlan plan = compileStepPlan(s, false);
+    StepPlan plan = analyzeStep(s, false);
     ASSERT_EQ(2u, plan.passes.size());
     EXPECT_EQ((std::vector<int>{Soft}), plan.slotGroups);
     EXPECT_EQ(0, plan.passes[0].slots[0]);
@@ -234,7 +247,7 @@ TEST(FlowSchedule, MiddlePlacementKicksFirstAndThermostatsInTheMiddleOfBothDrift
     EXPECT_EQ((Schedule{kick(tau, Soft), frozenKick(delta - tau, Soft), frozenDrift(half), kick(tau, Stiff),
                         drift(tau / 2), thermostat(delta), drift(tau / 2), frozenDrift(half)}),
               projected);
-    EXPECT_EQ((std::vector<int>{Soft, Stiff}), compileStepPlan(projected, false).slotGroups);
+    EXPECT_EQ((std::vector<int>{Soft, Stiff}), analyzeStep(projected, false).slotGroups);
     // With tau = delta: the kicks merge into one kick with every force, then D O D (LangevinMiddleIntegrator).
     p = artificial(FlavorIntegrator::Verlet, delta, delta, true, false, 1.0);
     p.thermostatPlacement = FlavorIntegrator::Middle;
@@ -246,10 +259,10 @@ TEST(FlowSchedule, MiddlePlacementKicksFirstAndThermostatsInTheMiddleOfBothDrift
 }
 
 TEST(FlowSchedule, FrozenFlowsArePassesOfTheirOwn) {
-    StepPlan plan = compileStepPlan(flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.001, true)), false);
+    StepPlan plan = analyzeStep(flavorSchedule(artificial(FlavorIntegrator::Verlet, 0.01, 0.001, true)), false);
     for (const FlowPass& pass : plan.passes)
         for (const SubFlow& flow : pass.flows)
-            if (isModeFlow(flow.kind)) {
+            if (isCoupledFlow(flow.kind)) {
                 EXPECT_EQ(1u, pass.flows.size());
             }
     // The soft kick and its frozen part read the same forces.

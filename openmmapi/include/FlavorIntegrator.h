@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVOR_INTEGRATOR_H_
 #define OPENMM_FLAVOR_INTEGRATOR_H_
 
+#include "internal/StepKernelBinding.h"
 #include "internal/windowsExportFlavors.h"
 #include "openmm/Integrator.h"
 #include "openmm/Kernel.h"
@@ -267,6 +268,14 @@ public:
      */
     void setFrictionParticles(const std::vector<int>& particles);
     /**
+     * Get the mesostep this integrator takes with its current settings as one line of text, its sub-flows applied
+     * left to right (docs/ARCHITECTURE.md lists the notation), followed by the bath and what the frozen drifts hold,
+     * e.g. for the artificial FLAVOR with the Middle placement "K_S(δ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2)
+     * θ((δ−τ)/2)   [O: 300 K, 1/ps; θ holds the stiff bonded distances]".  What freezes is measured when the first
+     * step starts; before that the text says which of the two it will be.
+     */
+    std::string describeStep() const;
+    /**
      * Get the random number seed.  See setRandomNumberSeed() for details.
      */
     int getRandomNumberSeed() const { return randomNumberSeed; }
@@ -305,9 +314,8 @@ private:
     std::vector<int> frictionParticles;
     std::vector<std::pair<int, int>> frozenDistances;
     int randomNumberSeed;
-    bool forcesAreValid, stiffModesValid;
-    OpenMM::Kernel kernel;
-    // The kernel's implementation, looked up once (Kernel::getAs() costs a dynamic_cast per call).
+    // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
+    StepKernelBinding binding;
     IntegrateFlavorStepKernel* stepKernel;
 };
 

@@ -12,13 +12,42 @@
 namespace FlavorPlugin {
 
 /**
+ * What the step kernels of both integrators share: their part of a checkpoint, the Context state a failed load puts
+ * back, and the step history (StepKernelBinding calls these the same way for both).
+ */
+class FlowStepKernel : public OpenMM::KernelImpl {
+public:
+    FlowStepKernel(std::string name, const OpenMM::Platform& platform) : OpenMM::KernelImpl(name, platform) {}
+    /**
+     * Write the kernel's state (random streams, step history) to a checkpoint.
+     */
+    virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
+    /**
+     * Restore the kernel's state from a checkpoint.  If the stream holds no state of this integrator (another
+     * integrator's checkpoint, another format version, a truncated one), put back the Context's state saved by
+     * saveContextState(), leave the kernel's state as it was and throw an OpenMMException.
+     */
+    virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
+    /**
+     * Remember the Context's positions, velocities, periodic box, time and step count (and its parameters when
+     * withParameters is true) for a failed loadCheckpoint() to put back: OpenMM overwrites them from the checkpoint
+     * before the integrator reads its part.
+     */
+    virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
+    /**
+     * Forget what the next step would take from the last one (constraint shares, velocity processing): the Context's
+     * positions or velocities were set.
+     */
+    virtual void forgetStepHistory() = 0;
+};
+
+/**
  * This kernel is invoked by FlavorIntegrator to take one mesostep.
  */
-class IntegrateFlavorStepKernel : public OpenMM::KernelImpl {
+class IntegrateFlavorStepKernel : public FlowStepKernel {
 public:
     static std::string Name() { return "IntegrateFlavorStep"; }
-    IntegrateFlavorStepKernel(std::string name, const OpenMM::Platform& platform)
-        : OpenMM::KernelImpl(name, platform) {}
+    IntegrateFlavorStepKernel(std::string name, const OpenMM::Platform& platform) : FlowStepKernel(name, platform) {}
     /**
      * Initialize the kernel.
      *
@@ -42,31 +71,20 @@ public:
      */
     virtual double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) = 0;
     /**
-     * Write the kernel's state (the random streams) to a checkpoint.
+     * Whether the artificial averagings freeze the stiff modes of a quadratic stiff group or the stiff bonded
+     * distances (None until the first step has measured it).
      */
-    virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
-    /**
-     * Restore the kernel's state from a checkpoint.  If the stream holds no state of this integrator (another
-     * integrator's checkpoint, another format version, a truncated one), put back the Context's state saved by
-     * saveContextState(), leave the kernel's state as it was and throw an OpenMMException.
-     */
-    virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
-    /**
-     * Remember the Context's positions, velocities, periodic box, time and step count (and its parameters when
-     * withParameters is true) for a failed loadCheckpoint() to put back: OpenMM overwrites them from the checkpoint
-     * before the integrator reads its part.
-     */
-    virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
+    virtual int getFrozenSet() const = 0;
 };
 
 /**
  * This kernel is invoked by StochasticImpulseIntegrator to take one step.
  */
-class IntegrateStochasticImpulseStepKernel : public OpenMM::KernelImpl {
+class IntegrateStochasticImpulseStepKernel : public FlowStepKernel {
 public:
     static std::string Name() { return "IntegrateStochasticImpulseStep"; }
     IntegrateStochasticImpulseStepKernel(std::string name, const OpenMM::Platform& platform)
-        : OpenMM::KernelImpl(name, platform) {}
+        : FlowStepKernel(name, platform) {}
     /**
      * Initialize the kernel.
      *
@@ -95,27 +113,6 @@ public:
      */
     virtual double computeKineticEnergy(OpenMM::ContextImpl& context,
                                         const StochasticImpulseIntegrator& integrator) = 0;
-    /**
-     * Write the kernel's state (the random streams) to a checkpoint.
-     */
-    virtual void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const = 0;
-    /**
-     * Restore the kernel's state from a checkpoint.  If the stream holds no state of this integrator (another
-     * integrator's checkpoint, another format version, a truncated one), put back the Context's state saved by
-     * saveContextState(), leave the kernel's state as it was and throw an OpenMMException.
-     */
-    virtual void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) = 0;
-    /**
-     * Remember the Context's positions, velocities, periodic box, time and step count (and its parameters when
-     * withParameters is true) for a failed loadCheckpoint() to put back: OpenMM overwrites them from the checkpoint
-     * before the integrator reads its part.
-     */
-    virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
-    /**
-     * Forget what the next step would take from the last one (constraint shares, velocity processing): the Context's
-     * positions or velocities were set.
-     */
-    virtual void forgetStepHistory() = 0;
 };
 
 } // namespace FlavorPlugin

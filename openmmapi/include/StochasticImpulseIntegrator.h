@@ -1,6 +1,7 @@
 #ifndef OPENMM_STOCHASTIC_IMPULSE_INTEGRATOR_H_
 #define OPENMM_STOCHASTIC_IMPULSE_INTEGRATOR_H_
 
+#include "internal/StepKernelBinding.h"
 #include "internal/windowsExportFlavors.h"
 #include "openmm/Integrator.h"
 #include "openmm/Kernel.h"
@@ -225,6 +226,12 @@ public:
      */
     std::vector<double> getStiffModeFrequencies();
     /**
+     * Get the step this integrator takes with its current settings as one line of text, its sub-flows applied left to
+     * right (docs/ARCHITECTURE.md lists the notation), followed by the baths, e.g. for the Warped splitting with the
+     * Middle placement "K_S(H/2) E^ω̃M(H) K_S(H/2)   [E: zero modes 300 K, 5/ps, stiff modes 1 K, 20/ps]".
+     */
+    std::string describeStep() const;
+    /**
      * Measure the stiff potential again.  Call it after changing the stiff forces in a way the Context is not told
      * about.
      */
@@ -254,9 +261,8 @@ private:
     Splitting splitting;
     ThermostatPlacement thermostatPlacement;
     int randomNumberSeed;
-    bool forcesAreValid, stiffModesValid;
-    OpenMM::Kernel kernel;
-    // The kernel's implementation, looked up once (Kernel::getAs() costs a dynamic_cast per call).
+    // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
+    StepKernelBinding binding;
     IntegrateStochasticImpulseStepKernel* stepKernel;
 };
 

@@ -1,6 +1,8 @@
 #include "FlavorIntegrator.h"
 #include "FlavorKernels.h"
+#include "internal/FlowSchedule.h"
 #include "internal/ParameterChecks.h"
+#include "internal/StepKernelBinding.h"
 #include "internal/StiffGroupChecks.h"
 #include "openmm/Context.h"
 #include "openmm/Force.h"
@@ -42,7 +44,7 @@ void requireSoftForce(const System& system, const string& parameter, int stiffGr
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
     : microStep(0.0), stiffGroups(0), scheme(Verlet), averaging(Nonintrusive), exactFastFlow(false),
       thermostatPlacement(Edges), temperature(0.0), friction(0.0), stiffFriction(false), randomNumberSeed(0),
-      forcesAreValid(false), stiffModesValid(false), stepKernel(nullptr) {
+      stepKernel(nullptr) {
     requirePositive(Owner, "mesoStep", mesoStep, "ps");
     requirePositive(Owner, "microStep", microStep, "ps");
     if (microStep > mesoStep)
@@ -85,7 +87,7 @@ void FlavorIntegrator::setStiffGroups(int groups) {
             rejectUnfreezableStiffForces(context->getSystem(), groups, !frozenDistances.empty());
     }
     stiffGroups = groups;
-    stiffModesValid = false;
+    binding.stiffModesValid = false;
 }
 
 void FlavorIntegrator::setIntegrationForceGroups(int groups) {
@@ -139,7 +141,7 @@ int FlavorIntegrator::addFrozenDistance(int particle1, int particle2) {
                               std::to_string(particle1) + ", " + std::to_string(particle2),
                               "the two particles of a frozen distance must differ");
     frozenDistances.emplace_back(particle1, particle2);
-    stiffModesValid = false;
+    binding.stiffModesValid = false;
     return (int)frozenDistances.size() - 1;
 }
 
@@ -210,17 +212,14 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
                                           " (the number of particles)");
     context = &contextRef;
     owner = &contextRef.getOwner();
-    kernel = context->getPlatform().createKernel(IntegrateFlavorStepKernel::Name(), contextRef);
-    stepKernel = &kernel.getAs<IntegrateFlavorStepKernel>();
+    stepKernel = &binding.create<IntegrateFlavorStepKernel>(contextRef, IntegrateFlavorStepKernel::Name());
     stepKernel->initialize(contextRef.getSystem(), *this);
-    stepKernel->saveContextState(contextRef, true);
-    forcesAreValid = false;
-    stiffModesValid = false;
+    binding.bound(contextRef);
 }
 
 void FlavorIntegrator::cleanup() {
     stepKernel = nullptr;
-    kernel = Kernel();
+    binding.release();
 }
 
 vector<string> FlavorIntegrator::getKernelNames() {
@@ -228,12 +227,8 @@ vector<string> FlavorIntegrator::getKernelNames() {
 }
 
 void FlavorIntegrator::stateChanged(State::DataType changed) {
-    forcesAreValid = false;
-    // Parameters: a context parameter changed.  Energy: a force's updateParametersInContext() (or a checkpoint).
-    if (changed == State::Parameters || changed == State::Energy)
-        stiffModesValid = false;
-    if (stepKernel != nullptr && changed != State::Energy)
-        stepKernel->saveContextState(*context, changed == State::Parameters);
+    if (context != nullptr)
+        binding.stateChanged(*context, changed);
 }
 
 double FlavorIntegrator::computeKineticEnergy() {
@@ -244,20 +239,23 @@ void FlavorIntegrator::step(int steps) {
     if (context == nullptr)
         throw OpenMMException("This Integrator is not bound to a context!");
     for (int i = 0; i < steps; ++i) {
-        if (context->updateContextState())
-            forcesAreValid = false;
-        stepKernel->execute(*context, *this, forcesAreValid, stiffModesValid);
+        binding.beforeStep(*context);
+        stepKernel->execute(*context, *this, binding.forcesValid, binding.stiffModesValid);
     }
-    if (steps > 0)
-        stepKernel->saveContextState(*context, false);
+    binding.afterSteps(*context, steps);
 }
 
 void FlavorIntegrator::createCheckpoint(std::ostream& stream) const {
-    stepKernel->createCheckpoint(*context, stream);
+    binding.createCheckpoint(*context, stream);
 }
 
 void FlavorIntegrator::loadCheckpoint(std::istream& stream) {
-    stepKernel->loadCheckpoint(*context, stream);
-    forcesAreValid = false;
-    stiffModesValid = false;
+    binding.loadCheckpoint(*context, stream);
+}
+
+string FlavorIntegrator::describeStep() const {
+    FlavorParameters parameters = flavorParameters(*this);
+    parameters.frozen =
+        stepKernel != nullptr ? (SubFlow::FrozenSet)stepKernel->getFrozenSet() : SubFlow::FrozenSet::None;
+    return describeSchedule(flavorSchedule(parameters), stiffGroups, getIntegrationForceGroups(), "δ", "τ");
 }

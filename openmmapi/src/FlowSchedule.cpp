@@ -1,5 +1,5 @@
 #include "internal/FlowSchedule.h"
-#include <algorithm>
+#include "openmm/reference/SimTKOpenMMRealType.h"
 #include <cmath>
 
 using namespace FlavorPlugin;
@@ -7,38 +7,27 @@ using std::vector;
 
 namespace {
 
-SubFlow kick(double h, int groups) {
-    return SubFlow{SubFlow::Kick, h, groups};
-}
+/** Builds the sub-flows of one step, each with its length in the integrator's time scales. */
+class ScheduleBuilder {
+public:
+    explicit ScheduleBuilder(double meso, double micro = 0.0) : meso(meso), micro(micro) {}
+    /** h = a delta + b tau, computed as the caller computes it (value) so that the numbers stay as they were. */
+    SubFlow flow(SubFlow::Kind kind, double value, double a, double b, int groups = 0) const {
+        SubFlow f{kind, value, groups};
+        f.length = StepLength{a, b};
+        return f;
+    }
+    Schedule steps;
+    const double meso, micro;
+};
 
-SubFlow drift(double h) {
-    return SubFlow{SubFlow::Drift, h, 0};
-}
-
-SubFlow thermostat(double h) {
-    return SubFlow{SubFlow::Thermostat, h, 0};
-}
-
-SubFlow stiffFlow(double h) {
-    return SubFlow{SubFlow::StiffFlow, h, 0};
-}
-
-SubFlow harmonicFlow(double h) {
-    return SubFlow{SubFlow::HarmonicFlow, h, 0};
-}
-
-SubFlow frozenDrift(double h) {
-    return SubFlow{SubFlow::FrozenDrift, h, 0};
-}
-
-SubFlow frozenKick(double h, int groups) {
-    return SubFlow{SubFlow::FrozenKick, h, groups};
+bool sameSettings(const SubFlow& a, const SubFlow& b) {
+    return a.kind == b.kind && a.groups == b.groups && a.bath == b.bath && a.stiffBath == b.stiffBath &&
+           a.frequency == b.frequency && a.zeroModes == b.zeroModes && a.response == b.response && a.frozen == b.frozen;
 }
 
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
-    if (a.kind != b.kind || a.kind == SubFlow::FilteredStiffFlow || a.kind == SubFlow::FilteredKick)
-        return false;
-    return (a.kind != SubFlow::Kick && a.kind != SubFlow::FrozenKick) || a.groups == b.groups;
+    return sameSettings(a, b) && a.kind != SubFlow::FilteredStiffFlow && a.kind != SubFlow::FilteredKick;
 }
 
 bool disjointKicksOverOneStep(const SubFlow& a, const SubFlow& b) {
@@ -52,75 +41,104 @@ Schedule artificialSchedule(const FlavorParameters& p) {
     const int stiff = p.integrationGroups & p.stiffGroups;
     const bool friction = p.friction > 0.0;
     const bool projected = p.averaging == FlavorIntegrator::ArtificialProjected;
-    Schedule s;
-    // The soft impulse over h; projected, its component along the frozen coordinates weighted by tau/delta.  The
-    // two parts act at the same positions and commute; the plain kick goes on the side of the thermostat, so that
-    // the two share one velocity projection (FlowStepRunner).
-    auto softKick = [&](double h, bool closing) {
+    const Bath bath{p.kT, p.friction};
+    ScheduleBuilder b(delta, tau);
+    Schedule& s = b.steps;
+    auto kick = [&](double h, double a, double c, int groups) { s.push_back(b.flow(SubFlow::Kick, h, a, c, groups)); };
+    auto drift = [&](double h, double a, double c) { s.push_back(b.flow(SubFlow::Drift, h, a, c)); };
+    auto thermostat = [&](double h, double a, double c) {
+        SubFlow f = b.flow(SubFlow::Thermostat, h, a, c);
+        f.bath = bath;
+        s.push_back(f);
+    };
+    auto frozenDrift = [&](double h, double a, double c) {
+        SubFlow f = b.flow(SubFlow::FrozenDrift, h, a, c);
+        f.frozen = p.frozen;
+        s.push_back(f);
+    };
+    auto harmonicFlow = [&](double h) {
+        SubFlow f = b.flow(SubFlow::HarmonicFlow, h, 0, 1);
+        f.bath = f.stiffBath = Bath{p.kT, 0.0};
+        s.push_back(f);
+    };
+    // The soft impulse over h (= a delta); projected, its component along the frozen coordinates weighted by
+    // tau/delta.  The two parts act at the same positions and commute; the plain kick goes on the side of the
+    // thermostat, so that the two share one velocity projection.
+    auto softKick = [&](double h, double a, bool closing) {
         const double plainPart = h * (tau / delta), frozenPart = h - plainPart;
+        SubFlow frozenKick = b.flow(SubFlow::FrozenKick, frozenPart, a, -a, soft);
+        frozenKick.frozen = p.frozen;
         if (!projected) {
-            s.push_back(kick(h, soft));
+            kick(h, a, 0, soft);
         } else if (closing) {
-            s.push_back(frozenKick(frozenPart, soft));
-            s.push_back(kick(plainPart, soft));
+            s.push_back(frozenKick);
+            kick(plainPart, 0, a, soft);
         } else {
-            s.push_back(kick(plainPart, soft));
-            s.push_back(frozenKick(frozenPart, soft));
+            kick(plainPart, 0, a, soft);
+            s.push_back(frozenKick);
         }
     };
     if (p.scheme == FlavorIntegrator::SymplecticEuler) {
         if (friction)
-            s.push_back(thermostat(tau));
-        softKick(delta, false);
+            thermostat(tau, 0, 1);
+        softKick(delta, 1, false);
         if (p.exactFastFlow) {
-            s.push_back(harmonicFlow(tau));
+            harmonicFlow(tau);
         } else {
             // Eq. (2.13): q += tau v, then v -= tau M^-1 grad U at the new positions.
-            s.push_back(drift(tau));
-            s.push_back(kick(tau, stiff));
+            drift(tau, 0, 1);
+            kick(tau, 0, 1, stiff);
         }
         if (friction && !p.stiffFriction)
-            s.push_back(thermostat(rest));
-        s.push_back(frozenDrift(rest));
+            thermostat(rest, 1, -1);
+        frozenDrift(rest, 1, -1);
     } else if (friction && p.thermostatPlacement == FlavorIntegrator::Middle) {
         // B A O A, as LangevinMiddleIntegrator, on both time scales: the soft kick over delta, the frozen drift, the
         // microstep K_stiff(tau) D(tau/2) O D(tau/2), the frozen drift.  The soft coordinates drift delta/2 on each
         // side of the thermostat and the stiff ones tau/2; the step ends where both kicks act (the stiff
         // coordinates do not move in the frozen drift and the soft kick), so harmonic coordinates of either kind
         // keep their exact variance there.
-        softKick(delta, false);
-        s.push_back(frozenDrift(rest / 2));
-        s.push_back(kick(tau, stiff));
-        s.push_back(drift(tau / 2));
-        s.push_back(thermostat(p.stiffFriction ? tau : delta));
-        s.push_back(drift(tau / 2));
-        s.push_back(frozenDrift(rest / 2));
+        softKick(delta, 1, false);
+        frozenDrift(rest / 2, 0.5, -0.5);
+        kick(tau, 0, 1, stiff);
+        drift(tau / 2, 0, 0.5);
+        if (p.stiffFriction)
+            thermostat(tau, 0, 1);
+        else
+            thermostat(delta, 1, 0);
+        drift(tau / 2, 0, 0.5);
+        frozenDrift(rest / 2, 0.5, -0.5);
     } else {
         const double edge = p.stiffFriction ? tau / 2 : delta / 2;
+        const double edgeA = p.stiffFriction ? 0 : 0.5, edgeB = p.stiffFriction ? 0.5 : 0;
         if (friction)
-            s.push_back(thermostat(edge));
-        softKick(delta / 2, false);
-        s.push_back(frozenDrift(rest / 2));
+            thermostat(edge, edgeA, edgeB);
+        softKick(delta / 2, 0.5, false);
+        frozenDrift(rest / 2, 0.5, -0.5);
         if (p.exactFastFlow) {
-            s.push_back(harmonicFlow(tau));
+            harmonicFlow(tau);
         } else {
-            s.push_back(kick(tau / 2, stiff));
-            s.push_back(drift(tau));
-            s.push_back(kick(tau / 2, stiff));
+            kick(tau / 2, 0, 0.5, stiff);
+            drift(tau, 0, 1);
+            kick(tau / 2, 0, 0.5, stiff);
         }
-        s.push_back(frozenDrift(rest / 2));
-        softKick(delta / 2, true);
+        frozenDrift(rest / 2, 0.5, -0.5);
+        softKick(delta / 2, 0.5, true);
         if (friction)
-            s.push_back(thermostat(edge));
+            thermostat(edge, edgeA, edgeB);
     }
     return simplifySchedule(s);
 }
 
 } // namespace
 
-bool FlavorPlugin::isModeFlow(SubFlow::Kind kind) {
+bool FlavorPlugin::isCoupledFlow(SubFlow::Kind kind) {
     return kind == SubFlow::StiffFlow || kind == SubFlow::HarmonicFlow || kind == SubFlow::FrozenDrift ||
            kind == SubFlow::FrozenKick || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick;
+}
+
+bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
+    return kind == SubFlow::Kick || kind == SubFlow::Thermostat;
 }
 
 Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
@@ -128,14 +146,32 @@ Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
     for (const SubFlow& flow : schedule) {
         if (flow.h == 0.0 || (flow.kind == SubFlow::Kick && flow.groups == 0))
             continue;
-        if (!result.empty() && composesExactly(result.back(), flow))
+        if (!result.empty() && composesExactly(result.back(), flow)) {
             result.back().h += flow.h;
-        else if (!result.empty() && disjointKicksOverOneStep(result.back(), flow))
+            result.back().length.mesoSteps += flow.length.mesoSteps;
+            result.back().length.microSteps += flow.length.microSteps;
+        } else if (!result.empty() && disjointKicksOverOneStep(result.back(), flow)) {
             result.back().groups |= flow.groups;
-        else
+        } else {
             result.push_back(flow);
+        }
     }
     return result;
+}
+
+FlavorParameters FlavorPlugin::flavorParameters(const FlavorIntegrator& integrator) {
+    FlavorParameters p{integrator.getScheme(),
+                       integrator.getAveraging(),
+                       integrator.getExactFastFlow(),
+                       integrator.getMesoStep(),
+                       integrator.getMicroStep(),
+                       integrator.getStiffGroups(),
+                       integrator.getIntegrationForceGroups(),
+                       integrator.getFriction(),
+                       integrator.getStiffFriction(),
+                       integrator.getThermostatPlacement()};
+    p.kT = BOLTZ * integrator.getTemperature();
+    return p;
 }
 
 Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
@@ -145,99 +181,95 @@ Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
     const int all = p.integrationGroups;
     const int soft = p.integrationGroups & ~p.stiffGroups;
     const bool friction = p.friction > 0.0;
-    Schedule s;
+    ScheduleBuilder b(p.mesoStep, tau);
+    Schedule& s = b.steps;
+    auto kick = [&](double h, double a, double c, int groups) { s.push_back(b.flow(SubFlow::Kick, h, a, c, groups)); };
+    auto drift = [&](double h, double a, double c) { s.push_back(b.flow(SubFlow::Drift, h, a, c)); };
+    auto thermostat = [&](double h, double a, double c) {
+        SubFlow f = b.flow(SubFlow::Thermostat, h, a, c);
+        f.bath = Bath{p.kT, p.friction};
+        s.push_back(f);
+    };
     if (p.scheme == FlavorIntegrator::SymplecticEuler) {
         // Eq. (2.17); Langevin: eqs. (4.7) and (4.8).
         if (friction)
-            s.push_back(thermostat(tau));
-        s.push_back(kick(tau, all));
-        s.push_back(drift(tau));
+            thermostat(tau, 0, 1);
+        kick(tau, 0, 1, all);
+        drift(tau, 0, 1);
         if (friction && !p.stiffFriction)
-            s.push_back(thermostat(rest));
-        s.push_back(kick(rest, soft));
-        s.push_back(drift(rest));
+            thermostat(rest, 1, -1);
+        kick(rest, 1, -1, soft);
+        drift(rest, 1, -1);
     } else {
         // Eq. (2.7); Langevin: eqs. (4.9) and (4.10).
         const double edge = p.stiffFriction ? tau / 2 : p.mesoStep / 2;
+        const double edgeA = p.stiffFriction ? 0 : 0.5, edgeB = p.stiffFriction ? 0.5 : 0;
         if (friction)
-            s.push_back(thermostat(edge));
-        s.push_back(kick(tau / 2, all));
-        s.push_back(drift(tau / 2));
-        s.push_back(kick(rest / 2, soft));
-        s.push_back(drift(rest));
-        s.push_back(kick(rest / 2, soft));
-        s.push_back(drift(tau / 2));
-        s.push_back(kick(tau / 2, all));
+            thermostat(edge, edgeA, edgeB);
+        kick(tau / 2, 0, 0.5, all);
+        drift(tau / 2, 0, 0.5);
+        kick(rest / 2, 0.5, -0.5, soft);
+        drift(rest, 1, -1);
+        kick(rest / 2, 0.5, -0.5, soft);
+        drift(tau / 2, 0, 0.5);
+        kick(tau / 2, 0, 0.5, all);
         if (friction)
-            s.push_back(thermostat(edge));
+            thermostat(edge, edgeA, edgeB);
     }
     return simplifySchedule(s);
+}
+
+ImpulseParameters FlavorPlugin::impulseParameters(const StochasticImpulseIntegrator& integrator) {
+    ImpulseParameters p{integrator.getSplitting(), integrator.getStepSize(), integrator.getStiffGroups(),
+                        integrator.getIntegrationForceGroups()};
+    p.thermostatPlacement = integrator.getThermostatPlacement();
+    p.bath = Bath{BOLTZ * integrator.getTemperature(), integrator.getFriction()};
+    p.stiffBath = Bath{BOLTZ * integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()};
+    return p;
 }
 
 Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
     const double H = p.stepSize;
     const int soft = p.integrationGroups & ~p.stiffGroups;
-    Schedule s;
-    auto strang = [&](double h) {
-        s.push_back(kick(h / 2, soft));
-        s.push_back(stiffFlow(h));
-        s.push_back(kick(h / 2, soft));
+    ScheduleBuilder b(H);
+    Schedule& s = b.steps;
+    auto stiffFlow = [&](SubFlow::Kind kind, double h, double a, int groups) {
+        SubFlow f = b.flow(kind, h, a, 0, groups);
+        f.bath = p.bath;
+        f.stiffBath = p.stiffBath;
+        if (kind != SubFlow::StiffFlow) {
+            const bool warped = p.splitting == StochasticImpulseIntegrator::Warped;
+            f.response = warped ? SubFlow::KickResponse::Plain : SubFlow::KickResponse::Scaled;
+            f.frequency = warped ? SubFlow::StiffFrequency::Warped : SubFlow::StiffFrequency::Exact;
+            if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle)
+                f.zeroModes = SubFlow::ZeroModeFlow::Middle;
+        }
+        s.push_back(f);
+    };
+    auto kick = [&](double h, double a) { s.push_back(b.flow(SubFlow::Kick, h, a, 0, soft)); };
+    auto strang = [&](double h, double a) {
+        kick(h / 2, a / 2);
+        stiffFlow(SubFlow::StiffFlow, h, a, 0);
+        kick(h / 2, a / 2);
     };
     if (p.splitting == StochasticImpulseIntegrator::LieTrotter) {
-        s.push_back(stiffFlow(H));
-        s.push_back(kick(H, soft));
+        stiffFlow(SubFlow::StiffFlow, H, 1, 0);
+        kick(H, 1);
     } else if (p.splitting == StochasticImpulseIntegrator::Strang) {
-        strang(H);
+        strang(H, 1);
     } else if (p.splitting == StochasticImpulseIntegrator::Filtered ||
                p.splitting == StochasticImpulseIntegrator::Warped) {
-        // The same flows; the runner's bias removal says whether the kicks are scaled or the flow warped.
         if (soft == 0) {
-            s.push_back(stiffFlow(H));
+            stiffFlow(SubFlow::StiffFlow, H, 1, 0);
         } else {
-            s.push_back(SubFlow{SubFlow::FilteredStiffFlow, H, soft});
-            s.push_back(SubFlow{SubFlow::FilteredKick, H, soft});
+            stiffFlow(SubFlow::FilteredStiffFlow, H, 1, soft);
+            stiffFlow(SubFlow::FilteredKick, H, 1, soft);
         }
     } else {
         const double c = 1.0 / (2.0 - std::cbrt(2.0));
-        strang(c * H);
-        strang((1 - 2 * c) * H);
-        strang(c * H);
+        strang(c * H, c);
+        strang((1 - 2 * c) * H, 1 - 2 * c);
+        strang(c * H, c);
     }
     return simplifySchedule(s);
-}
-
-bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
-    return kind == SubFlow::Kick || kind == SubFlow::Thermostat;
-}
-
-StepPlan FlavorPlugin::compileStepPlan(const Schedule& schedule, bool constrained) {
-    StepPlan plan;
-    bool driftedInPass = false, onlyVelocityFlowsInPass = false;
-    for (const SubFlow& flow : schedule) {
-        const bool previousWasStiff = !plan.passes.empty() && isModeFlow(plan.passes.back().flows.back().kind);
-        // With constraints only kicks and thermostats share a pass: one velocity projection after all of them is
-        // the same as one after each (the projection is linear at fixed positions).
-        const bool joinsUnderConstraints = isVelocityFlow(flow.kind) && onlyVelocityFlowsInPass;
-        bool newPass = plan.passes.empty() || (constrained && !joinsUnderConstraints) || isModeFlow(flow.kind) ||
-                       previousWasStiff || (flow.kind == SubFlow::Kick && driftedInPass);
-        if (newPass) {
-            plan.passes.emplace_back();
-            driftedInPass = false;
-            onlyVelocityFlowsInPass = true;
-        }
-        onlyVelocityFlowsInPass = onlyVelocityFlowsInPass && isVelocityFlow(flow.kind);
-        int slot = -1;
-        if (flow.kind == SubFlow::Kick || flow.kind == SubFlow::FrozenKick || flow.kind == SubFlow::FilteredStiffFlow ||
-            flow.kind == SubFlow::FilteredKick) {
-            auto found = std::find(plan.slotGroups.begin(), plan.slotGroups.end(), flow.groups);
-            slot = (int)(found - plan.slotGroups.begin());
-            if (found == plan.slotGroups.end())
-                plan.slotGroups.push_back(flow.groups);
-        }
-        if (flow.kind == SubFlow::Drift)
-            driftedInPass = true;
-        plan.passes.back().flows.push_back(flow);
-        plan.passes.back().slots.push_back(slot);
-    }
-    return plan;
 }

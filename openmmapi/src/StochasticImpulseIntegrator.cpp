@@ -1,6 +1,8 @@
 #include "StochasticImpulseIntegrator.h"
 #include "FlavorKernels.h"
+#include "internal/FlowSchedule.h"
 #include "internal/ParameterChecks.h"
+#include "internal/StepKernelBinding.h"
 #include "internal/StiffGroupChecks.h"
 #include "openmm/Context.h"
 #include "openmm/Force.h"
@@ -16,22 +18,12 @@ namespace {
 
 const string Owner = "StochasticImpulseIntegrator";
 
-void requireSplittingAllowsFriction(StochasticImpulseIntegrator::Splitting splitting, double friction,
-                                    const string& parameter) {
-    if (splitting == StochasticImpulseIntegrator::Yoshida4 && friction != 0.0)
-        throwInvalidParameter(Owner, parameter, parameter == "splitting" ? string("Yoshida4") : formatNumber(friction),
-                              "the Yoshida4 splitting has a substep backwards in time and is defined only for friction "
-                              "0 (friction is " +
-                                  formatNumber(friction) + " 1/ps); use Strang or LieTrotter with friction");
-}
-
 } // namespace
 
 StochasticImpulseIntegrator::StochasticImpulseIntegrator(double temperature, double frictionCoeff, double stepSize,
                                                          int stiffGroups)
     : temperature(0.0), friction(0.0), stiffModeTemperature(-1.0), stiffModeFriction(-1.0), stiffGroups(0),
-      splitting(Strang), thermostatPlacement(Throughout), randomNumberSeed(0), forcesAreValid(false),
-      stiffModesValid(false), stepKernel(nullptr) {
+      splitting(Strang), thermostatPlacement(Throughout), randomNumberSeed(0), stepKernel(nullptr) {
     requireNonNegative(Owner, "temperature", temperature, "K");
     requireNonNegative(Owner, "friction", frictionCoeff, "1/ps");
     requirePositive(Owner, "stepSize", stepSize, "ps");
@@ -55,7 +47,7 @@ void StochasticImpulseIntegrator::setTemperature(double temp) {
 
 void StochasticImpulseIntegrator::setFriction(double coeff) {
     requireNonNegative(Owner, "friction", coeff, "1/ps");
-    requireSplittingAllowsFriction(splitting, coeff, "friction");
+    validateSplitting(splitting, coeff, "friction");
     friction = coeff;
 }
 
@@ -66,7 +58,7 @@ void StochasticImpulseIntegrator::setStiffModeTemperature(double temp) {
 
 void StochasticImpulseIntegrator::setStiffModeFriction(double coeff) {
     requireNonNegative(Owner, "stiffModeFriction", coeff, "1/ps");
-    requireSplittingAllowsFriction(splitting, coeff, "stiffModeFriction");
+    validateSplitting(splitting, coeff, "stiffModeFriction");
     stiffModeFriction = coeff;
 }
 
@@ -77,7 +69,7 @@ void StochasticImpulseIntegrator::setStiffGroups(int groups) {
         requireStiffGroupsIntegrated(Owner, "stiffGroups", groups, getIntegrationForceGroups());
     }
     stiffGroups = groups;
-    stiffModesValid = false;
+    binding.stiffModesValid = false;
 }
 
 void StochasticImpulseIntegrator::setIntegrationForceGroups(int groups) {
@@ -87,12 +79,8 @@ void StochasticImpulseIntegrator::setIntegrationForceGroups(int groups) {
 }
 
 void StochasticImpulseIntegrator::setSplitting(Splitting newSplitting) {
-    if (newSplitting != LieTrotter && newSplitting != Strang && newSplitting != Yoshida4 && newSplitting != Filtered &&
-        newSplitting != Warped)
-        throwInvalidParameter(Owner, "splitting", std::to_string((int)newSplitting),
-                              "splitting must be LieTrotter (0), Strang (1), Yoshida4 (2), Filtered (3) or Warped (4)");
-    requireSplittingAllowsFriction(newSplitting, friction, "splitting");
-    requireSplittingAllowsFriction(newSplitting, getStiffModeFriction(), "splitting");
+    validateSplitting(newSplitting, friction, "splitting");
+    validateSplitting(newSplitting, getStiffModeFriction(), "splitting");
     splitting = newSplitting;
 }
 
@@ -107,11 +95,11 @@ void StochasticImpulseIntegrator::setThermostatPlacement(ThermostatPlacement pla
 vector<double> StochasticImpulseIntegrator::getStiffModeFrequencies() {
     if (context == nullptr)
         throw OpenMMException(Owner + ": getStiffModeFrequencies() needs the integrator to be bound to a Context");
-    return stepKernel->getStiffModeFrequencies(*context, *this, stiffModesValid);
+    return stepKernel->getStiffModeFrequencies(*context, *this, binding.stiffModesValid);
 }
 
 void StochasticImpulseIntegrator::updateStiffModes() {
-    stiffModesValid = false;
+    binding.stiffModesValid = false;
 }
 
 void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
@@ -122,17 +110,15 @@ void StochasticImpulseIntegrator::initialize(ContextImpl& contextRef) {
     rejectConstraintsInsideStiffComponents(contextRef, bondedStiffComponents(contextRef, stiffGroups));
     context = &contextRef;
     owner = &contextRef.getOwner();
-    kernel = context->getPlatform().createKernel(IntegrateStochasticImpulseStepKernel::Name(), contextRef);
-    stepKernel = &kernel.getAs<IntegrateStochasticImpulseStepKernel>();
+    stepKernel =
+        &binding.create<IntegrateStochasticImpulseStepKernel>(contextRef, IntegrateStochasticImpulseStepKernel::Name());
     stepKernel->initialize(contextRef.getSystem(), *this);
-    stepKernel->saveContextState(contextRef, true);
-    forcesAreValid = false;
-    stiffModesValid = false;
+    binding.bound(contextRef);
 }
 
 void StochasticImpulseIntegrator::cleanup() {
     stepKernel = nullptr;
-    kernel = Kernel();
+    binding.release();
 }
 
 vector<string> StochasticImpulseIntegrator::getKernelNames() {
@@ -140,15 +126,8 @@ vector<string> StochasticImpulseIntegrator::getKernelNames() {
 }
 
 void StochasticImpulseIntegrator::stateChanged(State::DataType changed) {
-    forcesAreValid = false;
-    // Parameters: a context parameter changed.  Energy: a force's updateParametersInContext() (or a checkpoint).
-    if (changed == State::Parameters || changed == State::Energy)
-        stiffModesValid = false;
-    if (stepKernel != nullptr && changed != State::Energy)
-        stepKernel->saveContextState(*context, changed == State::Parameters);
-    // A state set from outside starts the next step afresh, as the first one.
-    if (stepKernel != nullptr && (changed == State::Positions || changed == State::Velocities))
-        stepKernel->forgetStepHistory();
+    if (context != nullptr)
+        binding.stateChanged(*context, changed);
 }
 
 double StochasticImpulseIntegrator::computeKineticEnergy() {
@@ -159,19 +138,21 @@ void StochasticImpulseIntegrator::step(int steps) {
     if (context == nullptr)
         throw OpenMMException("This Integrator is not bound to a context!");
     for (int i = 0; i < steps; ++i) {
-        if (context->updateContextState())
-            forcesAreValid = false;
-        stepKernel->execute(*context, *this, forcesAreValid, stiffModesValid);
+        binding.beforeStep(*context);
+        stepKernel->execute(*context, *this, binding.forcesValid, binding.stiffModesValid);
     }
-    if (steps > 0)
-        stepKernel->saveContextState(*context, false);
+    binding.afterSteps(*context, steps);
 }
 
 void StochasticImpulseIntegrator::createCheckpoint(std::ostream& stream) const {
-    stepKernel->createCheckpoint(*context, stream);
+    binding.createCheckpoint(*context, stream);
 }
 
 void StochasticImpulseIntegrator::loadCheckpoint(std::istream& stream) {
-    stepKernel->loadCheckpoint(*context, stream);
-    forcesAreValid = false;
+    binding.loadCheckpoint(*context, stream);
+}
+
+string StochasticImpulseIntegrator::describeStep() const {
+    return describeSchedule(impulseSchedule(impulseParameters(*this)), stiffGroups, getIntegrationForceGroups(), "H",
+                            "");
 }

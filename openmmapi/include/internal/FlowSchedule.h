@@ -4,6 +4,7 @@
 #include "../FlavorIntegrator.h"
 #include "../StochasticImpulseIntegrator.h"
 #include "windowsExportFlavors.h"
+#include <string>
 #include <vector>
 
 namespace FlavorPlugin {
@@ -11,8 +12,25 @@ namespace FlavorPlugin {
 /** The force-group mask that selects every group. */
 constexpr int AllForceGroups = -1;
 
+/** A heat bath: thermal energy kT (kJ/mol) and friction (1/ps). */
+struct Bath {
+    double kT = 0.0, friction = 0.0;
+    bool operator==(const Bath& o) const { return kT == o.kT && friction == o.friction; }
+    bool operator!=(const Bath& o) const { return !(*this == o); }
+};
+
 /**
- * One exact sub-flow of an integration step.  A step is a composition of these, applied left to right.
+ * A step length as a combination of the integrator's two time scales, h = mesoSteps * delta + microSteps * tau (for
+ * a SIM, delta is the step H and tau is not used), kept beside the number for describing a step in words.
+ */
+struct StepLength {
+    double mesoSteps = 0.0, microSteps = 0.0;
+    bool operator==(const StepLength& o) const { return mesoSteps == o.mesoSteps && microSteps == o.microSteps; }
+};
+
+/**
+ * One exact sub-flow of an integration step, with every setting it needs.  A step is a composition of these, applied
+ * left to right; docs/ARCHITECTURE.md lists the kinds, their notation and the executor of each.
  */
 struct SubFlow {
     enum Kind {
@@ -20,35 +38,78 @@ struct SubFlow {
         Kick,
         /** q += h v */
         Drift,
-        /** Exact Ornstein-Uhlenbeck flow of friction and noise over h. */
+        /** Exact Ornstein-Uhlenbeck flow of friction and noise over h (bath). */
         Thermostat,
-        /** Exact flow of the quadratic stiff potential with friction and noise, E(h, gamma). */
+        /** Exact flow E(h) of the quadratic stiff potential, the zero modes in bath and the stiff ones in stiffBath. */
         StiffFlow,
         /**
-         * The opening half kick of the Filtered (or Warped) splitting by the forces of groups, then E(h, gamma): the
-         * half kick is scaled in each stiff mode (omega > 0) by the filter kappa of
-         * StochasticImpulseIntegrator::Filtered (Warped: plain, and E flows at the warped frequencies), plain in the
-         * zero modes and free particles.  The kick is applied as the flow's image of it, after the flow.
+         * The opening half kick of the Filtered or Warped splitting by the forces of groups, then E(h): the half kick
+         * acts in each stiff mode as response says, plain in the zero modes and free particles.  The kick is applied
+         * as the flow's image of it, after the flow.
          */
         FilteredStiffFlow,
-        /** The closing half kick of the Filtered (Warped) splitting by the forces of groups, as above. */
+        /** The closing half kick of the Filtered or Warped splitting by the forces of groups, as above. */
         FilteredKick,
         /** Exact flow of the quadratic stiff potential without friction or noise, E(h, 0). */
         HarmonicFlow,
         /**
-         * Drift with the stiff degrees of freedom frozen, theta^tr(h): q += h P0 v, where P0 is the mass-orthogonal
-         * projection onto the zero modes of the quadratic stiff potential; velocities (so the rates of the frozen
-         * coordinates) are unchanged.
+         * Drift with the stiff degrees of freedom frozen, theta(h): the frozen coordinates (frozen) keep their values
+         * and rates, everything else drifts.
          */
         FrozenDrift,
-        /** Kick along the zero modes of the quadratic stiff potential only: v += h P0 M^-1 F_groups(q). */
+        /** Kick along the coordinates that are not frozen (frozen) only. */
         FrozenKick
+    };
+    /** The frequency at which the stiff modes of a mode flow turn. */
+    enum class StiffFrequency {
+        /** Their own. */
+        Exact,
+        /** The warped frequency whose Strang step has the exact static response (the Warped splitting). */
+        Warped
+    };
+    /** How the zero modes of a Filtered or Warped step flow. */
+    enum class ZeroModeFlow {
+        /** The exact free flow with friction between the half kicks. */
+        Exact,
+        /** Both half kicks first, then D(h/2) O(h) D(h/2), as LangevinMiddleIntegrator (the Middle placement). */
+        Middle
+    };
+    /** How the half kicks of a Filtered or Warped step act in each stiff mode. */
+    enum class KickResponse {
+        /** Not a Filtered or Warped step. */
+        None,
+        /** Scaled by the filter kappa (the Filtered splitting); the flow is exact. */
+        Scaled,
+        /** Plain (the Warped splitting); the flow turns at the warped frequency. */
+        Plain
+    };
+    /** What a FrozenDrift or FrozenKick holds. */
+    enum class FrozenSet {
+        None,
+        /** The nonzero modes of a quadratic stiff potential (projection onto its zero modes). */
+        StiffModes,
+        /** The distances of the stiff bonded forces, beside the System's constraints (RATTLE steps). */
+        Distances
     };
     Kind kind;
     double h;
-    /** The force groups of a Kick, FilteredStiffFlow or FilteredKick; unused otherwise. */
+    /** The force groups of a Kick, FrozenKick, FilteredStiffFlow or FilteredKick; 0 otherwise. */
     int groups;
-    bool operator==(const SubFlow& other) const { return kind == other.kind && h == other.h && groups == other.groups; }
+    /** Thermostat: its bath.  Mode flows: the bath of the zero modes and of the particles outside stiff components. */
+    Bath bath = {};
+    /** Mode flows: the bath of the stiff modes. */
+    Bath stiffBath = {};
+    StiffFrequency frequency = StiffFrequency::Exact;
+    ZeroModeFlow zeroModes = ZeroModeFlow::Exact;
+    KickResponse response = KickResponse::None;
+    FrozenSet frozen = FrozenSet::None;
+    /** h in the integrator's time scales, for describeStep(); not part of what the sub-flow does (operator==). */
+    StepLength length = {};
+    bool operator==(const SubFlow& o) const {
+        return kind == o.kind && h == o.h && groups == o.groups && bath == o.bath && stiffBath == o.stiffBath &&
+               frequency == o.frequency && zeroModes == o.zeroModes && response == o.response && frozen == o.frozen;
+    }
+    bool operator!=(const SubFlow& o) const { return !(*this == o); }
 };
 
 typedef std::vector<SubFlow> Schedule;
@@ -66,13 +127,20 @@ struct FlavorParameters {
     double friction;
     bool stiffFriction;
     FlavorIntegrator::ThermostatPlacement thermostatPlacement;
+    /** The thermal energy (kJ/mol) of the Langevin FLAVORs. */
+    double kT = 0.0;
+    /** Artificial averagings: what freezes (measured from the stiff forces when the first step starts). */
+    SubFlow::FrozenSet frozen = SubFlow::FrozenSet::StiffModes;
     bool operator==(const FlavorParameters& o) const {
         return scheme == o.scheme && averaging == o.averaging && exactFastFlow == o.exactFastFlow &&
                mesoStep == o.mesoStep && microStep == o.microStep && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && friction == o.friction && stiffFriction == o.stiffFriction &&
-               thermostatPlacement == o.thermostatPlacement;
+               thermostatPlacement == o.thermostatPlacement && kT == o.kT && frozen == o.frozen;
     }
 };
+
+/** The parameters of a FlavorIntegrator (kT from its temperature; frozen: the stiff modes, until measured). */
+OPENMM_EXPORT_FLAVORS FlavorParameters flavorParameters(const FlavorIntegrator& integrator);
 
 /**
  * Builds the schedule of one FLAVOR mesostep (docs/ARCHITECTURE.md), already simplified.  The artificial averagings
@@ -87,10 +155,10 @@ struct FlavorParameters {
  * K_soft(h tau/delta) and a FrozenKick over h (1 - tau/delta).  Thermostats are placed as for the nonintrusive
  * schemes: over the whole mesostep (O(tau) before the fast part and O(delta - tau) before the frozen drift for
  * SymplecticEuler, O(delta/2) at each end for Verlet) or, with stiff friction, for tau.  With the Middle placement
- * (Verlet, symplectic microstep only) the Verlet step is shifted cyclically and the thermostat sits in the middle of
- * the microstep's drift:
+ * (Verlet, symplectic microstep only) the step opens with both kicks and puts the thermostat in the middle of the
+ * microstep's drift:
  *
- *     K_stiff(tau/2) theta^tr((delta-tau)/2) K_soft(delta) theta^tr((delta-tau)/2) K_stiff(tau/2) D(tau/2) O D(tau/2)
+ *     K_soft(delta) theta^tr((delta-tau)/2) K_stiff(tau) D(tau/2) O D(tau/2) theta^tr((delta-tau)/2)
  */
 OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
 
@@ -100,59 +168,113 @@ struct ImpulseParameters {
     double stepSize;
     int stiffGroups;
     int integrationGroups;
+    StochasticImpulseIntegrator::ThermostatPlacement thermostatPlacement = StochasticImpulseIntegrator::Throughout;
+    /** The bath of the zero modes and free particles, and that of the stiff modes. */
+    Bath bath = {}, stiffBath = {};
     bool operator==(const ImpulseParameters& o) const {
         return splitting == o.splitting && stepSize == o.stepSize && stiffGroups == o.stiffGroups &&
-               integrationGroups == o.integrationGroups;
+               integrationGroups == o.integrationGroups && thermostatPlacement == o.thermostatPlacement &&
+               bath == o.bath && stiffBath == o.stiffBath;
     }
 };
+
+/** The parameters of a StochasticImpulseIntegrator (baths from its temperatures and frictions). */
+OPENMM_EXPORT_FLAVORS ImpulseParameters impulseParameters(const StochasticImpulseIntegrator& integrator);
 
 /**
  * Builds the schedule of one stochastic impulse step (docs/ARCHITECTURE.md): E(H) K_soft(H) (LieTrotter),
  * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
- * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered and Warped; E(H) alone without soft groups).
+ * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered: kicks scaled by kappa; Warped: plain kicks and the
+ * warped frequency; Middle placement: zero modes as LangevinMiddleIntegrator; E(H) alone without soft groups).
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 
 /**
+ * Throws an OpenMMException, naming the parameters and what is allowed, unless the parameters describe a step this
+ * library has: the one place that decides which combinations of settings exist.
+ */
+OPENMM_EXPORT_FLAVORS void validateFlavorStep(const FlavorParameters& parameters);
+/** As validateFlavorStep(), for a stochastic impulse step. */
+OPENMM_EXPORT_FLAVORS void validateImpulseStep(const ImpulseParameters& parameters);
+/**
+ * Throws, naming parameter ("splitting", "friction" or "stiffModeFriction") and its value, if the splitting is not
+ * one of StochasticImpulseIntegrator::Splitting or is not defined with the friction coefficient (1/ps).
+ */
+OPENMM_EXPORT_FLAVORS void validateSplitting(StochasticImpulseIntegrator::Splitting splitting, double friction,
+                                             const char* parameter);
+
+/**
  * Removes zero-length sub-flows and kicks by no force group, and merges adjacent sub-flows that compose exactly into
- * one (two drifts, two kicks of the same groups, two Ornstein-Uhlenbeck flows, and two kicks of disjoint groups over
- * the same step, which are one kick by their union).
+ * one (two drifts, two kicks of the same groups, two Ornstein-Uhlenbeck flows of the same bath, two equal mode flows
+ * without kicks, and two kicks of disjoint groups over the same step, which are one kick by their union).
  */
 OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
 
 /**
- * Whether a sub-flow acts through the modes of the quadratic stiff potential (StiffFlow, HarmonicFlow, FrozenDrift,
- * FrozenKick, FilteredStiffFlow, FilteredKick); such a sub-flow is a pass of its own.
+ * Whether a sub-flow acts through the modes of the quadratic stiff potential or on frozen coordinates (StiffFlow,
+ * HarmonicFlow, FrozenDrift, FrozenKick, FilteredStiffFlow, FilteredKick): it couples particles, so it is a pass of
+ * its own.
  */
-OPENMM_EXPORT_FLAVORS bool isModeFlow(SubFlow::Kind kind);
-
-/**
- * A run of sub-flows that act particle by particle with forces that are all evaluated at the positions where the
- * pass begins, so one parallel loop over particles executes it.
- */
-struct FlowPass {
-    std::vector<SubFlow> flows;
-    /** For each flow, the index of the force slot a Kick or FrozenKick reads (-1 for other kinds). */
-    std::vector<int> slots;
-};
-
-/**
- * A schedule split into passes, with the distinct kick force-group sets numbered as slots.
- */
-struct StepPlan {
-    std::vector<FlowPass> passes;
-    std::vector<int> slotGroups;
-};
+OPENMM_EXPORT_FLAVORS bool isCoupledFlow(SubFlow::Kind kind);
 
 /** Whether a sub-flow changes only velocities, particle by particle (a kick or a thermostat). */
 OPENMM_EXPORT_FLAVORS bool isVelocityFlow(SubFlow::Kind kind);
 
 /**
- * Splits a schedule into passes.  A pass ends before a kick that follows a drift (its forces need the new
- * positions).  With constraints (constrained = true) a pass is a single sub-flow or a run of kicks and thermostats,
- * so that constraints can be applied after it.
+ * A run of sub-flows that act particle by particle with forces that are all evaluated at the positions where the
+ * pass begins, so one parallel loop over particles executes it; or one coupled sub-flow.  With what the passes around
+ * it decide for it.
  */
-OPENMM_EXPORT_FLAVORS StepPlan compileStepPlan(const Schedule& schedule, bool constrained);
+struct FlowPass {
+    std::vector<SubFlow> flows;
+    /** For each flow, the index of the force slot it reads (-1 for kinds without forces). */
+    std::vector<int> slots;
+    /** For each flow, its random stream relative to the step's first stream (-1 for flows without noise streams). */
+    std::vector<int> streams;
+    /** A single kick that the StiffFlow or HarmonicFlow pass after it applies as it reads velocities (no pass). */
+    bool fusedIntoNext = false;
+    /**
+     * The next pass is a kick, thermostat or FilteredKick, whose velocity projection covers this pass's velocities
+     * too (the projection is linear at fixed positions): a stiff flow leaves its velocities unprojected.
+     */
+    bool nextProjectsVelocities = false;
+    /**
+     * Frozen flows: a later pass of the step fixes the velocities of the particles outside the frozen clusters anyway
+     * (a kick or thermostat projects them, a drift's position constraint sets them to the chord), so this pass leaves
+     * them unprojected.
+     */
+    bool othersFixedLater = false;
+    /**
+     * A constrained drift pass followed by a frozen flow: it projects its chord velocities, since the frozen flow
+     * reads the rates of its frozen distances from velocities that satisfy the System's constraints.
+     */
+    bool projectsChordVelocities = false;
+};
+
+/** A schedule analysed into passes: the step as the engine executes it. */
+struct StepPlan {
+    std::vector<FlowPass> passes;
+    /** The distinct force-group sets the step reads, numbered as slots. */
+    std::vector<int> slotGroups;
+    /** The random streams one step draws (each thermostat and each stiff flow has one). */
+    int noiseStreams = 0;
+};
+
+/**
+ * Analyses a schedule once, where it is built: splits it into passes (a pass ends before a kick that follows a
+ * drift; a coupled flow is a pass of its own; with constraints (constrained = true) a pass is a single sub-flow or a
+ * run of kicks and thermostats, so that constraints can be applied after it), numbers the force slots and noise
+ * streams, and decides each pass's fusion and projection flags.
+ */
+OPENMM_EXPORT_FLAVORS StepPlan analyzeStep(const Schedule& schedule, bool constrained);
+
+/**
+ * The schedule as a line of text in the notation of docs/ARCHITECTURE.md, e.g.
+ * "K_S(δ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)"; stiffGroups and integrationGroups name the kicks,
+ * mesoName and microName the two time scales ("δ" and "τ", or "H" and "").
+ */
+OPENMM_EXPORT_FLAVORS std::string describeSchedule(const Schedule& schedule, int stiffGroups, int integrationGroups,
+                                                   const std::string& mesoName, const std::string& microName);
 
 } // namespace FlavorPlugin
 

@@ -36,8 +36,6 @@ private:
     std::unique_ptr<StiffModesMeasurement> measurement;
     bool configured;
     ImpulseParameters parameters;
-    StochasticImpulseIntegrator::ThermostatPlacement placement;
-    double kT, friction, stiffKT, stiffFriction;
 };
 
 } // namespace FlavorPlugin

@@ -23,13 +23,16 @@ public:
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
+    void forgetStepHistory() override;
+    int getFrozenSet() const override;
 
 private:
     /**
      * Decides what the artificial averagings freeze: the nonzero modes of a quadratic stiff group, or the distances
      * of the stiff bonded forces and those added with FlavorIntegrator::addFrozenDistance().
      */
-    void determineFrozenCoordinates(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator);
+    void determineFrozenCoordinates(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator,
+                                    const FlavorParameters& current);
     std::unique_ptr<ParallelLoop> loop;
     std::unique_ptr<FlowStepRunner> runner;
     std::unique_ptr<StiffModesMeasurement> measurement;
@@ -37,7 +40,6 @@ private:
     std::vector<std::pair<int, int>> frozenPairs;
     bool configured;
     FlavorParameters parameters;
-    double kT;
 };
 
 } // namespace FlavorPlugin

@@ -3,7 +3,6 @@
 #include "internal/StiffGroupChecks.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
-#include "openmm/reference/SimTKOpenMMRealType.h"
 #include <algorithm>
 #include <cmath>
 
@@ -11,8 +10,7 @@ using namespace FlavorPlugin;
 using namespace OpenMM;
 
 ImpulseStepKernel::ImpulseStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
-    : IntegrateStochasticImpulseStepKernel(name, platform), loop(std::move(loop)), configured(false),
-      placement(StochasticImpulseIntegrator::Throughout), kT(0.0), friction(0.0), stiffKT(0.0), stiffFriction(0.0) {}
+    : IntegrateStochasticImpulseStepKernel(name, platform), loop(std::move(loop)), configured(false) {}
 
 void ImpulseStepKernel::initialize(const System& system, const StochasticImpulseIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
@@ -38,35 +36,12 @@ void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups)
 
 void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
                                 bool& stiffModesValid) {
-    ImpulseParameters current{integrator.getSplitting(), integrator.getStepSize(), integrator.getStiffGroups(),
-                              integrator.getIntegrationForceGroups()};
-    const StochasticImpulseIntegrator::ThermostatPlacement currentPlacement = integrator.getThermostatPlacement();
-    if (currentPlacement == StochasticImpulseIntegrator::Middle &&
-        current.splitting != StochasticImpulseIntegrator::Filtered &&
-        current.splitting != StochasticImpulseIntegrator::Warped)
-        throw OpenMMException("StochasticImpulseIntegrator: thermostatPlacement = Middle (1) is not allowed with "
-                              "splitting = " +
-                              std::to_string((int)current.splitting) +
-                              " (its kicks act on whole particles, not mode by mode); allowed: Throughout (0) with "
-                              "every splitting, Middle with Filtered (3) and Warped (4)");
-    const double currentKT = BOLTZ * integrator.getTemperature();
-    const double currentStiffKT = BOLTZ * integrator.getStiffModeTemperature();
-    if (!configured || !(current == parameters) || currentPlacement != placement || currentKT != kT ||
-        integrator.getFriction() != friction || currentStiffKT != stiffKT ||
-        integrator.getStiffModeFriction() != stiffFriction) {
+    const ImpulseParameters current = impulseParameters(integrator);
+    validateImpulseStep(current);
+    if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;
-        placement = currentPlacement;
-        kT = currentKT;
-        friction = integrator.getFriction();
-        stiffKT = currentStiffKT;
-        stiffFriction = integrator.getStiffModeFriction();
-        runner->setSchedule(impulseSchedule(parameters), kT, friction);
-        runner->setStiffModeBath(stiffKT, stiffFriction);
-        runner->setBiasRemoval(parameters.splitting == StochasticImpulseIntegrator::Warped
-                                   ? StiffModes::BiasRemoval::WarpedFlow
-                                   : StiffModes::BiasRemoval::ScaledKicks);
-        runner->setMiddleZeroModes(placement == StochasticImpulseIntegrator::Middle);
+        runner->setSchedule(impulseSchedule(parameters));
         configured = true;
     }
     if (!stiffModesValid || !measurement->getModes()) {

@@ -13,7 +13,7 @@ namespace FlavorPlugin {
 /** The largest number of distinct force-group sets one step kicks with. */
 constexpr int MaxForceSlots = 4;
 
-/** A sub-flow with its per-step constants precomputed. */
+/** A sub-flow of a particle pass with its per-step constants precomputed. */
 struct PreparedFlow {
     SubFlow::Kind kind;
     double h;
@@ -23,16 +23,6 @@ struct PreparedFlow {
     double decay, noise;
     /** Thermostat: the random stream it draws from, relative to the step's first stream. */
     int streamOffset;
-    /**
-     * StiffFlow, FilteredStiffFlow: the velocity change per unit position change that a constraint correction at the
-     * start of the flow makes in a zero mode, Phi_vv/Phi_xv (1/h without friction).
-     */
-    double constraintVelocityScale;
-    /**
-     * StiffFlow, FilteredStiffFlow: the impulse per unit mass that a position correction at the start of the flow
-     * stands for in a zero mode, 1/Phi_xv (1/h without friction).
-     */
-    double constraintImpulseScale;
 };
 
 /**
@@ -113,7 +103,7 @@ struct ParticlePass : public RangeTask {
                 case SubFlow::HarmonicFlow:
                 case SubFlow::FrozenDrift:
                 case SubFlow::FrozenKick:
-                    break; // never in a particle pass (compileStepPlan)
+                    break; // never in a particle pass (analyzeStep)
                 }
             }
         }

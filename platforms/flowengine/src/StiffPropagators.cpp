@@ -129,9 +129,10 @@ struct FilteredModeKicks {
     double lambda, beta;
 };
 
-FilteredModeKicks filteredModeKicks(double w, double gamma, double h, StiffModes::BiasRemoval removal) {
+FilteredModeKicks filteredModeKicks(double w, double gamma, double h, SubFlow::KickResponse kickResponse) {
     FilteredModeKicks kicks;
-    const bool warped = removal == StiffModes::BiasRemoval::WarpedFlow;
+    // Plain kicks go with the warped flow, which has the exact static response.
+    const bool warped = kickResponse == SubFlow::KickResponse::Plain;
     const double flowW = warped ? warpedFrequency(w, gamma, h) : w;
     const ModeFlow& f = kicks.flow = computeModeFlow(flowW, gamma, h);
     // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2; the
@@ -173,13 +174,14 @@ void StiffModes::fillModeResponses(ForceResponse& response,
     }
 }
 
-void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing, BiasRemoval removal,
-                                      bool middleZeroModes, ForceResponse& response) const {
+void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
+                                      SubFlow::KickResponse kickResponse, bool middleZeroModes,
+                                      ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (w > 0.0) {
             // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one of the
             // next step puts back.
-            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, removal);
+            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse);
             const double opening = kicks.halfKick + kicks.lambda;
             out[0] = closing ? 0.0 : opening * kicks.flow.xv;
             out[1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
@@ -196,12 +198,12 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
     });
 }
 
-void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing, BiasRemoval removal,
-                                           ForceResponse& response) const {
+void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing,
+                                           SubFlow::KickResponse kickResponse, ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (!(w > 0.0))
             return;
-        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, removal);
+        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse);
         out[0] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
         out[1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
     });

@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_STIFF_MODES_H_
 #define OPENMM_FLAVORS_STIFF_MODES_H_
 
+#include "internal/FlowSchedule.h"
 #include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
 #include <cstddef>
@@ -106,14 +107,6 @@ public:
     void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT, Propagator& propagator,
                            bool warped = false, bool middleZeroModes = false) const;
 
-    /** How a splitting without the impulse bias gives each stiff mode its exact static response. */
-    enum class BiasRemoval {
-        /** Filtered: the exact flow, half kicks scaled by kappa. */
-        ScaledKicks,
-        /** Warped: plain half kicks, the flow at the warped frequency (computePropagator with warped = true). */
-        WarpedFlow
-    };
-
     /**
      * The response of positions and velocities to a force F held by each mode: per component, for each of its D modes
      * k the pair (rx_k, rv_k), so that in mass-weighted mode coordinates x_k += rx_k f_k and v_k += rv_k f_k with
@@ -126,7 +119,7 @@ public:
     /**
      * Computes the force responses of the Filtered and Warped splittings over a step h > 0 (see
      * SubFlow::FilteredStiffFlow and FilteredKick): a half kick h/2 in each stiff mode (friction stiffGamma), scaled
-     * by kappa with kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v (ScaledKicks) or plain (WarpedFlow, where Phi is the flow
+     * by kappa with kappa h = (1 - Phi_vv) g_x/Phi_xv + g_v (response Scaled) or plain (Plain, where Phi is the flow
      * at the warped frequency), and plain in the zero modes (friction gamma).  The opening response (closing = false)
      * is the flow's image of the half kick, (Phi_xv, Phi_vv) (kappa h/2 + lambda), added after the flow with the
      * forces where it began; the closing one is (0, kappa h/2 - lambda).  lambda f is the velocity that the
@@ -136,8 +129,8 @@ public:
      * full kick h in the opening response, as the image of the Middle free flow, and none in the closing one, so that
      * their velocities at the step's end are half-step velocities.
      */
-    void computeForceResponse(double h, double gamma, double stiffGamma, bool closing, BiasRemoval removal,
-                              bool middleZeroModes, ForceResponse& response) const;
+    void computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
+                              SubFlow::KickResponse kickResponse, bool middleZeroModes, ForceResponse& response) const;
     /**
      * Computes the velocity processing of the Filtered splitting over a step h > 0.  Under a soft force that grows
      * steadily, f_n = f_0 + n s h, the Filtered step's positions are exact (x_n = f_n/omega^2) but its velocities at
@@ -146,9 +139,9 @@ public:
      * step, makes them exact; the opening one, (Phi_xv, Phi_vv) beta, puts it back in the flow's image before the next
      * step, so positions are unchanged.  c is computed with the friction stiffGamma (the step's particular solution
      * for a linearly growing force, lambda f removed).  Zero modes and modes whose flow turns by 0.9 pi or more per
-     * step: none.  With WarpedFlow the same with the warped flow and plain kicks (c = xi~/sin xi~ without friction).
+     * step: none.  With Plain kicks the same with the warped flow (c = xi~/sin xi~ without friction).
      */
-    void computeVelocityProcessing(double h, double stiffGamma, bool closing, BiasRemoval removal,
+    void computeVelocityProcessing(double h, double stiffGamma, bool closing, SubFlow::KickResponse kickResponse,
                                    ForceResponse& response) const;
 
 private:

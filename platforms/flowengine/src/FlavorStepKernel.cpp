@@ -2,7 +2,6 @@
 #include "internal/StiffGroupChecks.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
-#include "openmm/reference/SimTKOpenMMRealType.h"
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -10,7 +9,7 @@ using std::string;
 using std::vector;
 
 FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
-    : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false), kT(0.0) {}
+    : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false) {}
 
 void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
@@ -20,63 +19,35 @@ void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& 
         "use the Nonintrusive averaging (FlavorIntegrator::setAveraging) for nonlinear stiff forces");
 }
 
-namespace {
-
-/** The Middle placement is defined for the artificial Verlet scheme with its symplectic microstep. */
-void requireMiddlePlacementSupported(const FlavorParameters& p) {
-    string conflict;
-    if (p.scheme != FlavorIntegrator::Verlet)
-        conflict = "scheme = SymplecticEuler (it needs Verlet)";
-    else if (p.averaging == FlavorIntegrator::Nonintrusive)
-        conflict = "averaging = Nonintrusive (it needs Artificial or ArtificialProjected)";
-    else if (p.exactFastFlow)
-        conflict = "exactFastFlow = true (it needs the symplectic microstep; the exact fast flow samples harmonic "
-                   "stiff coordinates exactly with Edges)";
-    if (!conflict.empty())
-        throw OpenMMException("FlavorIntegrator: thermostatPlacement = Middle (1) is not allowed with " + conflict +
-                              "; allowed: FlavorIntegrator::Edges (0) with every scheme and averaging, Middle with the "
-                              "Verlet scheme, an artificial averaging and setExactFastFlow(false)");
-}
-
-} // namespace
-
 void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
                                bool& stiffModesValid) {
-    FlavorParameters current{integrator.getScheme(),
-                             integrator.getAveraging(),
-                             integrator.getExactFastFlow(),
-                             integrator.getMesoStep(),
-                             integrator.getMicroStep(),
-                             integrator.getStiffGroups(),
-                             integrator.getIntegrationForceGroups(),
-                             integrator.getFriction(),
-                             integrator.getStiffFriction(),
-                             integrator.getThermostatPlacement()};
-    if (current.thermostatPlacement == FlavorIntegrator::Middle)
-        requireMiddlePlacementSupported(current);
-    const double currentKT = BOLTZ * integrator.getTemperature();
-    if (!configured || !(current == parameters) || currentKT != kT) {
-        // Rebuilt only when a parameter changed, so the step loop does not allocate.
-        parameters = current;
-        kT = currentKT;
-        runner->setSchedule(flavorSchedule(parameters), kT, parameters.friction);
-        configured = true;
-    }
+    FlavorParameters current = flavorParameters(integrator);
+    auto frozenSet = [this] {
+        return frozenDistances ? SubFlow::FrozenSet::Distances : SubFlow::FrozenSet::StiffModes;
+    };
+    current.frozen = frozenSet();
+    validateFlavorStep(current);
     // The artificial averagings freeze the nonzero modes of the stiff potential, measured where the first step starts
     // and again after anything that may change it.
-    if (parameters.averaging != FlavorIntegrator::Nonintrusive &&
+    if (current.averaging != FlavorIntegrator::Nonintrusive &&
         (!stiffModesValid || (!measurement->getModes() && !frozenDistances))) {
-        determineFrozenCoordinates(context, integrator);
+        determineFrozenCoordinates(context, integrator, current);
         stiffModesValid = true;
+        current.frozen = frozenSet();
+        validateFlavorStep(current);
     }
-    if (parameters.averaging != FlavorIntegrator::Nonintrusive && parameters.exactFastFlow && frozenDistances)
-        throw OpenMMException("FlavorIntegrator: the stiff force groups are not quadratic (their distances are frozen "
-                              "with constraints), so they have no exact fast flow; call setExactFastFlow(false)");
+    if (!configured || !(current == parameters)) {
+        // Rebuilt only when a parameter changed, so the step loop does not allocate.
+        parameters = current;
+        runner->setSchedule(flavorSchedule(parameters));
+        configured = true;
+    }
     runner->setFrictionParticles(integrator.getFrictionParticles());
     runner->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
 }
 
-void FlavorStepKernel::determineFrozenCoordinates(ContextImpl& context, const FlavorIntegrator& integrator) {
+void FlavorStepKernel::determineFrozenCoordinates(ContextImpl& context, const FlavorIntegrator& integrator,
+                                                  const FlavorParameters& current) {
     // A quadratic stiff group freezes its nonzero modes; otherwise the distances of the stiff bonded forces freeze.
     vector<std::pair<int, int>> extra;
     for (int i = 0; i < integrator.getNumFrozenDistances(); ++i) {
@@ -94,19 +65,19 @@ void FlavorStepKernel::determineFrozenCoordinates(ContextImpl& context, const Fl
                 context, stiff, "FlavorIntegrator",
                 "use the Nonintrusive averaging (FlavorIntegrator::setAveraging) for nonlinear stiff forces");
         };
-        if (measurement->measure(context, parameters.stiffGroups, checkConstraints) || frozenDistances)
+        if (measurement->measure(context, current.stiffGroups, checkConstraints) || frozenDistances)
             runner->setStiffModes(measurement->getModes());
         frozenDistances = nullptr;
         frozenPairs.clear();
         runner->setFrozenDistances(nullptr);
         return;
     } catch (const NotQuadraticException& notQuadratic) {
-        if (parameters.exactFastFlow)
+        if (current.exactFastFlow)
             throw OpenMMException(string(notQuadratic.what()) +
                                   ".  The exact fast flow (FlavorIntegrator::setExactFastFlow) needs a quadratic stiff "
                                   "group; set it to false to integrate nonlinear stiff forces with the stiff kicks");
         vector<string> unsupported;
-        vector<std::pair<int, int>> pairs = bondedFrozenPairs(context, parameters.stiffGroups, extra, unsupported);
+        vector<std::pair<int, int>> pairs = bondedFrozenPairs(context, current.stiffGroups, extra, unsupported);
         if (!unsupported.empty() && extra.empty())
             throw OpenMMException(describeUnfreezableForces(unsupported));
         if (pairs == frozenPairs && frozenDistances)
@@ -133,4 +104,14 @@ void FlavorStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream
 
 void FlavorStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
     runner->saveContextState(context, withParameters);
+}
+
+void FlavorStepKernel::forgetStepHistory() {
+    runner->forgetStepHistory();
+}
+
+int FlavorStepKernel::getFrozenSet() const {
+    if (frozenDistances)
+        return (int)SubFlow::FrozenSet::Distances;
+    return (int)(measurement->getModes() ? SubFlow::FrozenSet::StiffModes : SubFlow::FrozenSet::None);
 }

@@ -1,0 +1,129 @@
+#!/usr/bin/env python3
+"""Instructions per step of the openmm-flavors step engine on the two molecular steps it is tuned for, counted by
+valgrind's callgrind (load-independent), CPU platform with one thread:
+
+  - villin: the protein recipe (FlavorIntegrator, ArtificialProjected, Middle placement, delta = 2.5 fs, tau = 1 fs,
+    bonds and the angles of non-planar centres frozen; examples/villin, 8,867 atoms with PME);
+  - drude_water: StochasticImpulseIntegrator, Warped splitting with the Middle placement at H = 2.5 fs, cold Drude
+    bath (examples/drude_water, 256 SWM4-NDP molecules with PME).
+
+Each step is run from one saved state for a short and a long number of steps in a child process under callgrind;
+the difference is the cost of a step.  Reported: all instructions per step, and those of the engine's own functions
+(the libraries libOpenMMFlavors*), the part a change of the engine can move.  The states are saved once in
+DIR/engine_step_instructions/ and reused by later runs (--fresh saves them again), so two builds are compared from
+the same start.
+
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/engine_step_instructions.py [--out DIR] [--fresh]  # ~6 min
+
+Needs valgrind (apt-get install valgrind).  Output: a table on stdout and DIR/engine_step_instructions.json
+(default results/bench).
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+from flavorbench import _config
+from flavorbench.callgrind import per_step, require_valgrind, scene_module
+
+SCENES = {"villin": (3, 9), "drude_water": (10, 40)}
+
+
+def make_villin():
+    import openmm
+    import openmm.app as app
+    import openmm.unit as unit
+    villin = scene_module("villin")
+    pdb = app.PDBFile(villin.PDB)
+    system = villin.make_system(app.ForceField("amber14-all.xml", "amber14/tip3p.xml"), pdb.topology)
+    name, factory = next(p for p in villin.peers([(2.5, 1.0, "bonds+nonplanar angles", True)])
+                         if p[0].startswith("FLAVOR"))
+
+    def start():
+        integrator = openmm.LangevinMiddleIntegrator(300, 1, 0.002)
+        context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
+        context.setPositions(pdb.positions)
+        openmm.LocalEnergyMinimizer.minimize(context, 10, 200)
+        context.setVelocitiesToTemperature(300 * unit.kelvin, 7)
+        integrator.step(20)
+        return context.getState(getPositions=True, getVelocities=True)
+
+    return name, system, factory, start
+
+
+def make_drude_water():
+    drude_water = scene_module("drude_water")
+    system, _, positions, _ = drude_water.build_water(256)
+
+    def start():
+        return drude_water.equilibrated_state(system, positions, 1.0, 100, 1, threads=1)
+
+    return "SIM WarpedMiddle H=2.5 fs", system, lambda: drude_water.make_integrator("WarpedMiddle", 2.5, 5), start
+
+
+MAKERS = {"villin": make_villin, "drude_water": make_drude_water}
+
+
+def child(scene, steps, state_dir):
+    import openmm
+    _, system, factory, _ = MAKERS[scene]()
+    with open(os.path.join(state_dir, scene + ".state.xml")) as f:
+        state = openmm.XmlSerializer.deserialize(f.read())
+    integrator = factory()
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
+    context.setState(state)
+    integrator.step(1)
+    integrator.step(steps)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", default=os.path.join(_config.SOURCE_DIR, "results", "bench"))
+    parser.add_argument("--fresh", action="store_true", help="save the start states again")
+    parser.add_argument("--scenes", nargs="+", choices=sorted(SCENES), default=sorted(SCENES))
+    parser.add_argument("--child", nargs=2, metavar=("SCENE", "STEPS"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    state_dir = os.path.join(args.out, "engine_step_instructions")
+    if args.child:
+        child(args.child[0], int(args.child[1]), state_dir)
+        return
+    valgrind = require_valgrind(parser)
+    os.makedirs(state_dir, exist_ok=True)
+    import openmm
+    results = {}
+    for scene in args.scenes:
+        state_file = os.path.join(state_dir, scene + ".state.xml")
+        name, _, _, start = MAKERS[scene]()
+        if args.fresh or not os.path.exists(state_file):
+            print("%s: saving a start state" % scene, file=sys.stderr, flush=True)
+            with open(state_file, "w") as f:
+                f.write(openmm.XmlSerializer.serialize(start()))
+        steps = SCENES[scene]
+        print("%s: callgrind, %d and %d steps of %s" % (scene, steps[0], steps[1], name), file=sys.stderr, flush=True)
+        jobs = []
+        for n in steps:
+            out_file = os.path.join(state_dir, "callgrind.%s.%d" % (scene, n))
+            command = [valgrind, "--tool=callgrind", "--callgrind-out-file=" + out_file, sys.executable,
+                       os.path.abspath(__file__), "--out", args.out, "--child", scene, str(n)]
+            jobs.append((n, subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)))
+        for n, job in jobs:
+            _, errors = job.communicate()
+            if job.returncode != 0:
+                sys.exit("callgrind run failed: %s, %d steps\n%s" % (scene, n, errors[-2000:]))
+        functions = per_step(*(os.path.join(state_dir, "callgrind.%s.%d" % (scene, n)) for n in steps), steps)
+        engine = {f: c for f, c in functions.items() if "libOpenMMFlavors" in f}
+        results[scene] = {"integrator": name, "steps": steps, "total_per_step": sum(functions.values()),
+                          "engine_per_step": sum(engine.values()),
+                          "engine_top_functions": [{"function": f[:200], "per_step": c} for f, c in
+                                                   sorted(engine.items(), key=lambda x: -x[1])[:20]]}
+        print("%-12s %-45s total %10.2fM per step, engine %8.3fM per step" % (
+            scene, name, results[scene]["total_per_step"] / 1e6, results[scene]["engine_per_step"] / 1e6))
+    with open(os.path.join(args.out, "engine_step_instructions.json"), "w") as f:
+        json.dump({"benchmark": "engine_step_instructions", "platform": "CPU, 1 thread", "scenes": results}, f,
+                  indent=1)
+    print("wrote %s/engine_step_instructions.json" % args.out, file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,109 @@
+#include "internal/FlowSchedule.h"
+#include "internal/ParameterChecks.h"
+#include "openmm/reference/SimTKOpenMMRealType.h"
+#include <cmath>
+#include <sstream>
+
+using namespace FlavorPlugin;
+using std::string;
+
+namespace {
+
+/** c times the time scale name: "δ", "δ/2", "2δ", "1.35121H". */
+string scaled(double c, const string& name) {
+    if (c == 1.0)
+        return name;
+    const double inverse = 1.0 / c;
+    if (inverse == std::round(inverse) && inverse > 1.0)
+        return name + "/" + std::to_string((int)inverse);
+    std::ostringstream out;
+    out.precision(6);
+    out << c;
+    return out.str() + name;
+}
+
+string formatLength(const StepLength& length, const string& meso, const string& micro) {
+    const double a = length.mesoSteps, b = length.microSteps;
+    if (b == 0.0)
+        return scaled(a, meso);
+    if (a == 0.0)
+        return scaled(b, micro);
+    if (a == -b && a > 0.0) {
+        const string difference = meso + "−" + micro;
+        return a == 1.0 ? difference : scaled(a, "(" + difference + ")");
+    }
+    return scaled(a, meso) + (b > 0 ? "+" : "−") + scaled(std::abs(b), micro);
+}
+
+string kickName(int groups, int stiffGroups, int integrationGroups) {
+    if (groups == (integrationGroups & ~stiffGroups))
+        return "K_S";
+    if (groups == (integrationGroups & stiffGroups))
+        return "K_F";
+    if (groups == integrationGroups)
+        return "K_A";
+    return "K_" + describeGroups(groups);
+}
+
+string describeBath(const Bath& bath) {
+    return formatNumber(bath.kT / BOLTZ) + " K, " + formatNumber(bath.friction) + "/ps";
+}
+
+} // namespace
+
+string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups, int integrationGroups,
+                                      const string& meso, const string& micro) {
+    std::ostringstream out;
+    string baths, frozen;
+    for (const SubFlow& flow : schedule) {
+        const string h = "(" + formatLength(flow.length, meso, micro) + ")";
+        const string kick = kickName(flow.groups, stiffGroups, integrationGroups);
+        string exact = "E";
+        if (flow.frequency == SubFlow::StiffFrequency::Warped || flow.zeroModes == SubFlow::ZeroModeFlow::Middle)
+            exact += string("^") + (flow.frequency == SubFlow::StiffFrequency::Warped ? "ω̃" : "") +
+                     (flow.zeroModes == SubFlow::ZeroModeFlow::Middle ? "M" : "");
+        const string halfKick = (flow.response == SubFlow::KickResponse::Scaled ? "K^κ" + kick.substr(1) : kick) + "(" +
+                                formatLength({flow.length.mesoSteps / 2, flow.length.microSteps / 2}, meso, micro) +
+                                ")";
+        if (out.tellp() > 0)
+            out << " ";
+        switch (flow.kind) {
+        case SubFlow::Kick:
+            out << kick << h;
+            break;
+        case SubFlow::Drift:
+            out << "D" << h;
+            break;
+        case SubFlow::Thermostat:
+            out << "O" << h;
+            baths = "O: " + describeBath(flow.bath);
+            break;
+        case SubFlow::StiffFlow:
+        case SubFlow::FilteredStiffFlow:
+            if (flow.kind == SubFlow::FilteredStiffFlow)
+                out << halfKick << " ";
+            out << exact << h;
+            baths = "E: zero modes " + describeBath(flow.bath) + ", stiff modes " + describeBath(flow.stiffBath);
+            break;
+        case SubFlow::FilteredKick:
+            out << halfKick;
+            break;
+        case SubFlow::HarmonicFlow:
+            out << "E₀" << h;
+            break;
+        case SubFlow::FrozenDrift:
+        case SubFlow::FrozenKick:
+            out << (flow.kind == SubFlow::FrozenKick ? "θ" + kick : "θ") << h;
+            frozen = string("θ holds ") + (flow.frozen == SubFlow::FrozenSet::Distances
+                                               ? "the stiff bonded distances"
+                                               : "the stiff modes of the quadratic stiff groups");
+            break;
+        }
+    }
+    string notes = baths;
+    if (!frozen.empty())
+        notes += (notes.empty() ? "" : "; ") + frozen;
+    if (!notes.empty())
+        out << "   [" << notes << "]";
+    return out.str();
+}

@@ -1,0 +1,79 @@
+#ifndef OPENMM_FLAVORS_CONSTRAINT_PROJECTOR_H_
+#define OPENMM_FLAVORS_CONSTRAINT_PROJECTOR_H_
+
+#include "ParticleTable.h"
+#include "StiffModes.h"
+#include "openmm/System.h"
+#include "openmm/Vec3.h"
+#include <memory>
+#include <utility>
+#include <vector>
+
+namespace OpenMM {
+class ContextImpl;
+class ReferenceConstraints;
+} // namespace OpenMM
+
+namespace FlavorPlugin {
+
+/**
+ * The System's constraints, applied as OpenMM's VerletIntegrator applies them: positions against the positions a
+ * move started from (with the velocity set to the constrained displacement by the caller), velocities by projection.
+ *
+ * A constrained particle of a stiff component (the core of a Drude pair in rigid water) carries its component through
+ * the constraint solve: it enters the solve with the inverse of its component's total mass, and every other particle
+ * of the component moves by the correction of its carrier, so the component's internal (stiff) coordinates are left
+ * exactly as the stiff flow made them.  The true constraint force acts on the carrier alone, and a share of it (its
+ * carried particles' mass over the component's) moves the internal coordinates; takeShares() turns the constraint
+ * impulses of a step into that share, as a soft force pair (on each carried particle and, opposite, on its carrier)
+ * for the next step's kicks.
+ */
+class ConstraintProjector {
+public:
+    ConstraintProjector(const OpenMM::System& system, const ParticleTable& particles);
+    ~ConstraintProjector();
+    /** Finds the carriers of the stiff components of modes (none without modes). */
+    void setStiffModes(const StiffModes* modes);
+    /** The carried particles and their carriers, each once (whose share forces the next step's kicks add). */
+    const std::vector<int>& getShareParticles() const { return shareParticles; }
+    /** Remembers the positions a move starts from, the reference of the next constrainPositions(). */
+    void rememberPositions(const std::vector<OpenMM::Vec3>& positions) { reference = positions; }
+    const std::vector<OpenMM::Vec3>& getReferencePositions() const { return reference; }
+    /**
+     * Constrains the Context's positions against the remembered ones, carrying stiff components.  A carrier's
+     * correction, times its component's mass and impulsePerCorrection (the impulse per unit correction), adds to its
+     * constraint impulse of this step.
+     */
+    void constrainPositions(OpenMM::ContextImpl& context, double tolerance, double impulsePerCorrection);
+    /** Projects the Context's velocities onto the constraints, carrying stiff components. */
+    void constrainVelocities(OpenMM::ContextImpl& context, double tolerance);
+    /**
+     * Turns the constraint impulses of a step of length stepSize into the share forces of the next step (written for
+     * the share particles) and resets them.
+     */
+    void takeShares(double stepSize, std::vector<OpenMM::Vec3>& shareForces);
+
+private:
+    /** Adds each carrier's correction (now minus carrierBefore) times its mass and scale to its step's impulse. */
+    void addCarrierImpulses(const std::vector<OpenMM::Vec3>& corrected, double impulsePerCorrection);
+    const ParticleTable& particles;
+    // OpenMM's solvers take the inverse masses by non-const reference.
+    std::vector<double> inverseMasses;
+    std::vector<OpenMM::Vec3> reference;
+    // The System's particles and constraints (and angles, which CCMA uses), from which the solver of carried
+    // constraints is built with each carrier's mass replaced by its component's.
+    std::unique_ptr<OpenMM::System> constraintSystem;
+    // When stiff components are constrained: the solver with carrier masses, its inverse masses, the (carried,
+    // carrier) particle pairs and room for each carrier's coordinates before the solve.
+    std::unique_ptr<OpenMM::ReferenceConstraints> carriedConstraints;
+    std::vector<double> carriedInverseMasses;
+    std::vector<std::pair<int, int>> carriedParticles;
+    std::vector<OpenMM::Vec3> carrierBefore;
+    // Per carried pair: its carrier's constraint impulse so far in this step.
+    std::vector<OpenMM::Vec3> carrierImpulses;
+    std::vector<int> shareParticles;
+};
+
+} // namespace FlavorPlugin
+
+#endif

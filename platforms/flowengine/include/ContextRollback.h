@@ -1,0 +1,38 @@
+#ifndef OPENMM_FLAVORS_CONTEXT_ROLLBACK_H_
+#define OPENMM_FLAVORS_CONTEXT_ROLLBACK_H_
+
+#include "openmm/Vec3.h"
+#include <map>
+#include <string>
+#include <vector>
+
+namespace OpenMM {
+class ContextImpl;
+}
+
+namespace FlavorPlugin {
+
+/**
+ * A copy of the Context's positions, velocities, periodic box, time, step count and parameters, for a failed
+ * loadCheckpoint() to put back: OpenMM reads its own part of a checkpoint, and overwrites the Context with it, before
+ * the integrator reads its part.
+ */
+class ContextRollback {
+public:
+    /** Remembers the Context's state (no allocation after the first call), its parameters too if withParameters. */
+    void save(OpenMM::ContextImpl& context, bool withParameters);
+    /** Puts the remembered state back (nothing if none was saved). */
+    void restore(OpenMM::ContextImpl& context);
+
+private:
+    bool valid = false;
+    std::vector<OpenMM::Vec3> positions, velocities;
+    OpenMM::Vec3 boxSize, boxVectors[3];
+    double time = 0.0;
+    long long stepCount = 0;
+    std::map<std::string, double> parameters;
+};
+
+} // namespace FlavorPlugin
+
+#endif

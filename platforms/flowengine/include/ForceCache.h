@@ -1,0 +1,44 @@
+#ifndef OPENMM_FLAVORS_FORCE_CACHE_H_
+#define OPENMM_FLAVORS_FORCE_CACHE_H_
+
+#include "openmm/Vec3.h"
+#include <vector>
+
+namespace OpenMM {
+class ContextImpl;
+}
+
+namespace FlavorPlugin {
+
+/**
+ * The forces of each force-group set a step reads (its slots), valid until positions change, so each set is
+ * evaluated once per distinct set of positions; and whether the virtual sites are placed for the current positions.
+ */
+class ForceCache {
+public:
+    explicit ForceCache(bool hasVirtualSites) : hasVirtualSites(hasVirtualSites) {}
+    /** Sets the force-group set of each slot; every slot starts invalid. */
+    void setSlots(const std::vector<int>& slotGroups, int numParticles);
+    /** The forces of a slot at the current positions, evaluated (virtual sites placed first) if not valid. */
+    const std::vector<OpenMM::Vec3>& get(OpenMM::ContextImpl& context, int slot);
+    /** The forces a slot last held, valid or not (a Filtered flow reads those where it began). */
+    const std::vector<OpenMM::Vec3>& last(int slot) const { return slots[slot].forces; }
+    /** Positions changed: every slot and the virtual sites are out of date. */
+    void invalidate();
+    /** Places the virtual sites unless an evaluation at the current positions already did. */
+    void placeVirtualSites(OpenMM::ContextImpl& context);
+
+private:
+    struct Slot {
+        int groups;
+        bool valid;
+        std::vector<OpenMM::Vec3> forces;
+    };
+    std::vector<Slot> slots;
+    bool hasVirtualSites;
+    bool virtualSitesPlaced = false;
+};
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,23 @@
+#ifndef OPENMM_FLAVORS_PARTICLE_TABLE_H_
+#define OPENMM_FLAVORS_PARTICLE_TABLE_H_
+
+#include "openmm/System.h"
+#include <vector>
+
+namespace FlavorPlugin {
+
+/** The per-particle constants of a System that every part of the step engine reads. */
+struct ParticleTable {
+    explicit ParticleTable(const OpenMM::System& system);
+    int numParticles;
+    bool hasConstraints, hasVirtualSites;
+    std::vector<double> masses;
+    /** 1/m, 0 for massless particles (which OpenMM's integrators never move). */
+    std::vector<double> inverseMasses;
+    /** Per coordinate (three per particle), for the particle passes: 1/m, and 1 for particles that move, else 0. */
+    std::vector<double> coordinateInverseMasses, coordinateMovable;
+};
+
+} // namespace FlavorPlugin
+
+#endif

@@ -1,0 +1,55 @@
+#ifndef OPENMM_FLAVORS_STEP_HISTORY_H_
+#define OPENMM_FLAVORS_STEP_HISTORY_H_
+
+#include "openmm/Vec3.h"
+#include <iosfwd>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace FlavorPlugin {
+
+class StiffModes;
+
+/**
+ * What the next step takes from the last one, per particle: the constraint share forces that its kicks add (zero
+ * outside carried components; ConstraintProjector), and, for Filtered steps, the change of the soft force on stiff
+ * particles over the last step, whose velocity processing the next step undoes (docs/sim_drude.md).  Part of the
+ * integrator's checkpoint; forgotten when the Context's positions or velocities are set from outside.
+ */
+class StepHistory {
+public:
+    explicit StepHistory(int numParticles);
+    /** Forgets the history, unless it was loaded from a checkpoint since the last step (see markLoaded()). */
+    void forget();
+    /** A step starts: what forget() is asked from now on is a new state set from outside. */
+    void stepStarted() { loaded = false; }
+    /**
+     * Keeps the history of particles that are still carried (shareParticles) or stiff after the stiff modes were
+     * measured again (after parameter changes and checkpoints).
+     */
+    void keepOnly(const std::vector<int>& shareParticles, const StiffModes* modes);
+    /** Writes the history (the number of nonzero entries, then index and value of each, for both vectors). */
+    void write(std::ostream& stream) const;
+    /** A history as read from a checkpoint: (particle, value) of its nonzero entries. */
+    struct Stored {
+        std::vector<std::pair<int, OpenMM::Vec3>> shares, differences;
+    };
+    /** Reads what write() wrote; false if the stream holds no valid history for this many particles. */
+    bool read(std::istream& stream, Stored& stored) const;
+    /**
+     * Makes a history read from a checkpoint the current one, kept through the forget() that OpenMM's announcement of
+     * the checkpoint's positions and velocities makes before the next step.
+     */
+    void load(const Stored& stored);
+    std::vector<OpenMM::Vec3> shareForces, forceDifferences;
+    /** The soft forces on stiff particles where the current Filtered step began (not part of the history). */
+    std::vector<OpenMM::Vec3> openingForces;
+
+private:
+    bool loaded = false;
+};
+
+} // namespace FlavorPlugin
+
+#endif

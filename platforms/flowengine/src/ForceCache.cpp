@@ -1,0 +1,41 @@
+#include "ForceCache.h"
+#include "openmm/internal/ContextImpl.h"
+#include "openmm/reference/ReferencePlatform.h"
+#include <utility>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+
+void ForceCache::setSlots(const std::vector<int>& slotGroups, int numParticles) {
+    slots.resize(slotGroups.size());
+    for (size_t i = 0; i < slots.size(); ++i) {
+        slots[i].groups = slotGroups[i];
+        slots[i].valid = false;
+        slots[i].forces.resize(numParticles);
+    }
+}
+
+const std::vector<Vec3>& ForceCache::get(ContextImpl& context, int slotIndex) {
+    Slot& slot = slots[slotIndex];
+    if (slot.valid)
+        return slot.forces;
+    placeVirtualSites(context);
+    context.calcForcesAndEnergy(true, false, slot.groups);
+    // Take the platform's force buffer instead of copying it; the platform refills whatever buffer it holds.
+    auto* data = reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
+    std::swap(*data->forces, slot.forces);
+    slot.valid = true;
+    return slot.forces;
+}
+
+void ForceCache::invalidate() {
+    for (Slot& slot : slots)
+        slot.valid = false;
+    virtualSitesPlaced = false;
+}
+
+void ForceCache::placeVirtualSites(ContextImpl& context) {
+    if (hasVirtualSites && !virtualSitesPlaced)
+        context.computeVirtualSites();
+    virtualSitesPlaced = true;
+}

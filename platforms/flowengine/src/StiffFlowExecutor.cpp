@@ -1,0 +1,143 @@
+#include "FlowExecutors.h"
+#include "internal/ExactModeFlow.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/internal/ContextImpl.h"
+#include "openmm/reference/ReferencePlatform.h"
+#include <algorithm>
+#include <cmath>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::vector;
+
+void StiffFlowExecutor::prepare(const StepPlan& plan) {
+    const StiffModes* modes = parts.modes.get();
+    if (modes != preparedFor) {
+        flowTask = modes ? std::make_unique<StiffFlowTask>(*modes) : nullptr;
+        responseTask = modes ? std::make_unique<ForceResponseTask>(*modes) : nullptr;
+        preparedFor = modes;
+    }
+    const size_t n = plan.passes.size();
+    propagators.assign(n, StiffModes::Propagator());
+    responses.assign(n, StiffModes::ForceResponse());
+    processing.assign(n, StiffModes::ForceResponse());
+    scales.assign(n, ConstraintScales());
+    if (parts.constraints)
+        unconstrained.resize(parts.particles.numParticles);
+    for (size_t p = 0; p < n; ++p) {
+        const SubFlow& flow = plan.passes[p].flows[0];
+        const bool filtered = flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
+        const bool middle = flow.zeroModes == SubFlow::ZeroModeFlow::Middle;
+        if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
+            // Constrained particles are free particles or carry their component as a rigid body: zero modes.
+            const bool middleFlow = middle && flow.h > 0;
+            const double friction = flow.bath.friction;
+            const ModeFlow zeroMode = middleFlow ? computeMiddleFreeFlow(friction, flow.h)
+                                                 : computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
+            scales[p].impulse = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
+            scales[p].velocity = zeroMode.vv * scales[p].impulse;
+            if (modes)
+                modes->computePropagator(flow.h, friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
+                                         propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
+        }
+        if (modes && filtered) {
+            const bool closing = flow.kind == SubFlow::FilteredKick;
+            modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response,
+                                        middle, responses[p]);
+            modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, processing[p]);
+        }
+        if (flow.kind == SubFlow::HarmonicFlow && modes)
+            modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
+                                     flow.stiffBath.kT, propagators[p]);
+    }
+}
+
+void StiffFlowExecutor::run(const FlowPass& pass, size_t passIndex, StepState& state) {
+    // Passes over stiff components hold one sub-flow each (analyzeStep).
+    const SubFlow& flow = pass.flows[0];
+    if (!parts.modes)
+        throw OpenMMException("FlowStepRunner: a " +
+                              std::string(flow.kind == SubFlow::FilteredKick ? "FilteredKick" : "stiff flow") +
+                              " needs the stiff modes (setStiffModes())");
+    if (flow.kind == SubFlow::FilteredKick)
+        runClosingKick(flow, pass.slots[0], passIndex, state);
+    else
+        runFlow(pass, passIndex, state);
+}
+
+void StiffFlowExecutor::runFlow(const FlowPass& pass, size_t passIndex, StepState& state) {
+    const SubFlow& flow = pass.flows[0];
+    auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(state.context.getPlatformData());
+    vector<Vec3>& positions = *data.positions;
+    vector<Vec3>& velocities = *data.velocities;
+    const ParticleTable& particles = parts.particles;
+    const bool filtered = flow.kind == SubFlow::FilteredStiffFlow;
+    // A Filtered flow adds the response to the forces where it begins, after the flow.
+    const Vec3* openingForces = filtered ? parts.forces.get(state.context, pass.slots[0]).data() : nullptr;
+    if (parts.constraints)
+        parts.constraints->rememberPositions(positions);
+    StiffFlowTask& task = *flowTask;
+    task.propagator = &propagators[passIndex];
+    task.positions = positions.data();
+    task.velocities = velocities.data();
+    task.random = &parts.random;
+    task.stream = state.firstStream + (std::uint64_t)std::max(0, pass.streams[0]);
+    task.kickForces = filtered ? nullptr : state.fusedKickForces;
+    task.inverseMasses = particles.inverseMasses.data();
+    task.kickStep = filtered ? 0.0 : state.fusedKickStep;
+    parts.loop.run(task, parts.modes->getNumComponents());
+    if (!filtered)
+        state.fusedKickForces = nullptr;
+    if (filtered) {
+        ForceResponseTask& response = *responseTask;
+        response.response = &responses[passIndex];
+        response.forces = openingForces;
+        response.extraForces = parts.constraints && !parts.constraints->getShareParticles().empty()
+                                   ? parts.history.shareForces.data()
+                                   : nullptr;
+        // It also undoes the velocity processing of the last closing kick, in the flow's image.
+        setProcessing(passIndex, false);
+        response.positions = positions.data();
+        response.velocities = velocities.data();
+        parts.loop.run(response, parts.modes->getNumComponents());
+    }
+    parts.forces.invalidate();
+    if (!parts.constraints)
+        return;
+    // Constrained particles of stiff components carry their components (ConstraintProjector).  The correction of the
+    // positions is an impulse at the start of the flow (as in RATTLE), so it also changes the velocities: in a zero
+    // mode an impulse dv0 moves the position by Phi_xv dv0 and the velocity by Phi_vv dv0.  The projection after it
+    // removes what is left along the constraints.
+    unconstrained = positions;
+    parts.constraints->constrainPositions(state.context, state.constraintTolerance, scales[passIndex].impulse);
+    for (int i = 0; i < particles.numParticles; ++i)
+        if (particles.inverseMasses[i] != 0.0)
+            velocities[i] += (positions[i] - unconstrained[i]) * scales[passIndex].velocity;
+    if (!pass.nextProjectsVelocities)
+        parts.constraints->constrainVelocities(state.context, state.constraintTolerance);
+}
+
+void StiffFlowExecutor::runClosingKick(const SubFlow& /*flow*/, int slot, size_t passIndex, StepState& state) {
+    auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(state.context.getPlatformData());
+    ForceResponseTask& response = *responseTask;
+    response.response = &responses[passIndex];
+    response.forces = parts.forces.get(state.context, slot).data();
+    response.extraForces = parts.constraints && !parts.constraints->getShareParticles().empty()
+                               ? parts.history.shareForces.data()
+                               : nullptr;
+    // With the velocity processing: beta times the change of the soft force over the step off the stiff modes.
+    setProcessing(passIndex, true);
+    response.positions = data.positions->data();
+    response.velocities = data.velocities->data();
+    parts.loop.run(response, parts.modes->getNumComponents());
+    if (parts.constraints)
+        parts.constraints->constrainVelocities(state.context, state.constraintTolerance);
+}
+
+void StiffFlowExecutor::setProcessing(size_t passIndex, bool closing) {
+    ForceResponseTask& task = *responseTask;
+    task.processing = &processing[passIndex];
+    task.closing = closing;
+    task.openingForces = parts.history.openingForces.data();
+    task.forceChanges = parts.history.forceDifferences.data();
+}

@@ -108,6 +108,21 @@ TEST(FirstOrderFlavor, LinearSystemConvergesToTheExactSolution) {
     }
 }
 
+TEST(FirstOrderFlavor, ErrorDoesNotDependOnTheStiffnessAtFixedGamma) {
+    // FLAVORS Remark 1.6: with tau = gamma eps and delta = gamma tau / eps the error is a function of gamma alone, so
+    // the speedup delta/tau = gamma/eps over a method resolving tau grows like 1/eps at fixed accuracy.  Here the
+    // slowed stiffness is alpha' = alpha tau/delta = 1/gamma for every eps, and the relative error in x(T) stays at
+    // -(1/alpha' - 1/alpha) T = -(gamma - eps) T (see above) while eps falls a thousandfold.
+    const double gamma = 0.01, T = 1.0, x0 = 1.0, y0 = 1.0;
+    for (double eps : {1e-4, 1e-5, 1e-6, 1e-7}) {
+        const double alpha = 1 / eps, tau = gamma * eps, delta = gamma * tau / eps;
+        const int n = (int)std::lround(T / delta);
+        const long double exact = linearExact(alpha, T, x0, y0)[0];
+        const double error = (double)((runLinear(alpha, delta, tau, n, x0, y0)[0] - exact) / exact);
+        EXPECT_NEAR(error, -(gamma - eps) * T, 0.15 * gamma * T) << "eps = " << eps;
+    }
+}
+
 TEST(FirstOrderFlavor, TauEqualToDeltaIsForwardEulerBitForBit) {
     // The Van der Pol oscillator (6.2), Fig. 6.1's parameters: tau = delta = h must be forward Euler at step h with
     // the stiffness on, nothing else.
@@ -292,31 +307,35 @@ TEST(FirstOrderFlavor, EulerMaruyamaHasWeakOrderOne) {
 
 namespace {
 
-/** A stiff linear SDE: x' = -y (soft), dy = alpha (x - y) dt + sqrt(2 alpha) dW (stiff drift and noise). */
+/**
+ * A stiff linear SDE: dx = -y dt + s dW1 (soft), dy = alpha (x - y) dt + sqrt(2 alpha) dW2 (stiff drift and
+ * noise): the soft noise acts in both stages, the stiff one in the microstep only.
+ */
 struct StiffLinearSde {
-    static constexpr std::size_t Dim = 2, NoiseDim = 1;
+    static constexpr std::size_t Dim = 2, NoiseDim = 2;
+    double s;
     void drift(const std::array<double, 2>& u, double alpha, double, std::array<double, 2>& f) const {
         f[0] = -u[1];
         f[1] = alpha * (u[0] - u[1]);
     }
-    void diffusion(const std::array<double, 2>&, double alpha, double, std::array<double, 2>& sigma) const {
-        sigma[0] = 0;
-        sigma[1] = std::sqrt(2 * alpha);
+    void diffusion(const std::array<double, 2>&, double alpha, double, std::array<double, 4>& sigma) const {
+        sigma = {s, 0, 0, std::sqrt(2 * alpha)};
     }
 };
 
 } // namespace
 
 TEST(FirstOrderFlavor, StiffLinearSdeHasTheLawOfItsFlavorMap) {
-    // One mesostep is u <- M2 (M1 u + sqrt(tau) g xi), M1 = I + tau (alpha A + B), M2 = I + (delta - tau) B,
-    // g = (0, sqrt(2 alpha)): the noise acts in the microstep only.  Mean and covariance follow m <- M m and
-    // P <- M2 (M1 P M1^T + tau g g^T) M2^T.  The sampled mean and variance of x must match within 4 standard errors;
-    // noise in the wrong stage, or scaled by sqrt(delta), changes the variance (0.0031 here, about 140 standard
-    // errors) many times over.
-    const double alpha = 1e4, delta = 1e-3, tau = 1e-5, x0 = 1.0, y0 = 0.5;
+    // One mesostep is u <- M2 (M1 u + sqrt(tau) G1 xi) + sqrt(delta - tau) G0 xi', M1 = I + tau (alpha A + B),
+    // M2 = I + (delta - tau) B, G1 = diag(s, sqrt(2 alpha)), G0 = diag(s, 0), with xi and xi' independent (Remark
+    // 3.3: the Brownian increments over the two stages).  Mean and covariance follow m <- M2 M1 m and
+    // P <- M2 (M1 P M1^T + tau G1 G1^T) M2^T + (delta - tau) G0 G0^T.  The sampled mean and variance of x must match
+    // within 4 standard errors.  Stiff noise scaled by sqrt(delta) makes the variance (0.0136 here, about 120 standard
+    // errors) 25 times larger; the same normals in both stages change it by 0.0021 (19 standard errors).
+    const double alpha = 1e4, delta = 1e-3, tau = 1e-5, x0 = 1.0, y0 = 0.5, s = 0.25;
     const int n = 200, paths = 40000;
     const Moments sampled =
-        sampleMoments(FirstOrderFlavor<StiffLinearSde>(StiffLinearSde(), alpha, delta, tau, 99), {x0, y0}, n, paths);
+        sampleMoments(FirstOrderFlavor<StiffLinearSde>(StiffLinearSde{s}, alpha, delta, tau, 99), {x0, y0}, n, paths);
     const Mat m1 = {1, -tau, alpha * tau, 1 - alpha * tau}, m2 = {1, -(delta - tau), 0, 1};
     auto transpose = [](const Mat& a) { return Mat{a[0], a[2], a[1], a[3]}; };
     std::array<long double, 2> mean = {x0, y0};
@@ -324,8 +343,10 @@ TEST(FirstOrderFlavor, StiffLinearSdeHasTheLawOfItsFlavorMap) {
     for (int k = 0; k < n; ++k) {
         mean = apply(m2, apply(m1, mean[0], mean[1])[0], apply(m1, mean[0], mean[1])[1]);
         Mat inner = multiply(multiply(m1, covariance), transpose(m1));
+        inner[0] += (long double)tau * s * s;
         inner[3] += (long double)tau * 2 * alpha;
         covariance = multiply(multiply(m2, inner), transpose(m2));
+        covariance[0] += ((long double)delta - tau) * s * s;
     }
     EXPECT_NEAR(sampled.mean, (double)mean[0], 4 * sampled.meanError);
     EXPECT_NEAR(sampled.variance, (double)covariance[0], 4 * sampled.varianceError);

@@ -23,7 +23,6 @@ copy of the chart there.  The loops run in C++ (the program hidden_sde built wit
 speedups are ratios of processor times of whole ensembles (the fastest of --repeat runs; wall times in the JSON).
 """
 import math
-import os
 import sys
 
 import numpy as np
@@ -157,7 +156,7 @@ def plot(data, path, small=False):
     axes[2].set_ylim(0, p["paths"] * 1.05)
     axes[2].set_xlabel(f"t (dimensionless); Euler–Maruyama, h = {p['h']:g}")
     axes[2].set_ylabel(f"paths with |x| < 10⁶ (of {p['paths']})")
-    axes[2].set_title(f"(c) (6.18) as printed (5 sin(2πt) dW)")
+    axes[2].set_title("(c) (6.18) as printed (5 sin(2πt) dW)")
     fc = cmp["flavor_vs_euler"]
     fr = cmp["flavor_resolved_vs_euler_resolved"]
     fig.suptitle(
@@ -202,13 +201,9 @@ def main():
     parser.add_argument("--samples", type=int, default=200, help="sampled times per run")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--repeat", type=int, default=None, help="timed repetitions (default 3, --quick 1)")
-    parser.add_argument("--docs", default=None, help="also write a small copy of the chart to this directory")
-    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    firstorder.add_chart_arguments(parser)
     args = parser.parse_args()
-    if args.replot:
-        reporting.replot(args.replot, args.out, NAME, plot)
-        if args.docs:
-            reporting.replot(args.replot, args.docs, NAME, lambda data, path: plot(data, path, small=True))
+    if firstorder.replot(args, NAME, plot):
         return
     args.T = args.T if args.T is not None else (0.5 if args.quick else 2.0)
     args.paths = args.paths if args.paths is not None else (20 if args.quick else 100)
@@ -217,11 +212,7 @@ def main():
         args.samples = min(args.samples, 50)
     data = measure(args)
     report(data)
-    os.makedirs(args.out, exist_ok=True)
-    reporting.save_outputs(args.out, NAME, data, lambda path: plot(data, path))
-    if args.docs:
-        os.makedirs(args.docs, exist_ok=True)
-        plot(data, os.path.join(args.docs, f"{NAME}.png"), small=True)
+    firstorder.save(args, NAME, data, plot)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ small copy of the chart there (docs/van_der_pol.png comes from the full run).  S
 time of the C++ loops (one thread; the wall times are in the JSON too).
 """
 import math
-import os
 import sys
 
 import numpy as np
@@ -180,13 +179,9 @@ def main():
     parser.add_argument("--x0", type=float, default=1.0)
     parser.add_argument("--y0", type=float, default=1.0)
     parser.add_argument("--samples", type=int, default=5000, help="samples per run")
-    parser.add_argument("--docs", default=None, help="also write a small copy of the chart to this directory")
-    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    firstorder.add_chart_arguments(parser)
     args = parser.parse_args()
-    if args.replot:
-        reporting.replot(args.replot, args.out, NAME, plot)
-        if args.docs:
-            reporting.replot(args.replot, args.docs, NAME, lambda data, path: plot(data, path, small=True))
+    if firstorder.replot(args, NAME, plot):
         return
     if args.T is None:
         args.T = (0.5 if args.quick else 5.0) / args.eps
@@ -194,11 +189,7 @@ def main():
         args.samples = min(args.samples, 1000)
     data = measure(args)
     report(data)
-    os.makedirs(args.out, exist_ok=True)
-    reporting.save_outputs(args.out, NAME, data, lambda path: plot(data, path))
-    if args.docs:
-        os.makedirs(args.docs, exist_ok=True)
-        plot(data, os.path.join(args.docs, f"{NAME}.png"), small=True)
+    firstorder.save(args, NAME, data, plot)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ import os
 import subprocess
 import sys
 
-from . import _config
+from . import _config, reporting
 
 PROGRAMS = {"van_der_pol": ("FLAVORS_VAN_DER_POL", _config.VAN_DER_POL),
             "hidden_sde": ("FLAVORS_HIDDEN_SDE", _config.HIDDEN_SDE)}
@@ -29,3 +29,29 @@ def run(name, **options):
     if result.returncode != 0:
         sys.exit(f"{name} failed (exit {result.returncode}): {' '.join(command)}")
     return json.loads(result.stdout)
+
+
+def add_chart_arguments(parser):
+    """--docs and --replot, as both scenes have them."""
+    parser.add_argument("--docs", default=None, help="also write a small copy of the chart to this directory")
+    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+
+
+def replot(args, name, plot):
+    """With --replot, redraw <out>/<name>.png (and the --docs copy) from the JSON with plot(data, path, small) and
+    return True; otherwise return False."""
+    if not args.replot:
+        return False
+    reporting.replot(args.replot, args.out, name, plot)
+    if args.docs:
+        reporting.replot(args.replot, args.docs, name, lambda data, path: plot(data, path, small=True))
+    return True
+
+
+def save(args, name, data, plot):
+    """<out>/<name>.json and .png, and with --docs the small copy of the chart."""
+    os.makedirs(args.out, exist_ok=True)
+    reporting.save_outputs(args.out, name, data, lambda path: plot(data, path))
+    if args.docs:
+        os.makedirs(args.docs, exist_ok=True)
+        plot(data, os.path.join(args.docs, f"{name}.png"), small=True)

@@ -37,7 +37,8 @@ namespace FlavorPlugin {
  * Nothing is allocated while stepping.  The normal numbers come from CounterRandom: the stage s (0: microstep,
  * 1: the rest) of mesostep k draws its Brownian increments from the streams (2k + s) B + b, b < B = ceil(NoiseDim/3),
  * for the particle index path, so each path of an ensemble is independent and reproducible, in any order and on any
- * number of threads.  A stage whose sigma is zero draws nothing.
+ * number of threads.  A stage whose sigma is zero draws nothing.  Header only, but the parameter checks are in
+ * libOpenMMFlavors: link it (examples/van_der_pol and examples/hidden_sde show a Model and a program).
  */
 template <class Model> class FirstOrderFlavor {
 public:

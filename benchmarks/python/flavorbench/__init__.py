@@ -8,6 +8,7 @@
     scenes      the comparison every deterministic FLAVOR scene makes (reference, legacy, FLAVOR, H_eff)
     ensemble    ensembles of independent copies and their statistics (the Langevin scenes)
     helper      the C++ helper benchmarks/step_cost and callgrind instruction counts
+    firstorder  the C++ programs of the first-order scenes (van_der_pol, hidden_sde)
 
 The build copies this package next to openmmflavors (build/python), so PYTHONPATH=build/python finds both.
 """

@@ -19,6 +19,7 @@ import numpy as np  # noqa: E402
 import openmm  # noqa: E402
 import openmm.app as app  # noqa: E402
 import openmm.unit as unit  # noqa: E402
+from flavorbench import reporting  # noqa: E402
 from flavorbench.runners import KB as BOLTZ  # noqa: E402
 from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
@@ -209,58 +210,104 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
     return result
 
 
+OBSERVABLES = [("induced_ratio", "induced dipole / self-consistent"), ("dipole", "mean molecular dipole (D)"),
+               ("pe_per_molecule", "potential energy per molecule (kJ/mol)"), ("g_oo_peak", "first peak of g_OO"),
+               ("t_com", "centre-of-mass temperature (K)"), ("t_drude", "Drude temperature (K)")]
+
+
+def blew_up(run, reference):
+    """A run that completed but whose water heated or fell apart: its centre-of-mass temperature more than 20 % from
+    the reference's, or its induced dipoles off by more than half."""
+    values = [run[key][0] for key, _ in OBSERVABLES]
+    return (not all(math.isfinite(v) for v in values) or abs(run["t_com"][0] / reference["t_com"][0] - 1) > 0.2
+            or abs(run["induced_ratio"][0] - reference["induced_ratio"][0]) > 0.5)
+
+
+def verdict(runs, reference_label):
+    """The title's verdict: the fastest SIM run within the reference's error bars on every observable."""
+    good = [r for r in runs.values() if r["integrator"] != "DrudeLangevin" and
+            all(r.get("within_error_of_reference", {}).values()) and r.get("within_error_of_reference")]
+    baseline = runs.get("DrudeLangevin_1fs")
+    if not good:
+        return "no SIM run is within the reference's error bars on every observable"
+    best = max(good, key=lambda r: r["ns_per_day"])
+    speed = (f" at {best['ns_per_day'] / baseline['ns_per_day']:.2f}× the speed of DrudeLangevin H = 1 fs"
+             if baseline else "")
+    return (f"SIM {best['integrator']} H = {best['step_fs']:g} fs is within the reference's error bars on every "
+            f"observable{speed}")
+
+
 def plot(data, path):
     runs = data["runs"]
     reference = runs[data["reference"]]
     labels = list(runs)
-    panels = [("induced_ratio", "induced dipole / self-consistent"), ("dipole", "mean molecular dipole (D)"),
-              ("pe_per_molecule", "potential energy per molecule (kJ/mol)"), ("g_oo_peak", "first peak of g_OO"),
-              ("t_com", "centre-of-mass temperature (K)"), ("t_drude", "Drude temperature (K)")]
+    blown = {lb for lb in labels if blew_up(runs[lb], reference)}
+    ticks = [f"{runs[lb]['integrator']}\nH = {runs[lb]['step_fs']:g} fs" + ("\n(blew up)" if lb in blown else "")
+             for lb in labels]
     colors = {"DrudeLangevin": "black", "Strang": "tab:blue", "Filtered": "tab:red", "Warped": "tab:green",
               "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive"}
-    fig, axes = plt.subplots(2, 4, figsize=(18, 8))
-    for ax, (key, title) in zip(axes.flat, panels):
-        for index, label in enumerate(labels):
-            run = runs[label]
-            ax.errorbar(index, run[key][0], yerr=run[key][1], fmt="o", color=colors[run["integrator"]])
+    fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
+    for ax, (key, title) in zip(axes.flat, OBSERVABLES):
         band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
                           label="reference ±1 s.e. (DrudeLangevin, H = %g fs)" % reference["step_fs"])
+        for index, label in enumerate(labels):
+            if label not in blown:
+                run = runs[label]
+                ax.errorbar(index, run[key][0], yerr=run[key][1], fmt="o", color=colors[run["integrator"]])
+        # Runs that blew up set no scale: a marker at the top edge with their value.
+        low, high = ax.get_ylim()
+        for index, label in enumerate(labels):
+            if label in blown:
+                value = runs[label][key][0]
+                inside = low <= value <= high
+                ax.plot(index, value if inside else (high if value > high else low), "x" if inside else
+                        ("^" if value > high else "v"), color=colors[runs[label]["integrator"]], ms=8, clip_on=False)
+                if not inside:
+                    ax.annotate(f"{value:.3g}", (index, high if value > high else low), textcoords="offset points",
+                                xytext=(4, -10 if value > high else 4), fontsize=7, color="tab:red")
+        ax.set_ylim(low, high)
         ax.set_xticks(range(len(labels)))
-        ax.set_xticklabels([f"{runs[lb]['integrator']}\nH = {runs[lb]['step_fs']:g} fs" for lb in labels],
-                           rotation=90, fontsize=7)
+        ax.set_xticklabels(ticks, rotation=90, fontsize=7)
         ax.set_ylabel(title)
-    # One legend for the reference band, outside the panels, so that it hides no point.
-    fig.legend(handles=[band], loc="lower left", fontsize=9)
     ax = axes.flat[6]
-    for label in labels:
-        ax.bar(label, runs[label]["ns_per_day"], color=colors[runs[label]["integrator"]])
+    for index, label in enumerate(labels):
+        run = runs[label]
+        if label in blown:  # hollow: a speed that bought nothing
+            ax.bar(index, run["ns_per_day"], facecolor="none", edgecolor=colors[run["integrator"]], hatch="//")
+        else:
+            ax.bar(index, run["ns_per_day"], color=colors[run["integrator"]])
+    kept = [runs[lb]["ns_per_day"] for lb in labels if lb not in blown]
+    if kept:
+        ax.set_ylim(0, 1.15 * max(kept))
     ax.set_xticks(range(len(labels)))
-    ax.set_xticklabels([f"{runs[lb]['integrator']}\nH = {runs[lb]['step_fs']:g} fs" for lb in labels], rotation=90,
-                       fontsize=7)
+    ax.set_xticklabels(ticks, rotation=90, fontsize=7)
     ax.set_ylabel("speed (ns/day, CPU platform, 2 threads)")
     ax = axes.flat[7]
     r = np.array(data["g_oo_r_nm"])
     for label in labels:
         run = runs[label]
-        ax.plot(r, run["g_oo"], color=colors[run["integrator"]], lw=0.8, alpha=0.7,
-                label=f"{run['integrator']} H = {run['step_fs']:g} fs")
+        if label not in blown:
+            ax.plot(r, run["g_oo"], color=colors[run["integrator"]], lw=0.8, alpha=0.7,
+                    label=f"{run['integrator']} H = {run['step_fs']:g} fs")
     ax.set_xlabel("r (nm)")
     ax.set_ylabel("g_OO(r)")
-    ax.legend(fontsize=6, ncol=2)
-    failed = [f"{r['integrator']} H = {r['step_fs']:g} fs" for r in data.get("failed_runs", [])]
-    if failed:
-        fig.text(0.5, 0.005, "not shown, failed (the water fell apart: NaN coordinates): " + ", ".join(failed),
-                 ha="center", fontsize=9, color="tab:red")
-    # The colours of the SIM kinds this run has, in the title: no legend entry for a kind that is not shown.
+    ax.legend(fontsize=6, ncol=2, loc="lower right")
+    failed = [f"{r['integrator']} H = {r['step_fs']:g} fs (NaN)" for r in data.get("failed_runs", [])]
+    failed += [f"{runs[lb]['integrator']} H = {runs[lb]['step_fs']:g} fs (blew up: ▲▼ × hollow bar)"
+               for lb in labels if lb in blown]
+    reporting.note_failed(axes.flat[7], failed)  # g_OO is flat near 1 at the top right
+    # One legend for the reference band, below the panels, so that it hides no point.
+    fig.legend(handles=[band], loc="lower center", fontsize=9, frameon=False)
     kind_names = {"Strang": "Strang", "Filtered": "Filtered", "Warped": "Warped",
                   "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement"}
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
     fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
-                 "StochasticImpulseIntegrator against DrudeLangevinIntegrator (black)\n"
-                 "SIM: " + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
-                 "; Drude modes at 1 K, 20/ps; error bars ±1 s.e. of block means")
-    fig.tight_layout(rect=(0, 0.02, 1, 0.97))
-    fig.savefig(path, dpi=110)
+                 f"{verdict(runs, data['reference'])}\n"
+                 "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
+                 ") against DrudeLangevinIntegrator (black); Drude modes at 1 K, 20/ps; error bars ±1 s.e. of block "
+                 "means", fontsize=11)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.96))
+    reporting.save_figure(fig, path, 110)
 
 
 def constraint_cost(out, molecules=64, step_fs=0.005):
@@ -570,7 +617,12 @@ def main():
                         default=["Strang", "Filtered", "Warped"],
                         help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
                              "(default Strang Filtered Warped)")
+    parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     args = parser.parse_args()
+    reporting.set_smoke_run(args.quick)
+    if args.replot:
+        reporting.replot(args.replot, args.out, "drude_water", lambda data, path: plot(split_failed(data), path))
+        return
     if args.seed < 0:
         parser.error("--seed must be non-negative (got %d)" % args.seed)
     if args.filter_bias:
@@ -629,11 +681,18 @@ def main():
                                drude_temperature_K=1, drude_friction_per_ps=20),
             "criterion": "within_error_of_reference: |run - reference| <= 2 sqrt(se_run^2 + se_ref^2)",
             "reference": reference_label, "g_oo_r_nm": (0.5 * (edges[1:] + edges[:-1])).tolist(), "runs": runs}
+    data["quick"] = args.quick
     with open(os.path.join(args.out, "drude_water.json"), "w") as f:
         json.dump(data, f, indent=1)
-    data["failed_runs"] = [run for run in runs.values() if "failed" in run]
-    data["runs"] = completed
-    plot(data, os.path.join(args.out, "drude_water.png"))
+    plot(split_failed(data), os.path.join(args.out, "drude_water.png"))
+
+
+def split_failed(data):
+    """data with the runs that failed (NaN) moved from "runs" to "failed_runs"."""
+    data = dict(data)
+    data["failed_runs"] = [run for run in data["runs"].values() if "failed" in run]
+    data["runs"] = {k: v for k, v in data["runs"].items() if "failed" not in v}
+    return data
 
 
 if __name__ == "__main__":

@@ -221,6 +221,7 @@ def main():
     parser.add_argument("--peers", nargs="+", metavar="NAME",
                         help="run only the peers whose names contain one of these strings (default: all)")
     args = parser.parse_args()
+    reporting.set_smoke_run(args.quick)
     if args.replot:
         reporting.replot(args.replot, args.out, "flexible_water", lambda data, path: plot(data["peers"], path))
         return

@@ -119,6 +119,7 @@ def main():
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     parser.add_argument("--long", action="store_true", help="Fig. 6.8: the O(omega^2) time scale (T = omega^2)")
     args = parser.parse_args()
+    reporting.set_smoke_run(args.quick)
     if args.replot:
         reporting.replot(args.replot, args.out, "fpu_long" if args.long else "fpu_artificial",
                          plot_long if args.long else plot)
@@ -199,15 +200,15 @@ def plot_long(result, path):
         ax = axes[row, 0]
         for j in range(M):
             ax.plot(times[:len(energies)], energies[:, j], lw=0.8, label="$I_%d$" % (j + 1))
-        ax.set_ylabel("stiff spring energy $I_j$ (reduced units)")
+        ax.set_ylabel("stiff spring energy $I_j$ (kJ/mol)")
         ax.set_title(name)
         ax.legend(fontsize=8, loc="upper right")
         ax = axes[row, 1]
         ax.plot(times[:len(run["H"])], np.array(run["H"]) - run["H"][0], "k", lw=0.8)
-        ax.set_ylabel("H(t) − H(first sample) (reduced units)")
+        ax.set_ylabel("H(t) − H(first sample) (kJ/mol)")
         ax.set_title(name + ": total energy")
     for ax in axes[-1]:
-        ax.set_xlabel("t (reduced time units of eq. 6.7)")
+        ax.set_xlabel("t (ps; eq. 6.7 in units 1 amu, 1 nm, 1 ps)")
     fig.suptitle("FPU chain (m = 3, ω = %g) over T = ω² = %g: energy exchange among the stiff springs and total energy "
                  "(FLAVORS paper, Fig. 6.8)" % (result["omega"], result["T"]))
     fig.tight_layout(rect=(0, 0, 1, 0.97))
@@ -227,8 +228,8 @@ def plot(result, path):
             energies = np.array(run["I"])
             if len(energies):
                 ax.plot(times[:len(energies)], energies[:, j], style, lw=1.2, label=name)
-        ax.set_xlabel("t (reduced time units of eq. 6.7)")
-        ax.set_ylabel("$I_%d$, energy of stiff spring %d (reduced units)" % (j + 1, j + 1))
+        ax.set_xlabel("t (ps; eq. 6.7 in units 1 amu, 1 nm, 1 ps)")
+        ax.set_ylabel("$I_%d$, energy of stiff spring %d (kJ/mol)" % (j + 1, j + 1))
         ax.set_yscale("log")
         ax.set_title("$I_%d$" % (j + 1))
     handles, labels = axes[0].get_legend_handles_labels()

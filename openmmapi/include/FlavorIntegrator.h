@@ -221,6 +221,14 @@ public:
      */
     static int separatePlanarAngles(OpenMM::System& system, int group, double minAngleSum = 6.1086523819801535);
     /**
+     * Describe what in the Context's configuration runs but is probably not what was meant, one sentence each (empty
+     * when nothing, or when the integrator is not bound to a Context): a nonbonded force in a stiff group of the
+     * nonintrusive FLAVOR (usually a bitmask given where a group number was meant), and a mesostep longer than any
+     * measured as accurate for an artificial FLAVOR with frozen angles.  Python emits them as
+     * openmmflavors.FlavorsWarning at the first step.
+     */
+    std::vector<std::string> getConfigurationWarnings() const;
+    /**
      * Get the temperature of the heat bath (in Kelvin).
      */
     double getTemperature() const { return temperature; }

@@ -232,6 +232,15 @@ public:
      */
     std::string describeStep() const;
     /**
+     * Describe what in the Context's configuration runs but is probably not what was meant (empty when nothing, when
+     * the integrator is not bound to a Context, or when the System has no soft force, where every step is the exact
+     * flow): stiff modes whose omega*H lies in a resonance band of the splitting, |omega H - k pi| <= 0.05 k pi
+     * (Strang, LieTrotter and the substeps of Yoshida4 at every k unless the stiff-mode friction gamma has gamma H >=
+     * 0.05 k pi; Filtered at odd k; Warped never).  It measures the stiff modes if needed.  Python emits the result as
+     * openmmflavors.ResonanceWarning at the first step and after the step size, friction or splitting changes.
+     */
+    std::vector<std::string> getConfigurationWarnings();
+    /**
      * Measure the stiff potential again.  Call it after changing the stiff forces in a way the Context is not told
      * about.
      */

@@ -188,3 +188,8 @@ def run_quick(script, out, timeout=120, extra=()):
     return subprocess.run([sys.executable, script, "--quick", "--out", str(out), *extra], env=env,
                           capture_output=True, text=True, timeout=timeout)
 
+
+
+def pytest_configure(config):
+    # A correct configuration gives no openmmflavors.FlavorsWarning; tests that expect one say so (pytest.warns).
+    config.addinivalue_line("filterwarnings", "error::openmmflavors.FlavorsWarning")

@@ -46,6 +46,7 @@ import openmm.unit as unit
 import numpy as _numpy
 from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupMask, toInt as _toInt, \
     toBool as _toBool, toIntList as _toIntList
+from openmmflavors import _warnings as _flavorsWarnings
 %}
 
 %template(DoubleVector) std::vector<double>;
@@ -53,17 +54,22 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 
 // Quantities in, plain numbers in OpenMM's units to C++.
 %pythonprepend FlavorPlugin::FlavorIntegrator::FlavorIntegrator %{
+    _flavorsWarnings.checkUnitlessStep(mesoStep, "mesoStep", "FlavorIntegrator")
+    _flavorsWarnings.checkUnitlessStep(microStep, "microStep", "FlavorIntegrator")
     mesoStep = _stripUnits(mesoStep, unit.picosecond, "mesoStep")
     microStep = _stripUnits(microStep, unit.picosecond, "microStep")
     stiffGroups = _groupMask(stiffGroups, "stiffGroups")
 %}
 %pythonprepend FlavorPlugin::FlavorIntegrator::setMesoStep %{
+    _flavorsWarnings.checkUnitlessStep(size, "mesoStep", "FlavorIntegrator")
     size = _stripUnits(size, unit.picosecond, "mesoStep")
 %}
 %pythonprepend FlavorPlugin::FlavorIntegrator::setStepSize %{
+    _flavorsWarnings.checkUnitlessStep(size, "stepSize", "FlavorIntegrator")
     size = _stripUnits(size, unit.picosecond, "stepSize")
 %}
 %pythonprepend FlavorPlugin::FlavorIntegrator::setMicroStep %{
+    _flavorsWarnings.checkUnitlessStep(size, "microStep", "FlavorIntegrator")
     size = _stripUnits(size, unit.picosecond, "microStep")
 %}
 %pythonprepend FlavorPlugin::FlavorIntegrator::setStiffGroups %{
@@ -93,12 +99,18 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %pythonprepend FlavorPlugin::FlavorIntegrator::separatePlanarAngles %{
     group = _toInt(group, "group")
     minAngleSum = _stripUnits(minAngleSum, unit.radian, "minAngleSum")
+    _groupBefore = _flavorsWarnings.forcesInGroup(system, group) if 0 <= group <= 31 else []
+%}
+%pythonappend FlavorPlugin::FlavorIntegrator::separatePlanarAngles %{
+    _flavorsWarnings.checkPlanarAngleGroup(system, group, minAngleSum, val, _groupBefore)
 %}
 %pythonprepend FlavorPlugin::FlavorIntegrator::step %{
     steps = _toInt(steps, "steps")
+    _flavorsWarnings.checkFlavorContext(self)
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setSplitting %{
     splitting = _toInt(splitting, "splitting")
+    _flavorsWarnings.stepChanged(self)
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setThermostatPlacement %{
     placement = _toInt(placement, "thermostatPlacement")
@@ -108,27 +120,33 @@ from openmmflavors._units import stripUnits as _stripUnits, groupMask as _groupM
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::step %{
     steps = _toInt(steps, "steps")
+    _flavorsWarnings.checkResonance(self)
 %}
 
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::StochasticImpulseIntegrator %{
     temperature = _stripUnits(temperature, unit.kelvin, "temperature")
     frictionCoeff = _stripUnits(frictionCoeff, unit.picosecond**-1, "frictionCoeff")
+    _flavorsWarnings.checkUnitlessStep(stepSize, "stepSize", "StochasticImpulseIntegrator")
     stepSize = _stripUnits(stepSize, unit.picosecond, "stepSize")
     stiffGroups = _groupMask(stiffGroups, "stiffGroups")
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStepSize %{
+    _flavorsWarnings.checkUnitlessStep(size, "stepSize", "StochasticImpulseIntegrator")
+    _flavorsWarnings.stepChanged(self)
     size = _stripUnits(size, unit.picosecond, "stepSize")
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setTemperature %{
     temp = _stripUnits(temp, unit.kelvin, "temperature")
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setFriction %{
+    _flavorsWarnings.stepChanged(self)
     coeff = _stripUnits(coeff, unit.picosecond**-1, "friction")
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffModeTemperature %{
     temp = _stripUnits(temp, unit.kelvin, "stiffModeTemperature")
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffModeFriction %{
+    _flavorsWarnings.stepChanged(self)
     coeff = _stripUnits(coeff, unit.picosecond**-1, "stiffModeFriction")
 %}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffGroups %{

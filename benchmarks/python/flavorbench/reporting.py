@@ -12,10 +12,30 @@ import numpy as np
 from ._config import SOURCE_DIR
 
 
+SMOKE_RUN_TEXT = "smoke run (--quick): not a measurement"
+# Whether the charts being drawn come from a --quick run (set by parse_args of parser(), replot() and
+# set_smoke_run()): save_figure() then watermarks them with SMOKE_RUN_TEXT.
+_smoke_run = False
+
+
+def set_smoke_run(quick):
+    """Mark the charts saved from now on as those of a --quick run (True) or of a measurement (False)."""
+    global _smoke_run
+    _smoke_run = bool(quick)
+
+
+class _Parser(argparse.ArgumentParser):
+    def parse_args(self, *args, **kwargs):
+        result = super().parse_args(*args, **kwargs)
+        set_smoke_run(getattr(result, "quick", False))
+        return result
+
+
 def parser(doc, name, quick_help="smoke run of a few seconds (short T, coarser reference)",
            out_help="output directory"):
-    """An ArgumentParser with --quick and --out (default results/<name> in the source tree)."""
-    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    """An ArgumentParser with --quick and --out (default results/<name> in the source tree); its parse_args() marks
+    the charts of a --quick run as smoke runs (set_smoke_run)."""
+    p = _Parser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help=quick_help)
     p.add_argument("--out", default=os.path.join(SOURCE_DIR, "results", name), help=out_help)
     return p
@@ -55,6 +75,7 @@ def replot(json_path, out, name, plot):
     """Redraw <out>/<name>.png with plot(data, path) from the JSON of an earlier run (the scenes' --replot)."""
     with open(json_path) as f:
         data = json.load(f)
+    set_smoke_run(data.get("quick", False) if isinstance(data, dict) else False)
     os.makedirs(out, exist_ok=True)
     plot(data, os.path.join(out, f"{name}.png"))
 
@@ -76,8 +97,26 @@ def pyplot():
     return plt
 
 
+def mark_smoke_run(fig):
+    """Watermark a figure across its middle with SMOKE_RUN_TEXT."""
+    fig.text(0.5, 0.5, SMOKE_RUN_TEXT, ha="center", va="center", rotation=18, fontsize=30, color="tab:red",
+             alpha=0.3, zorder=1000)
+
+
+def note_failed(ax, failed, where=(0.99, 0.98)):
+    """List the runs that failed (blew up: no finite value) in a box in the corner of ax, inside the axes and in
+    front of them, so that they are shown but set no scale.  failed: names."""
+    if failed:
+        ax.text(*where, "failed (not drawn):\n" + "\n".join(failed), transform=ax.transAxes, ha="right", va="top",
+                fontsize=8, color="tab:red", zorder=10,
+                bbox=dict(boxstyle="round", facecolor="white", edgecolor="tab:red", alpha=0.9))
+
+
 def save_figure(fig, path, dpi, small=False):
-    """Save and close a figure; small=True quantizes it to a 64-colour palette (docs/ copies must stay small)."""
+    """Save and close a figure; small=True quantizes it to a 64-colour palette (docs/ copies must stay small).  The
+    charts of a --quick run (set_smoke_run) are watermarked as smoke runs."""
+    if _smoke_run:
+        mark_smoke_run(fig)
     if small:
         from PIL import Image
         buffer = io.BytesIO()

@@ -31,6 +31,8 @@ for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
     _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, _name))
 
 from .openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator  # noqa: E402
+from ._warnings import (FlavorsWarning, PlanarAngleGroupWarning, ResonanceWarning, StiffGroupWarning,  # noqa: E402
+                        UnitlessStepWarning)
 
 _integratorClasses = [FlavorIntegrator, StochasticImpulseIntegrator]
 
@@ -62,4 +64,5 @@ def _patchSerializer():
 
 _patchSerializer()
 
-__all__ = ["FlavorIntegrator", "StochasticImpulseIntegrator"]
+__all__ = ["FlavorIntegrator", "StochasticImpulseIntegrator", "FlavorsWarning", "UnitlessStepWarning",
+           "StiffGroupWarning", "PlanarAngleGroupWarning", "ResonanceWarning"]

@@ -9,6 +9,7 @@ cannot show that they agree within error bars: the full runs in the scenes' READ
 """
 import argparse
 import importlib.util
+import math
 import os
 import time
 
@@ -36,7 +37,11 @@ def interleaved_speed(peers, seconds, rounds):
     """ns/day of each peer and its ratio to the first peer's: medians over `rounds` rounds in which each peer in turn
     steps for about `seconds` (flavorbench.runners.time_batches), so that a change of the machine's load hits all
     alike.  peers: {label: (context, integrator, step in fs)}."""
-    timed = time_batches({label: (c, i) for label, (c, i, _) in peers.items()}, seconds, rounds)
+    try:
+        timed = time_batches({label: (c, i) for label, (c, i, _) in peers.items()}, seconds, rounds)
+    except mm.OpenMMException as error:  # a peer blew up: no speeds
+        print("interleaved timing failed:", error)
+        return {label: (math.nan, math.nan) for label in peers}
     ns_per_day = {label: np.array([step_fs * 86400 / us for us in timed[label]["all"]])
                   for label, (_, _, step_fs) in peers.items()}
     first = ns_per_day[next(iter(peers))]
@@ -106,7 +111,8 @@ def flexible_water(production_ps, quick):
     chosen = [("LangevinMiddle flexible 0.5 fs",) + candidates["LangevinMiddle flexible 0.5 fs"],
               ("LangevinMiddle flexible 2 fs", False,
                lambda: mm.LangevinMiddleIntegrator(fw.TEMPERATURE, fw.FRICTION, 2e-3)),
-              ("FLAVOR delta=4 fs tau=0.5 fs",) + candidates["FLAVOR ArtificialProjected +angles Middle δ=4 fs τ=0.5 fs"]]
+              ("FLAVOR delta=4 fs tau=0.5 fs",)
+              + candidates["FLAVOR ArtificialProjected +angles Middle δ=4 fs τ=0.5 fs"]]
     records = [fw.run_peer(name, rigid, factory, forcefield, modeller.topology, start, 0.01 if quick else 0.1,
                            production_ps, 10, 2)
                for name, rigid, factory in chosen]
@@ -126,11 +132,11 @@ def flexible_water(production_ps, quick):
                   "%.0f" % r["T_H"]] if r["stable"] else [r["name"], "failed: " + r["error"]] + [""] * 7
                  for r in records])
     print(TIMING_NOTE % (production_ps, TIMING[quick][1], time.perf_counter() - begin))
-    print("LangevinMiddle at 2 fs, the step of rigid water, is what the FLAVOR's soft step would be without the frozen\n"
-          "stage; no full run of the scene measures it: compare its O-H spread and T_H here.")
+    print("LangevinMiddle at 2 fs, the step of rigid water, is what the FLAVOR's soft step would be without the\n"
+          "frozen stage; no full run of the scene measures it: compare its O-H spread and T_H here.")
     print("Full runs (examples/flexible_water/README.md; reference LangevinMiddle flexible 0.25 fs):\n"
-          "  delta = 2 fs: 3.2-3.6x LangevinMiddle flexible 0.5 fs, every observable (O-H and H-O-H means and spreads,\n"
-          "    energy, T_O, T_H) within the run-to-run error bars over six paired 12-ps runs (|t| <= 2.1);\n"
+          "  delta = 2 fs: 3.2-3.6x LangevinMiddle flexible 0.5 fs, every observable (O-H and H-O-H means and\n"
+          "    spreads, energy, T_O, T_H) within the run-to-run error bars over six paired 12-ps runs (|t| <= 2.1);\n"
           "  delta = 4 fs: 6.5x LangevinMiddle flexible 0.5 fs and 1.7x rigid water at 2 fs, within the error bars\n"
           "    too over four paired runs\n"
           "    (flexible_water.py --production 12 --peers \"flexible 0.25 fs\" \"+angles Middle\", about 10 min each).")

@@ -1,6 +1,8 @@
 # openmm-flavors: the commands a user needs.  Every target installs the Debian packages it needs first.
-#   make demo                 build, then the FPU scene (FLAVOR vs Verlet) and a reduced work-precision comparison of
-#                             every integrator on the FPU chain, with tables; results in results/
+#   make demo                 build, then the molecular wins in short runs, each beside its OpenMM peer (Drude water:
+#                             SIM against DrudeLangevin; flexible water: FLAVOR against LangevinMiddle) with the full
+#                             runs' numbers, then the FPU scene (FLAVOR vs Verlet) and a reduced work-precision
+#                             comparison of every integrator on the FPU chain, with tables; results in results/
 #   make test                 check the C++ formatting, build (any compiler warning fails), then run every C++ test
 #                             (ctest) and every Python test (pytest)
 #   make install PREFIX=dir   install libraries, headers, kernel plugins and the Python package under dir
@@ -37,6 +39,7 @@ test: format-check build
 	$(PYTHON_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python
 
 demo: build
+	$(PYTHON_ENV) $(PYTHON) examples/demo/demo.py
 	$(PYTHON_ENV) $(PYTHON) examples/fpu/fpu.py --T 50
 	$(PYTHON_ENV) $(PYTHON) benchmarks/work_precision.py --demo
 

@@ -60,6 +60,19 @@ def make_system(forcefield, topology, rigid):
     return assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
 
 
+def common_start(forcefield, modeller, start_ps, threads, minimizer_iterations=200, friction=FRICTION):
+    """The peers' common start: the box minimized, then start_ps of LangevinMiddle (flexible, 0.5 fs, at `friction`
+    in 1/ps); its positions."""
+    system = make_system(forcefield, modeller.topology, False)
+    integrator = mm.LangevinMiddleIntegrator(TEMPERATURE, friction, 0.5e-3)
+    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("CPU"), {"Threads": str(threads)})
+    context.setPositions(modeller.positions)
+    mm.LocalEnergyMinimizer.minimize(context, 10.0, minimizer_iterations)
+    context.setVelocitiesToTemperature(TEMPERATURE * unit.kelvin, 3)
+    integrator.step(int(round(start_ps * 2000)))
+    return context.getState(getPositions=True).getPositions()
+
+
 def peers(flavor_settings):
     """(name, rigid, factory) for every peer; factory() returns the integrator."""
     result = [
@@ -237,16 +250,7 @@ def main():
         flavor_settings = [("Nonintrusive", 2.0, 0.5, False, False), ("ArtificialProjected", 2.0, 0.5, True, False),
                            ("ArtificialProjected", 2.0, 0.5, True, True)]
     forcefield, modeller = build_box(args.molecules)
-    # A common start: minimized flexible water equilibrated with LangevinMiddle at 0.5 fs for --start ps.
-    system = make_system(forcefield, modeller.topology, False)
-    integrator = mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 0.5e-3)
-    context = mm.Context(system, integrator, mm.Platform.getPlatformByName("CPU"), {"Threads": str(args.threads)})
-    context.setPositions(modeller.positions)
-    mm.LocalEnergyMinimizer.minimize(context, 10.0, 200 if not args.quick else 20)
-    context.setVelocitiesToTemperature(TEMPERATURE * unit.kelvin, 3)
-    integrator.step(int(round(args.start * 2000)))
-    start = context.getState(getPositions=True).getPositions()
-    del context, integrator
+    start = common_start(forcefield, modeller, args.start, args.threads, 20 if args.quick else 200)
     frames = 10 if args.quick else 60
     records = []
     selected = [peer for peer in peers(flavor_settings)

@@ -1,6 +1,6 @@
-"""The README's examples run as written: the Python quickstart, and the C++ program compiled against `make install`'s
-prefix.  The installed Python package holds no copy of the libraries and finds them, and the kernel plugins, in
-PREFIX/lib and PREFIX/lib/plugins."""
+"""The README's examples run as written: the three scripts of examples/scripts (shown in the README as they are), and
+the C++ program of docs/USER_GUIDE.md compiled against `make install`'s prefix.  The installed Python package holds no
+copy of the libraries and finds them, and the kernel plugins, in PREFIX/lib and PREFIX/lib/plugins."""
 import os
 import re
 import shutil
@@ -17,22 +17,62 @@ LIBRARIES = ["libOpenMMFlavors.so", "libOpenMMFlavorsEngine.so", "libOpenMMFlavo
              "libOpenMMFlavorsCPU.so"]
 
 
-def test_quickstart_runs_and_keeps_the_water_box(tmp_path):
+SCRIPTS = ["protein", "flexible_water", "drude_water"]
+
+
+def run_script(name):
+    """examples/scripts/<name>.py --quick, run as the README says (from the repository root); its stdout."""
     package_parent = os.path.dirname(os.path.dirname(os.path.abspath(openmmflavors.__file__)))
     env = dict(os.environ, PYTHONPATH=package_parent, PYTHONDONTWRITEBYTECODE="1")
-    result = subprocess.run([sys.executable, os.path.join(REPO_ROOT, "examples", "quickstart", "quickstart.py"),
-                             "--steps", "100", "--waters", "128"], capture_output=True, text=True, timeout=600,
-                            env=env, cwd=tmp_path)
+    result = subprocess.run([sys.executable, os.path.join("examples", "scripts", name + ".py"), "--quick"],
+                            capture_output=True, text=True, timeout=300, env=env, cwd=REPO_ROOT)
     assert result.returncode == 0, result.stderr[-3000:]
-    rows = [line.split() for line in result.stdout.splitlines() if re.match(r"^\s*\d+\.\d+\s", line)]
-    assert len(rows) == 11, result.stdout
-    assert float(rows[-1][0]) == pytest.approx(0.2)  # 100 mesosteps of 2 fs
-    # The run stays a liquid of intact molecules at a finite temperature, and the frozen (not weakened) bonds keep
-    # flexible TIP3P's mean O-H length, 0.0973 nm with a spread of 0.0024 nm over 256 bonds; a FLAVOR that weakens
-    # the bonds by tau/delta stretches them to 0.104 nm.
-    for row in rows:
-        temperature, bond = float(row[1]), float(row[3])
-        assert 0 < temperature < 1000 and 0.095 < bond < 0.1, result.stdout
+    return result.stdout
+
+
+def test_readme_shows_each_script_as_it_is():
+    readme = open(os.path.join(REPO_ROOT, "README.md")).read()
+    blocks = re.findall(r"```python\n(.*?)```", readme, re.S)
+    for name in SCRIPTS:
+        with open(os.path.join(REPO_ROOT, "examples", "scripts", name + ".py")) as f:
+            assert f.read() in blocks, f"README.md does not show examples/scripts/{name}.py as it is"
+
+
+def reporter_rows(stdout):
+    """The rows of StateDataReporter's CSV output: time (ps), potential energy, temperature, speed."""
+    return [[float(x) for x in line.split(",")[:3]] for line in stdout.splitlines() if re.match(r"^\d+\.\d+,", line)]
+
+
+def test_protein_script_leaves_the_planar_angles_soft_and_runs():
+    stdout = run_script("protein")
+    assert "357 angles at planar centres left soft" in stdout, stdout
+    rows = reporter_rows(stdout)
+    assert len(rows) == 10, stdout
+    assert rows[-1][0] == pytest.approx(0.1)  # 20 equilibration and 20 reported mesosteps of 2.5 fs
+    for _, energy, temperature in rows:
+        assert energy < 0 and 0 < temperature < 1000, stdout
+
+
+def test_flexible_water_script_keeps_the_o_h_bonds():
+    stdout = run_script("flexible_water")
+    rows = reporter_rows(stdout)
+    assert len(rows) == 10 and rows[-1][0] == pytest.approx(0.08), stdout  # 20 + 20 mesosteps of 2 fs
+    assert all(0 < temperature < 1000 for _, _, temperature in rows), stdout
+    # The frozen (not weakened) bonds keep flexible TIP3P's mean O-H length, 0.0973 nm with a spread of 0.0024 nm; a
+    # FLAVOR that weakens the bonds by tau/delta stretches them to 0.104 nm.
+    bond = float(re.search(r"mean O-H length ([0-9.]+) nm", stdout).group(1))
+    assert 0.095 < bond < 0.1, stdout
+
+
+def test_drude_water_script_keeps_the_drudes_cold():
+    stdout = run_script("drude_water")
+    omega = float(re.search(r"stiffest Drude mode (\d+)/ps", stdout).group(1))
+    assert 1000 < omega < 1100, stdout  # SWM4-NDP's Drude spring: 1036/ps
+    rows = [[float(x) for x in line.split()] for line in stdout.splitlines() if re.match(r"^\s+\d+\.\d+\s", line)]
+    assert len(rows) == 10 and rows[-1][0] == pytest.approx(0.1), stdout  # 20 + 20 steps of 2.5 fs
+    for _, t_molecules, t_drudes, energy in rows:
+        # 20 steps at the Drudes' 20/ps bath take them from 300 K to a few tens of K; the molecules stay near 300 K.
+        assert 100 < t_molecules < 500 and 0 < t_drudes < 100 and energy < 0, stdout
 
 
 @pytest.fixture(scope="module")
@@ -99,7 +139,7 @@ def test_cpp_example_compiles_and_runs_against_the_installation(prefix, tmp_path
     if compiler is None:
         pytest.fail("g++ is needed to compile the C++ example")
     program = tmp_path / "flavor_harmonic_chain"
-    # The command of the README, with PREFIX replaced.
+    # The command of docs/USER_GUIDE.md, with PREFIX replaced.
     compile_result = subprocess.run(
         [compiler, "-std=c++17", os.path.join(REPO_ROOT, "examples", "cpp", "flavor_harmonic_chain.cpp"),
          "-I", f"{prefix}/include", "-L", f"{prefix}/lib", f"-Wl,-rpath,{prefix}/lib", "-lOpenMMFlavors", "-lOpenMM",

@@ -128,6 +128,12 @@ public:
     void kick(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
               const std::vector<OpenMM::Vec3>& forces, const std::vector<double>& inverseMasses, double h,
               double tolerance, bool projectOthers, ParallelLoop& loop);
+    /**
+     * Forgets every cluster's factorization: the next drift or kick factorizes where it starts, as the first one does.
+     * Called when the Context's state is set from outside (positions, velocities, a checkpoint), so that what follows
+     * does not depend on where the Context was before.
+     */
+    void forgetFactorizations();
     /** Runs the current drift or kick on items [begin, end): the clusters, then the chunks of the other clusters. */
     void apply(int begin, int end) const override;
     int minItemsPerThread() const override { return minItems; }

@@ -119,6 +119,10 @@ double FlowStepRunner::kineticEnergy(ContextImpl& context) const {
 
 void FlowStepRunner::forgetStepHistory() {
     history.forget();
+    // A cached factorization from where the Context was before would steer the next solves (their refinement starts
+    // from it): a state set from outside continues as a new Context would.
+    if (parts.distances)
+        parts.distances->forgetFactorizations();
 }
 
 void FlowStepRunner::saveContextState(ContextImpl& context, bool withParameters) {
@@ -204,5 +208,7 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
     setRandomSeed(storedSeed);
     nextStream = storedStream;
     history.load(storedHistory);
+    if (parts.distances)
+        parts.distances->forgetFactorizations();
     forces.invalidate();
 }

@@ -593,6 +593,10 @@ void FrozenDistances::factorize(int k) const {
         factorizedPositions[particles[n]] = positions[particles[n]];
 }
 
+void FrozenDistances::forgetFactorizations() {
+    std::fill(factorized.begin(), factorized.end(), 0);
+}
+
 bool FrozenDistances::factorizedHere(int k) const {
     // Kicks and thermostats between two drifts leave the positions, and so B and its directions, as they were.
     if (!factorized[k])

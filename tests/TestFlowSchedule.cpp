@@ -268,3 +268,22 @@ TEST(FlowSchedule, FrozenFlowsArePassesOfTheirOwn) {
     // The soft kick and its frozen part read the same forces.
     EXPECT_EQ((std::vector<int>{Soft, Stiff}), plan.slotGroups);
 }
+
+TEST(FlowSchedule, DescribeScheduleWritesTheStepInTheArchitectureNotation) {
+    FlavorParameters p = artificial(FlavorIntegrator::Verlet, 0.002, 0.0005, false, false, 1.0);
+    p.thermostatPlacement = FlavorIntegrator::Middle;
+    p.kT = 2.494338785445972; // 300 K
+    p.frozen = SubFlow::FrozenSet::Distances;
+    EXPECT_EQ("K_S(δ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)   [O: 300 K, 1/ps; θ holds the stiff bonded "
+              "distances]",
+              describeSchedule(flavorSchedule(p), Stiff, AllForceGroups, "δ", "τ"));
+    ImpulseParameters sim{StochasticImpulseIntegrator::Yoshida4, 0.002, Stiff, AllForceGroups};
+    EXPECT_EQ(
+        "K_S(0.675604H) E(1.35121H) K_S(−0.175604H) E(−1.70241H) K_S(−0.175604H) E(1.35121H) K_S(0.675604H)   [E: "
+        "zero modes 0 K, 0/ps, stiff modes 0 K, 0/ps]",
+        describeSchedule(impulseSchedule(sim), Stiff, AllForceGroups, "H", ""));
+    sim.splitting = StochasticImpulseIntegrator::Warped;
+    sim.thermostatPlacement = StochasticImpulseIntegrator::Middle;
+    EXPECT_EQ("K_S(H/2) E^ω̃M(H) K_S(H/2)   [E: zero modes 0 K, 0/ps, stiff modes 0 K, 0/ps]",
+              describeSchedule(impulseSchedule(sim), Stiff, AllForceGroups, "H", ""));
+}

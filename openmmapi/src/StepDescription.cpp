@@ -18,8 +18,8 @@ string scaled(double c, const string& name) {
         return name + "/" + std::to_string((int)inverse);
     std::ostringstream out;
     out.precision(6);
-    out << c;
-    return out.str() + name;
+    out << std::abs(c);
+    return (c < 0 ? "−" : "") + out.str() + name;
 }
 
 string formatLength(const StepLength& length, const string& meso, const string& micro) {
@@ -94,9 +94,13 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
         case SubFlow::FrozenDrift:
         case SubFlow::FrozenKick:
             out << (flow.kind == SubFlow::FrozenKick ? "θ" + kick : "θ") << h;
-            frozen = string("θ holds ") + (flow.frozen == SubFlow::FrozenSet::Distances
-                                               ? "the stiff bonded distances"
-                                               : "the stiff modes of the quadratic stiff groups");
+            if (flow.frozen == SubFlow::FrozenSet::Distances)
+                frozen = "θ holds the stiff bonded distances";
+            else if (flow.frozen == SubFlow::FrozenSet::StiffModes)
+                frozen = "θ holds the stiff modes of the quadratic stiff groups";
+            else
+                frozen = "θ holds the stiff modes if the stiff groups are quadratic, else their bonded distances "
+                         "(measured at the first step)";
             break;
         }
     }

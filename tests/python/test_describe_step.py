@@ -1,0 +1,48 @@
+"""describeStep(): the compiled step as text, in the notation of docs/ARCHITECTURE.md."""
+import openmm
+import openmm.app as app
+import openmm.unit as unit
+
+from openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator
+
+
+def middle_flavor():
+    integrator = FlavorIntegrator(2 * unit.femtoseconds, 0.5 * unit.femtoseconds, {1})
+    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
+    integrator.setThermostatPlacement(FlavorIntegrator.Middle)
+    integrator.setTemperature(300 * unit.kelvin)
+    integrator.setFriction(1 / unit.picosecond)
+    return integrator
+
+
+def test_the_flavor_step_names_what_freezes_once_the_first_step_has_measured_it():
+    integrator = middle_flavor()
+    step = "K_S(τ) θK_S(δ−τ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)   [O: 300 K, 1/ps; θ holds "
+    assert integrator.describeStep() == step + ("the stiff modes if the stiff groups are quadratic, else their bonded "
+                                                "distances (measured at the first step)]")
+    forcefield = app.ForceField("tip3p.xml")
+    modeller = app.Modeller(app.Topology(), [])
+    modeller.addSolvent(forcefield, model="tip3p", numAdded=20)
+    system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.NoCutoff, rigidWater=False)
+    for force in system.getForces():
+        force.setForceGroup(1 if isinstance(force, (openmm.HarmonicBondForce, openmm.HarmonicAngleForce)) else 0)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions(modeller.positions)
+    integrator.step(1)
+    assert integrator.describeStep() == step + "the stiff bonded distances]"
+    # The description follows the settings.
+    integrator.setThermostatPlacement(FlavorIntegrator.Edges)
+    assert integrator.describeStep().startswith("O(δ/2) K_S(τ/2) θK_S((δ−τ)/2) θ((δ−τ)/2) K_F(τ/2) D(τ) K_F(τ/2)")
+
+
+def test_the_sim_step_names_its_splitting_placement_and_baths():
+    integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 2.5 * unit.femtoseconds, {1})
+    assert integrator.describeStep() == "K_S(H/2) E(H) K_S(H/2)   [E: zero modes 300 K, 5/ps, stiff modes 300 K, 5/ps]"
+    integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+    integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
+    integrator.setStiffModeTemperature(1 * unit.kelvin)
+    integrator.setStiffModeFriction(20 / unit.picosecond)
+    assert integrator.describeStep() == ("K_S(H/2) E^ω̃M(H) K_S(H/2)   [E: zero modes 300 K, 5/ps, stiff modes 1 K, "
+                                         "20/ps]")
+    integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
+    assert integrator.describeStep().startswith("K^κ_S(H/2) E^M(H) K^κ_S(H/2)")

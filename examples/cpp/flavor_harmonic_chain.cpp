@@ -4,7 +4,7 @@
 // Usage: flavor_harmonic_chain [plugin directory]
 // The plugin directory is the kernel plugins' (PREFIX/lib/plugins after make install); built with the project, the
 // build tree's is the default.  Compiled against an installation (docs/USER_GUIDE.md):
-//   g++ -std=c++17 flavor_harmonic_chain.cpp -I PREFIX/include -L PREFIX/lib -Wl,-rpath,PREFIX/lib
+//   g++ -std=c++17 flavor_harmonic_chain.cpp -I PREFIX/include/openmmflavors -L PREFIX/lib -Wl,-rpath,PREFIX/lib
 //       -lOpenMMFlavors -lOpenMM -o flavor_harmonic_chain
 //   ./flavor_harmonic_chain PREFIX/lib/plugins
 

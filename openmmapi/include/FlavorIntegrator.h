@@ -59,22 +59,14 @@ public:
          */
         Nonintrusive = 0,
         /**
-         * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is one soft kick
-         * over the mesostep, a microstep of the fast Hamiltonian (kinetic energy and stiff potential), and a drift
-         * for the rest of the mesostep with the stiff degrees of freedom frozen: the frozen coordinates and their
-         * conjugate momenta are held while the rest moves (where frozen distances turn, the motion feels the kinetic
-         * energy of the held momenta), which leaves the canonical distribution of the flexible system invariant.
-         * A cluster of coupled frozen distances that is nearly dependent (planar rings in proteins) gives back the
-         * rates of its frozen distances instead, scaled to keep their kinetic energy.
-         * What freezes: for a quadratic stiff group,
-         * the nonzero modes of its stiffness matrix (an exact projection); otherwise the distances that the stiff
-         * bonded forces act on (each bond of a HarmonicBondForce or CustomBondForce, the 1-3 distances of the angles
-         * of a HarmonicAngleForce, 2k - 3 at a centre with k neighbours, less those nearly dependent on the others,
-         * as in planar rings; harmonic terms with force constant 0 are left out) and those added with
-         * addFrozenDistance(), held by RATTLE steps next to the System's own constraints.  Angles at planar centres
-         * are better integrated with the soft forces (separatePlanarAngles()).  A stiff force that can never be frozen
-         * (nonbonded forces, torsions) is an error when the Context is created, unless frozen distances have been
-         * added.
+         * The stiff degrees of freedom are frozen instead (the artificial FLAVOR): each mesostep is a soft kick over
+         * the mesostep, a microstep of the fast Hamiltonian, and a drift for the rest of the mesostep in which the
+         * frozen coordinates and their conjugate momenta are held, which leaves the canonical distribution of the
+         * flexible system invariant.  What freezes: for a quadratic stiff group, the nonzero modes of its stiffness
+         * matrix; otherwise the distances of the stiff bonded forces (bonds, the independent 1-3 distances of angles,
+         * those added with addFrozenDistance()), held by RATTLE steps beside the System's constraints.  A stiff force
+         * that can never be frozen (nonbonded forces, torsions) is an error when the Context is created.  Angles at
+         * planar centres belong with the soft forces (separatePlanarAngles()).  docs/USER_GUIDE.md gives the details.
          */
         Artificial = 1,
         /**

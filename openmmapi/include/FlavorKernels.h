@@ -75,6 +75,8 @@ public:
      * distances (None until the first step has measured it).
      */
     virtual int getFrozenSet() const = 0;
+    /** How many distances or stiff modes the artificial averagings freeze (0 until the first step has measured it). */
+    virtual int getNumFrozen() const = 0;
 };
 
 /**

@@ -48,66 +48,22 @@ public:
         /** The fourth-order composition of three Strang steps (Remark 2.4); only with friction 0. */
         Yoshida4 = 2,
         /**
-         * A trigonometric (filtered impulse) integrator in the stiff modes, without the impulse bias of Strang: the
-         * Strang composition K(H/2) E(H) K(H/2) in which each half kick acts on each stiff mode (angular frequency
-         * omega > 0, friction gamma) scaled by the filter kappa, the one factor for which a constant soft force f has
-         * the exact mean displacement f/omega^2 as the fixed point of the step:
-         *
-         *     kappa H = (1 - Phi_vv) g_x / Phi_xv + g_v,
-         *
-         * with Phi the mode's exact transition over H and g_x, g_v its exact responses to a unit constant force.  The
-         * zero modes and free particles get the plain half kicks of Strang.  Without friction kappa = tan(xi/2)/(xi/2)
-         * with xi = omega H, and the step is the symmetric one-step trigonometric method
-         *
-         *     x_(n+1) = cos(xi) x_n + sin(xi)/omega v_n + (H^2/2) sinc^2(xi/2) f_n
-         *     v_(n+1) = -omega sin(xi) x_n + cos(xi) v_n + (H/2) (cos(xi) kappa f_n + kappa f_(n+1))
-         *
-         * (Hairer, Lubich and Wanner, Geometric Numerical Integration, XIII.2: the one-step form of Gautschi's
-         * two-step method, position filter psi = sinc^2(xi/2), phi = 1 so that forces are evaluated at the true
-         * positions).  Why this filter: the mean displacement of every stiff mode is exact for a constant soft force,
-         * with any friction, where Strang gives (f/omega^2) (xi/2) cot(xi/2) (0.64 of it at xi = 2); the step is
-         * symmetric, so it keeps the long-time energy behaviour of Strang; and at the resonances xi = 2 pi k the
-         * filter vanishes without friction, so a resonant mode is not driven by the soft forces.  The method cannot
-         * restore the mean where the damped mode turns by an odd multiple of pi per step: there Phi_xv = 0 and kappa
-         * has a pole (xi = pi, 3 pi, ... without friction); keep omega H away from them, as for Strang.  With friction
-         * kappa also has poles where the damped mode turns by 2 pi k, of residue ~(gamma H/2)^2: for a Drude
-         * thermostat (20/ps, H = 2 fs) kappa exceeds 1 only within 1e-5 of them.  kappa = 1 + O(xi^2), so the
-         * method is of order 2 for a fixed omega, like Strang; it is symmetric but not symplectic.  Forces are
-         * evaluated once per step.
-         *
-         * Velocities are processed.  Under a steadily changing soft force the step's positions are exact but its
-         * velocities at the step ends are kappa/sinc^2(xi/2) times the true ones without friction (1.19, 2.36 at
-         * xi = 1, 2.07: the polarization's following of a turning field would read as a hot Drude), and with
-         * friction a constant force leaves an end velocity lambda f.  The closing kick therefore subtracts lambda f
-         * and beta (about (kappa/sinc^2(xi/2) - 1)/(omega^2 H); computed with friction) times the change of the soft
-         * force over the step from each stiff mode's velocity, and the next step adds both back before it flows:
-         * positions are those of the unprocessed method, velocities are exact for constant and steadily changing
-         * forces (modes with xi < 0.9 pi).  After setPositions() or
-         * setVelocities() the next step starts without it, as the first one does; checkpoints keep it.
+         * Strang with each half kick scaled, in each stiff mode, by the filter kappa for which a constant soft force
+         * has the exact mean displacement f/omega^2 (no impulse bias; any friction): a symmetric trigonometric
+         * integrator, second order, one force evaluation per step.  Without friction kappa = tan(xi/2)/(xi/2),
+         * xi = omega H, with poles at odd multiples of pi; keep omega H away from them.  Velocities are processed to
+         * be exact for constant and steadily changing soft forces (modes with xi < 0.9 pi); after setPositions() or
+         * setVelocities() the next step starts without the processing, as the first one does; checkpoints keep it.
+         * docs/sim_drude.md section 3 derives it.
          */
         Filtered = 3,
         /**
-         * Strang with warped stiff frequencies, also without the impulse bias: K(H/2) E~(H) K(H/2) with plain half
-         * kicks, where E~ is the exact flow (friction and noise as for Strang) of each stiff mode at its warped
-         * frequency omega~ instead of omega, the one frequency for which the step's response to a constant soft force
-         * f is the exact mean displacement f/omega^2 (with any friction).  Without friction xi~ = omega~ H solves
-         *
-         *     xi~ tan(xi~/2) = xi^2/2,   so   xi~ = xi (1 - xi^2/24 + ...),   0 < xi~ < pi for every xi,
-         *
-         * (the static stiffness of Strang at omega~ is omega~^2 tan(xi~/2)/(xi~/2) = omega^2); in each mode the step
-         * is the symmetric two-step method x_(n+1) - 2 cos(xi~) x_n + x_(n-1) = H^2 sinc(xi~) f_n.  The constant part
-         * of the stiff force is scaled by (omega~/omega)^2 in E~, so the stiff potential's minimum stays where it is.
-         * Why: a soft force that is itself stiff along a mode (r omega^2 along it, r > 0: the mutual polarization of
-         * neighbouring Drude particles) makes the step unstable where (1 + r) sin^2(xi~/2) >= 1, the condition of
-         * Filtered (r tan^2(xi/2) >= 1) at xi~ instead of xi.  The warped mode turns by less than pi per step however
-         * large xi is and its kicks are not amplified, so for a given r it stays stable to a longer step than
-         * Filtered and Strang: for r = 0.37 the thresholds are xi = 2.60, 2.05 and 2.33 (2.5, 2.0 and 2.2 fs for a
-         * Drude oscillator at 1036/ps).  There are no resonances: E~ never turns by 2 pi k.  What it gives up: the
-         * stiff modes oscillate at omega~, not omega (0.79 omega at xi = 2.59), so their position variance is
-         * kT/omega~^2 and their dynamics are those of a heavier particle; use it where, as for a cold Drude oscillator,
-         * the mean displacement is the physics and the oscillation is not.  Order 2 for a fixed omega; symmetric.
-         * Velocities are processed as for Filtered (exact for constant and steadily changing soft forces where xi~ <
-         * 0.9 pi).
+         * Strang with plain half kicks and each stiff mode flowing at its warped frequency omega~ < omega, the one
+         * for which a constant soft force has the exact mean displacement (no impulse bias; any friction).  The warped
+         * mode turns by less than pi per step at any H and its kicks are not amplified, so it stays stable to longer
+         * steps than Filtered and Strang where the soft forces couple the stiff modes (neighbouring Drude particles),
+         * and it has no resonances; the price is stiff oscillations at omega~ (position variance kT/omega~^2).
+         * Second order, symmetric; velocities processed as for Filtered.  docs/sim_drude.md section 4 derives it.
          */
         Warped = 4
     };

@@ -257,5 +257,6 @@ string FlavorIntegrator::describeStep() const {
     FlavorParameters parameters = flavorParameters(*this);
     parameters.frozen =
         stepKernel != nullptr ? (SubFlow::FrozenSet)stepKernel->getFrozenSet() : SubFlow::FrozenSet::None;
-    return describeSchedule(flavorSchedule(parameters), stiffGroups, getIntegrationForceGroups(), "δ", "τ");
+    return describeSchedule(flavorSchedule(parameters), stiffGroups, getIntegrationForceGroups(), "δ", "τ",
+                            stepKernel != nullptr ? stepKernel->getNumFrozen() : 0);
 }

@@ -52,7 +52,7 @@ string describeBath(const Bath& bath) {
 } // namespace
 
 string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups, int integrationGroups,
-                                      const string& meso, const string& micro) {
+                                      const string& meso, const string& micro, int numFrozen) {
     std::ostringstream out;
     string baths, frozen;
     for (const SubFlow& flow : schedule) {
@@ -95,9 +95,11 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
         case SubFlow::FrozenKick:
             out << (flow.kind == SubFlow::FrozenKick ? "θ" + kick : "θ") << h;
             if (flow.frozen == SubFlow::FrozenSet::Distances)
-                frozen = "θ holds the stiff bonded distances";
+                frozen =
+                    "θ holds the " + (numFrozen > 0 ? std::to_string(numFrozen) + " " : "") + "stiff bonded distances";
             else if (flow.frozen == SubFlow::FrozenSet::StiffModes)
-                frozen = "θ holds the stiff modes of the quadratic stiff groups";
+                frozen = "θ holds the " + (numFrozen > 0 ? std::to_string(numFrozen) + " " : "") +
+                         "stiff modes of the quadratic stiff groups";
             else
                 frozen = "θ holds the stiff modes if the stiff groups are quadratic, else their bonded distances "
                          "(measured at the first step)";

@@ -29,7 +29,8 @@ def test_the_flavor_step_names_what_freezes_once_the_first_step_has_measured_it(
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
     context.setPositions(modeller.positions)
     integrator.step(1)
-    assert integrator.describeStep() == step + "the stiff bonded distances]"
+    # 20 waters: two bonds and the H-H distance of the angle each.
+    assert integrator.describeStep() == step + "the 60 stiff bonded distances]"
     # The description follows the settings.
     integrator.setThermostatPlacement(FlavorIntegrator.Edges)
     assert integrator.describeStep().startswith("O(δ/2) K_S(τ/2) θK_S((δ−τ)/2) θ((δ−τ)/2) K_F(τ/2) D(τ) K_F(τ/2)")

@@ -142,7 +142,7 @@ def test_cpp_example_compiles_and_runs_against_the_installation(prefix, tmp_path
     # The command of docs/USER_GUIDE.md, with PREFIX replaced.
     compile_result = subprocess.run(
         [compiler, "-std=c++17", os.path.join(REPO_ROOT, "examples", "cpp", "flavor_harmonic_chain.cpp"),
-         "-I", f"{prefix}/include", "-L", f"{prefix}/lib", f"-Wl,-rpath,{prefix}/lib", "-lOpenMMFlavors", "-lOpenMM",
+         "-I", f"{prefix}/include/openmmflavors", "-L", f"{prefix}/lib", f"-Wl,-rpath,{prefix}/lib", "-lOpenMMFlavors", "-lOpenMM",
          "-o", str(program)], capture_output=True, text=True, timeout=600)
     assert compile_result.returncode == 0, compile_result.stderr[-3000:]
     run = subprocess.run([str(program), f"{prefix}/lib/plugins"], capture_output=True, text=True, timeout=300)

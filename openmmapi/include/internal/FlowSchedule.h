@@ -271,10 +271,12 @@ OPENMM_EXPORT_FLAVORS StepPlan analyzeStep(const Schedule& schedule, bool constr
 /**
  * The schedule as a line of text in the notation of docs/ARCHITECTURE.md, e.g.
  * "K_S(δ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)"; stiffGroups and integrationGroups name the kicks,
- * mesoName and microName the two time scales ("δ" and "τ", or "H" and "").
+ * mesoName and microName the two time scales ("δ" and "τ", or "H" and ""); numFrozen, if positive, how many
+ * distances or stiff modes the frozen flows hold.
  */
 OPENMM_EXPORT_FLAVORS std::string describeSchedule(const Schedule& schedule, int stiffGroups, int integrationGroups,
-                                                   const std::string& mesoName, const std::string& microName);
+                                                   const std::string& mesoName, const std::string& microName,
+                                                   int numFrozen = 0);
 
 } // namespace FlavorPlugin
 

@@ -25,6 +25,7 @@ public:
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
     void forgetStepHistory() override;
     int getFrozenSet() const override;
+    int getNumFrozen() const override;
 
 private:
     /**

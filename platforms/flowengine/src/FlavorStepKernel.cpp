@@ -115,3 +115,9 @@ int FlavorStepKernel::getFrozenSet() const {
         return (int)SubFlow::FrozenSet::Distances;
     return (int)(measurement->getModes() ? SubFlow::FrozenSet::StiffModes : SubFlow::FrozenSet::None);
 }
+
+int FlavorStepKernel::getNumFrozen() const {
+    if (frozenDistances)
+        return frozenDistances->getNumFrozen();
+    return measurement->getModes() ? (int)measurement->getModes()->getStiffFrequencies().size() : 0;
+}

@@ -15,8 +15,8 @@
 #include "openmm/internal/ForceImpl.h"
 #include <cmath>
 #include <map>
-#include <sstream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 

@@ -3,6 +3,7 @@
 
 #include "FlavorKernels.h"
 #include "FlowStepRunner.h"
+#include "RunnerKernel.h"
 #include "StiffProbe.h"
 #include "internal/windowsExportFlavors.h"
 #include <memory>
@@ -13,17 +14,13 @@ namespace FlavorPlugin {
  * The FlavorIntegrator kernel of every platform whose particle data is ReferencePlatform::PlatformData: the
  * platforms differ only in the ParallelLoop they supply.
  */
-class OPENMM_EXPORT_FLAVORS FlavorStepKernel : public IntegrateFlavorStepKernel {
+class OPENMM_EXPORT_FLAVORS FlavorStepKernel : public RunnerKernel<IntegrateFlavorStepKernel> {
 public:
     FlavorStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParallelLoop> loop);
     void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) override;
     void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
                  bool& stiffModesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
-    void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
-    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
-    void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
-    void forgetStepHistory() override;
     int getFrozenSet() const override;
     int getNumFrozen() const override;
 
@@ -35,7 +32,6 @@ private:
     void determineFrozenCoordinates(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator,
                                     const FlavorParameters& current);
     std::unique_ptr<ParallelLoop> loop;
-    std::unique_ptr<FlowStepRunner> runner;
     std::unique_ptr<StiffModesMeasurement> measurement;
     std::shared_ptr<FrozenDistances> frozenDistances;
     std::vector<std::pair<int, int>> frozenPairs;

@@ -3,6 +3,7 @@
 
 #include "FlavorKernels.h"
 #include "FlowStepRunner.h"
+#include "RunnerKernel.h"
 #include "StiffModes.h"
 #include "StiffProbe.h"
 #include "internal/windowsExportFlavors.h"
@@ -14,7 +15,7 @@ namespace FlavorPlugin {
  * The StochasticImpulseIntegrator kernel of every platform whose particle data is ReferencePlatform::PlatformData:
  * the platforms differ only in the ParallelLoop they supply.
  */
-class OPENMM_EXPORT_FLAVORS ImpulseStepKernel : public IntegrateStochasticImpulseStepKernel {
+class OPENMM_EXPORT_FLAVORS ImpulseStepKernel : public RunnerKernel<IntegrateStochasticImpulseStepKernel> {
 public:
     ImpulseStepKernel(std::string name, const OpenMM::Platform& platform, std::unique_ptr<ParallelLoop> loop);
     void initialize(const OpenMM::System& system, const StochasticImpulseIntegrator& integrator) override;
@@ -24,15 +25,10 @@ public:
                                                 const StochasticImpulseIntegrator& integrator,
                                                 bool& stiffModesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator) override;
-    void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
-    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
-    void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
-    void forgetStepHistory() override;
 
 private:
     void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);
     std::unique_ptr<ParallelLoop> loop;
-    std::unique_ptr<FlowStepRunner> runner;
     std::unique_ptr<StiffModesMeasurement> measurement;
     bool configured;
     ImpulseParameters parameters;

@@ -9,7 +9,7 @@ using std::string;
 using std::vector;
 
 FlavorStepKernel::FlavorStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
-    : IntegrateFlavorStepKernel(name, platform), loop(std::move(loop)), configured(false) {}
+    : RunnerKernel(name, platform, "FlavorIntegrator"), loop(std::move(loop)), configured(false) {}
 
 void FlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
@@ -92,22 +92,6 @@ void FlavorStepKernel::determineFrozenCoordinates(ContextImpl& context, const Fl
 
 double FlavorStepKernel::computeKineticEnergy(ContextImpl& context, const FlavorIntegrator& /*integrator*/) {
     return runner->kineticEnergy(context);
-}
-
-void FlavorStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
-    runner->createCheckpoint(stream, "FlavorIntegrator");
-}
-
-void FlavorStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
-    runner->loadCheckpoint(context, stream, "FlavorIntegrator");
-}
-
-void FlavorStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
-    runner->saveContextState(context, withParameters);
-}
-
-void FlavorStepKernel::forgetStepHistory() {
-    runner->forgetStepHistory();
 }
 
 int FlavorStepKernel::getFrozenSet() const {

@@ -10,7 +10,7 @@ using namespace FlavorPlugin;
 using namespace OpenMM;
 
 ImpulseStepKernel::ImpulseStepKernel(std::string name, const Platform& platform, std::unique_ptr<ParallelLoop> loop)
-    : IntegrateStochasticImpulseStepKernel(name, platform), loop(std::move(loop)), configured(false) {}
+    : RunnerKernel(name, platform, "StochasticImpulseIntegrator"), loop(std::move(loop)), configured(false) {}
 
 void ImpulseStepKernel::initialize(const System& system, const StochasticImpulseIntegrator& integrator) {
     runner = std::make_unique<FlowStepRunner>(system, std::move(loop));
@@ -64,20 +64,4 @@ std::vector<double> ImpulseStepKernel::getStiffModeFrequencies(ContextImpl& cont
 double ImpulseStepKernel::computeKineticEnergy(ContextImpl& context,
                                                const StochasticImpulseIntegrator& /*integrator*/) {
     return runner->kineticEnergy(context);
-}
-
-void ImpulseStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
-    runner->createCheckpoint(stream, "StochasticImpulseIntegrator");
-}
-
-void ImpulseStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
-    runner->loadCheckpoint(context, stream, "StochasticImpulseIntegrator");
-}
-
-void ImpulseStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
-    runner->saveContextState(context, withParameters);
-}
-
-void ImpulseStepKernel::forgetStepHistory() {
-    runner->forgetStepHistory();
 }

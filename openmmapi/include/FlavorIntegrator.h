@@ -276,6 +276,14 @@ public:
      */
     std::string describeStep() const;
     /**
+     * Describe how this integrator treats the Context it is bound to, one item a line: the step (describeStep()),
+     * every force of the System with its force group and whether it is stiff, soft or not integrated, and what the
+     * artificial averagings freeze (how many distances or stiff modes, once the first step has measured it).
+     *
+     * @throws OpenMMException if the integrator is not bound to a Context
+     */
+    std::string describeContext() const;
+    /**
      * Get the random number seed.  See setRandomNumberSeed() for details.
      */
     int getRandomNumberSeed() const { return randomNumberSeed; }

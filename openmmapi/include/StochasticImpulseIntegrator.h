@@ -188,6 +188,15 @@ public:
      */
     std::string describeStep() const;
     /**
+     * Describe how this integrator treats the Context it is bound to, one item a line: the step (describeStep()),
+     * every force of the System with its force group and whether it is stiff, soft or not integrated, and the stiff
+     * modes: how many, their angular frequencies omega and omega H as a multiple of pi (keep it away from multiples of
+     * pi without friction).  It measures the stiff modes if needed.
+     *
+     * @throws OpenMMException if the integrator is not bound to a Context
+     */
+    std::string describeContext();
+    /**
      * Describe what in the Context's configuration runs but is probably not what was meant (empty when nothing, when
      * the integrator is not bound to a Context, or when the System has no soft force, where every step is the exact
      * flow): stiff modes whose omega*H lies in a resonance band of the splitting, |omega H - k pi| <= 0.05 k pi

@@ -1,7 +1,8 @@
-"""describeStep(): the compiled step as text, in the notation of docs/ARCHITECTURE.md."""
+"""describeStep() and describeContext(): the compiled step and the configured Context as text."""
 import openmm
 import openmm.app as app
 import openmm.unit as unit
+import pytest
 
 from openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator
 
@@ -47,3 +48,46 @@ def test_the_sim_step_names_its_splitting_placement_and_baths():
                                          "20/ps]")
     integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
     assert integrator.describeStep().startswith("K^κ_S(H/2) E^M(H) K^κ_S(H/2)")
+
+
+def test_describe_context_lists_every_force_with_its_role_and_what_freezes():
+    integrator = middle_flavor()
+    forcefield = app.ForceField("tip3p.xml")
+    modeller = app.Modeller(app.Topology(), [])
+    modeller.addSolvent(forcefield, model="tip3p", numAdded=10)
+    system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.NoCutoff, rigidWater=False)
+    for force in system.getForces():
+        force.setForceGroup(1 if isinstance(force, (openmm.HarmonicBondForce, openmm.HarmonicAngleForce)) else 0)
+    with pytest.raises(openmm.OpenMMException, match="bound to a Context"):
+        integrator.describeContext()
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions(modeller.positions)
+    text = integrator.describeContext()
+    assert text.startswith("FlavorIntegrator, mesostep δ = 2 fs, microstep τ = 0.5 fs\nstep: K_S(τ)")
+    assert "force 0 (HarmonicBondForce, force group 1): stiff" in text
+    assert "(NonbondedForce, force group 0): soft" in text
+    assert text.endswith("frozen: measured when the first step starts\n")
+    integrator.step(1)
+    assert integrator.describeContext().endswith("frozen: 30 distances of the stiff bonded forces\n")
+
+
+def test_describe_context_gives_the_stiff_modes_and_omega_h():
+    system = openmm.System()
+    for mass in (15.6, 0.4, 12.0):
+        system.addParticle(mass)
+    spring = openmm.HarmonicBondForce()
+    spring.addBond(0, 1, 0.0, 418400.0)
+    spring.setForceGroup(1)
+    system.addForce(spring)
+    tether = openmm.CustomExternalForce("x^2+y^2+z^2")
+    for i in range(3):
+        tether.addParticle(i, [])
+    system.addForce(tether)
+    integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 2.5 * unit.femtoseconds, {1})
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions([openmm.Vec3(0, 0, 0), openmm.Vec3(0.001, 0, 0), openmm.Vec3(0.3, 0, 0)])
+    text = integrator.describeContext()
+    # The Drude-like pair's relative mode: omega = sqrt(k/mu) = 1035.8/ps (mu = 0.39 amu), 3 directions; omega H = 0.8242 pi.
+    assert "force 0 (HarmonicBondForce, force group 1): stiff\n" in text
+    assert "force 1 (CustomExternalForce, force group 0): soft\n" in text
+    assert "stiff modes: 3, ω from 1036 to 1036 /ps, ωH from 0.8242π to 0.8242π\n" in text

@@ -13,7 +13,8 @@ BUILD ?= build
 PYTHON := /usr/bin/python3
 JOBS ?= $(shell nproc)
 APT_PACKAGES := cmake make gcc g++ swig libopenmm-dev libopenmm-plugins python3-simtk python3-dev libeigen3-dev \
-                libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy clang-format git
+                libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy clang-format git \
+                pocl-opencl-icd opencl-c-headers opencl-clhpp-headers ocl-icd-opencl-dev
 PYTHON_ENV := PYTHONPATH=$(CURDIR)/$(BUILD)/python PYTHONDONTWRITEBYTECODE=1
 
 .PHONY: deps build format-check test demo install bench clean

@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_CONTEXT_ROLLBACK_H_
 #define OPENMM_FLAVORS_CONTEXT_ROLLBACK_H_
 
+#include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
 #include <map>
 #include <string>
@@ -15,9 +16,10 @@ namespace FlavorPlugin {
 /**
  * A copy of the Context's positions, velocities, periodic box, time, step count and parameters, for a failed
  * loadCheckpoint() to put back: OpenMM reads its own part of a checkpoint, and overwrites the Context with it, before
- * the integrator reads its part.
+ * the integrator reads its part.  On Reference and CPU it copies ReferencePlatform::PlatformData; on other platforms
+ * (OpenCL) it goes through ContextImpl's getters and setters.
  */
-class ContextRollback {
+class OPENMM_EXPORT_FLAVORS ContextRollback {
 public:
     /** Remembers the Context's state (no allocation after the first call), its parameters too if withParameters. */
     void save(OpenMM::ContextImpl& context, bool withParameters);

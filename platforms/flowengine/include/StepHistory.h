@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_STEP_HISTORY_H_
 #define OPENMM_FLAVORS_STEP_HISTORY_H_
 
+#include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
 #include <iosfwd>
 #include <string>
@@ -17,7 +18,7 @@ class StiffModes;
  * particles over the last step, whose velocity processing the next step undoes (docs/sim_drude.md).  Part of the
  * integrator's checkpoint; forgotten when the Context's positions or velocities are set from outside.
  */
-class StepHistory {
+class OPENMM_EXPORT_FLAVORS StepHistory {
 public:
     explicit StepHistory(int numParticles);
     /** Forgets the history, unless it was loaded from a checkpoint since the last step (see markLoaded()). */

@@ -1,4 +1,5 @@
 #include "FlowStepRunner.h"
+#include "FlowCheckpoint.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferencePlatform.h"
@@ -129,81 +130,19 @@ void FlowStepRunner::saveContextState(ContextImpl& context, bool withParameters)
     rollback.save(context, withParameters);
 }
 
-namespace {
-
-// The integrator's part of a checkpoint: Tag, the integrator's name (length, then characters), the format version,
-// the seed and the stream counter, (version 2) the step history (StepHistory::write), EndTag.  Version 1 checkpoints
-// (no history) still load, with an empty history.
-const char CheckpointTag[] = "openmm-flavors integrator state\n";
-const char CheckpointEndTag[] = "end of openmm-flavors integrator state\n";
-const std::uint32_t CheckpointVersion = 2;
-const std::uint32_t MaxNameLength = 64;
-
-template <class T> bool readValue(std::istream& stream, T& value) {
-    stream.read(reinterpret_cast<char*>(&value), sizeof(T));
-    return stream.gcount() == (std::streamsize)sizeof(T);
-}
-
-bool readBytes(std::istream& stream, std::string& text, size_t length) {
-    text.assign(length, '\0');
-    if (length == 0)
-        return true;
-    stream.read(&text[0], (std::streamsize)length);
-    return stream.gcount() == (std::streamsize)length;
-}
-
-} // namespace
-
 void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& integratorName) const {
-    const std::uint32_t nameLength = (std::uint32_t)integratorName.size();
-    stream.write(CheckpointTag, sizeof(CheckpointTag) - 1);
-    stream.write((const char*)&nameLength, sizeof(nameLength));
-    stream.write(integratorName.data(), nameLength);
-    stream.write((const char*)&CheckpointVersion, sizeof(CheckpointVersion));
-    stream.write((const char*)&seed, sizeof(seed));
-    stream.write((const char*)&nextStream, sizeof(nextStream));
-    history.write(stream);
-    stream.write(CheckpointEndTag, sizeof(CheckpointEndTag) - 1);
+    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history);
 }
 
 void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, const std::string& integratorName) {
-    std::string problem;
-    std::string tag, name, endTag;
-    std::uint32_t nameLength = 0, version = 0;
     std::uint64_t storedSeed = 0, storedStream = 0;
     StepHistory::Stored storedHistory;
-    const bool hasTag = readBytes(stream, tag, sizeof(CheckpointTag) - 1);
-    if (!hasTag && stream.gcount() == 0)
-        problem = "it holds no data of this integrator (it was made with another integrator, e.g. OpenMM's "
-                  "VerletIntegrator, or it is truncated)";
-    else if (!hasTag || tag != std::string(CheckpointTag, sizeof(CheckpointTag) - 1))
-        problem = "its integrator part is not openmm-flavors data (it was made with another integrator, or it is "
-                  "truncated or corrupt)";
-    else if (!readValue(stream, nameLength) || nameLength > MaxNameLength || !readBytes(stream, name, nameLength))
-        problem = "it is truncated or corrupt (the integrator's name is incomplete)";
-    else if (name != integratorName)
-        problem = "it was made with " + name;
-    else if (!readValue(stream, version))
-        problem = "it is truncated (no format version)";
-    else if (version != 1 && version != CheckpointVersion)
-        problem = "it has format version " + std::to_string(version) + "; this build reads versions 1 to " +
-                  std::to_string(CheckpointVersion);
-    else if (!readValue(stream, storedSeed) || !readValue(stream, storedStream))
-        problem = "it is truncated (the random streams are incomplete)";
-    else if (version >= 2 && !history.read(stream, storedHistory))
-        problem = "it is truncated or corrupt (the step history (constraint shares and force differences) is "
-                  "incomplete or names particles this System does not have)";
-    else if (!readBytes(stream, endTag, sizeof(CheckpointEndTag) - 1))
-        problem = "it is truncated (no end tag)";
-    else if (endTag != std::string(CheckpointEndTag, sizeof(CheckpointEndTag) - 1))
-        problem = "it is corrupt (no end tag after the random streams)";
+    const std::string problem =
+        readFlowCheckpoint(stream, integratorName, history, storedSeed, storedStream, storedHistory);
     if (!problem.empty()) {
         rollback.restore(context);
         forces.invalidate();
-        throw OpenMMException(integratorName + ": loadCheckpoint: the checkpoint is not one of a " + integratorName +
-                              ": " + problem +
-                              ".  The Context keeps its positions, velocities, box, time, step count, parameters "
-                              "and random streams");
+        throw OpenMMException(flowCheckpointError(integratorName, problem));
     }
     setRandomSeed(storedSeed);
     nextStream = storedStream;

@@ -48,12 +48,19 @@ vector<int> bondedGroups(ContextImpl& context, int stiffGroups) {
     return label;
 }
 
+/**
+ * Evaluates the stiff forces at displaced positions and puts the Context's positions back afterwards.  On Reference
+ * and CPU it writes positions and reads forces in ReferencePlatform::PlatformData; on every other platform (OpenCL)
+ * it goes through ContextImpl's getPositions/setPositions/getForces.
+ */
 class ForceProbe {
 public:
     ForceProbe(ContextImpl& context, int groups)
-        : context(context), groups(groups),
-          data(*reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData())),
-          original(*data.positions), hasVirtualSites(false) {
+        : context(context), groups(groups), data(referenceData(context)), hasVirtualSites(false) {
+        if (data != nullptr)
+            original = *data->positions;
+        else
+            context.getPositions(original);
         for (int i = 0; i < context.getSystem().getNumParticles(); ++i)
             hasVirtualSites = hasVirtualSites || context.getSystem().isVirtualSite(i);
         // OpenMM 7.7's Reference NonbondedForce kernel rebuilds its neighbour list on every force evaluation, even
@@ -72,32 +79,49 @@ public:
             stiffImpls.clear();
     }
     ~ForceProbe() {
-        *data.positions = original;
+        setPositions(original);
         if (hasVirtualSites)
             context.computeVirtualSites();
     }
     /** The stiff forces at positions q. */
     vector<Vec3> forces(const vector<Vec3>& q) {
-        *data.positions = q;
+        setPositions(q);
         if (hasVirtualSites)
             context.computeVirtualSites();
         // The first evaluation goes through the Context, which checks that positions have been set.
         if (stiffImpls.empty() || !evaluatedOnce)
             context.calcForcesAndEnergy(true, false, groups);
         else {
-            std::fill(data.forces->begin(), data.forces->end(), Vec3());
+            std::fill(data->forces->begin(), data->forces->end(), Vec3());
             for (ForceImpl* impl : stiffImpls)
                 impl->calcForcesAndEnergy(context, true, false, groups);
         }
         evaluatedOnce = true;
-        return *data.forces;
+        if (data != nullptr)
+            return *data->forces;
+        vector<Vec3> result;
+        context.getForces(result);
+        return result;
     }
     const vector<Vec3>& positions() const { return original; }
 
 private:
+    /** The particle data of Reference and CPU Contexts; null on other platforms. */
+    static ReferencePlatform::PlatformData* referenceData(ContextImpl& context) {
+        const std::string& name = context.getPlatform().getName();
+        if (name != "Reference" && name != "CPU")
+            return nullptr;
+        return reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
+    }
+    void setPositions(const vector<Vec3>& q) {
+        if (data != nullptr)
+            *data->positions = q;
+        else
+            context.setPositions(q);
+    }
     ContextImpl& context;
     int groups;
-    ReferencePlatform::PlatformData& data;
+    ReferencePlatform::PlatformData* data;
     vector<Vec3> original;
     bool hasVirtualSites;
     // On Reference, the ForceImpls of the stiff groups, evaluated directly; empty where the Context evaluates.

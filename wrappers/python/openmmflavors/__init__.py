@@ -29,6 +29,9 @@ if not _hasPlatform("CPU"):
 _pluginDir = _os.path.normpath(_os.path.join(_here, _config.PLUGIN_DIR_FROM_PACKAGE))
 for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
     _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, _name))
+# The OpenCL kernels exist where the build found OpenCL; they register only if OpenMM has an OpenCL platform.
+if _os.path.exists(_os.path.join(_pluginDir, "libOpenMMFlavorsOpenCL.so")):
+    _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, "libOpenMMFlavorsOpenCL.so"))
 
 from .openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator  # noqa: E402
 from ._warnings import (FlavorsWarning, PlanarAngleGroupWarning, ResonanceWarning, StiffGroupWarning,  # noqa: E402

@@ -1,0 +1,592 @@
+#include "CommonFlavorKernels.h"
+#include "CommonFlavorKernelSources.h"
+#include "FlowCheckpoint.h"
+#include "internal/CounterRandom.h"
+#include "internal/ExactModeFlow.h"
+#include "internal/StiffGroupChecks.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/common/ContextSelector.h"
+#include "openmm/common/IntegrationUtilities.h"
+#include "openmm/internal/ContextImpl.h"
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::string;
+using std::vector;
+
+namespace {
+
+/** Uploads values into a mixed-precision array, created with at least one element. */
+void uploadMixed(ComputeContext& cc, ComputeArray& array, vector<double> values, const string& name) {
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    if (values.empty())
+        values.push_back(0.0);
+    if (!array.isInitialized() || array.getSize() != (int)values.size()) {
+        if (array.isInitialized())
+            array.resize((int)values.size());
+        else
+            array.initialize(cc, (int)values.size(), doubles ? sizeof(double) : sizeof(float), name);
+    }
+    array.upload(values, true);
+}
+
+/** Uploads ints into an array, created with at least one element. */
+void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, const string& name) {
+    if (values.empty())
+        values.push_back(0);
+    if (!array.isInitialized())
+        array.initialize<int>(cc, (int)values.size(), name);
+    else if (array.getSize() != (int)values.size())
+        array.resize((int)values.size());
+    array.upload(values);
+}
+
+} // namespace
+
+CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, string owner, string platformName)
+    : cc(cc), system(system), owner(std::move(owner)), platformName(std::move(platformName)),
+      numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0), hasVirtualSites(false),
+      history(system.getNumParticles()) {
+    for (int i = 0; i < numParticles; ++i)
+        hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
+    ContextSelector selector(cc);
+    std::map<string, string> defines;
+    defines["NUM_ATOMS"] = cc.intToString(cc.getNumAtoms());
+    defines["PADDED_NUM_ATOMS"] = cc.intToString(cc.getPaddedNumAtoms());
+    program = cc.compileProgram(CommonFlavorKernelSources::flowPasses, defines);
+    copyForcesKernel = program->createKernel("copyForces");
+    findAtomsKernel = program->createKernel("findAtoms");
+    driftDisplacementKernel = program->createKernel("driftDisplacement");
+    applyDisplacementKernel = program->createKernel("applyDisplacement");
+    const ZigguratTables& tables = ZigguratTables::get();
+    kn.initialize<unsigned int>(cc, 128, "flavorZigguratKn");
+    kn.upload(vector<unsigned int>(tables.kn, tables.kn + 128));
+    uploadMixed(cc, wn, vector<double>(tables.wn, tables.wn + 128), "flavorZigguratWn");
+    uploadMixed(cc, fn, vector<double>(tables.fn, tables.fn + 128), "flavorZigguratFn");
+    slotOf.initialize<int>(cc, numParticles, "flavorSlotOf");
+    uploadInts(cc, thermostated, vector<int>(numParticles, 1), "flavorThermostated");
+    uploadMixed(cc, thermalSpeed, vector<double>(numParticles, 0.0), "flavorThermalSpeed");
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    slotForces.resize(MaxForceSlots);
+    for (int s = 0; s < MaxForceSlots; ++s)
+        slotForces[s].initialize(cc, numParticles, doubles ? 4 * sizeof(double) : 4 * sizeof(float),
+                                 "flavorSlotForces" + std::to_string(s));
+    slotValid.assign(MaxForceSlots, false);
+    copyForcesKernel->addArg(cc.getLongForceBuffer());
+    copyForcesKernel->addArg(slotForces[0]);
+    copyForcesKernel->addArg(cc.getAtomIndexArray());
+    findAtomsKernel->addArg(cc.getAtomIndexArray());
+    findAtomsKernel->addArg(slotOf);
+    IntegrationUtilities& integration = cc.getIntegrationUtilities();
+    driftDisplacementKernel->addArg(integration.getPosDelta());
+    driftDisplacementKernel->addArg(cc.getVelm());
+    driftDisplacementKernel->addArg(0.0);
+    applyDisplacementKernel->addArg(cc.getPosq());
+    applyDisplacementKernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+    applyDisplacementKernel->addArg(integration.getPosDelta());
+    applyDisplacementKernel->addArg(cc.getVelm());
+    applyDisplacementKernel->addArg(0.0);
+}
+
+CommonFlowStepper::~CommonFlowStepper() = default;
+
+void CommonFlowStepper::addRandomArgs(ComputeKernel& kernel) {
+    kernel->addArg((unsigned int)seed);
+    kernel->addArg((unsigned int)(seed >> 32));
+    kernel->addArg(kn);
+    kernel->addArg(wn);
+    kernel->addArg(fn);
+}
+
+void CommonFlowStepper::setSchedule(const Schedule& newSchedule,
+                                    const std::function<string(SubFlow::Kind)>& unsupportedSetting) {
+    unsupported = unsupportedSetting;
+    if (newSchedule == schedule && !plan.passes.empty())
+        return;
+    schedule = newSchedule;
+    prepare();
+}
+
+void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes) {
+    modes = newModes;
+    ContextSelector selector(cc);
+    vector<int> table, layout, particleList, eigenOffsets, scratchOffsets;
+    vector<double> vectors, masses(numParticles, 1.0);
+    size_t scratchSize = 0;
+    for (int c = 0; c < modes->getNumComponents(); ++c) {
+        const StiffModes::Component& comp = modes->getComponent(c);
+        const int D = comp.rows(), C = comp.columns();
+        table.insert(table.end(), {(int)particleList.size(), comp.numParticles, D, C});
+        const int* particles = modes->getComponentParticles(c);
+        particleList.insert(particleList.end(), particles, particles + comp.numParticles);
+        const bool small = StiffModes::hasParticleSpacePropagator(D, C);
+        layout.push_back(small ? 1 : 0);
+        eigenOffsets.push_back((int)vectors.size());
+        scratchOffsets.push_back((int)scratchSize);
+        if (!small) {
+            const double* u = modes->getEigenvectors(c);
+            vectors.insert(vectors.end(), u, u + (size_t)D * D);
+            scratchSize += 24 * (size_t)comp.numParticles;
+        }
+    }
+    for (int i = 0; i < numParticles; ++i)
+        if (system.getParticleMass(i) != 0.0)
+            masses[i] = modes->getSqrtMass(i);
+    if (table.empty())
+        table.assign(4, 0);
+    if (!components.isInitialized())
+        components.initialize<mm_int4>(cc, (int)table.size() / 4, "flavorComponents");
+    else
+        components.resize((int)table.size() / 4);
+    components.upload(table.data());
+    uploadInts(cc, componentLayout, layout, "flavorComponentLayout");
+    uploadInts(cc, componentParticles, particleList, "flavorComponentParticles");
+    uploadInts(cc, eigenvectorOffset, eigenOffsets, "flavorEigenvectorOffset");
+    uploadInts(cc, scratchOffset, scratchOffsets, "flavorScratchOffset");
+    uploadMixed(cc, eigenvectors, vectors, "flavorEigenvectors");
+    uploadMixed(cc, sqrtMass, masses, "flavorSqrtMass");
+    uploadMixed(cc, scratch, vector<double>(scratchSize, 0.0), "flavorScratch");
+    prepare();
+}
+
+void CommonFlowStepper::setFrictionParticles(const vector<int>& particles) {
+    if (frictionParticlesSet && particles == frictionParticles)
+        return;
+    frictionParticles = particles;
+    frictionParticlesSet = true;
+    vector<int> flags(numParticles, particles.empty() ? 1 : 0);
+    for (int p : particles)
+        flags[p] = 1;
+    ContextSelector selector(cc);
+    thermostated.upload(flags);
+}
+
+void CommonFlowStepper::setRandomSeed(std::uint64_t newSeed) {
+    seed = newSeed;
+    nextStream = 0;
+    if (!plan.passes.empty())
+        prepare();
+}
+
+void CommonFlowStepper::prepare() {
+    plan = analyzeStep(schedule, hasConstraints);
+    if (plan.slotGroups.size() > (size_t)MaxForceSlots)
+        throw OpenMMException(owner + ": a step may kick with at most " + std::to_string(MaxForceSlots) +
+                              " distinct force-group sets");
+    ContextSelector selector(cc);
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    auto addReal = [doubles](ComputeKernel& kernel, double value) {
+        if (doubles)
+            kernel->addArg(value);
+        else
+            kernel->addArg((float)value);
+    };
+    ArrayInterface& correction = cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq();
+    passKernels.assign(plan.passes.size(), {});
+    propagators.clear();
+    propagators.resize(plan.passes.size());
+    propagatorOffsets.clear();
+    propagatorOffsets.resize(plan.passes.size());
+    propagatorNoisy.assign(plan.passes.size(), 0);
+    bool haveBath = false;
+    Bath bath;
+    for (size_t p = 0; p < plan.passes.size(); ++p) {
+        const FlowPass& pass = plan.passes[p];
+        for (size_t k = 0; k < pass.flows.size(); ++k) {
+            const SubFlow& flow = pass.flows[k];
+            ComputeKernel kernel;
+            switch (flow.kind) {
+            case SubFlow::Kick:
+                kernel = program->createKernel("kick");
+                kernel->addArg(cc.getVelm());
+                kernel->addArg(slotForces[pass.slots[k]]);
+                kernel->addArg(cc.getAtomIndexArray());
+                addReal(kernel, flow.h);
+                break;
+            case SubFlow::Drift:
+                kernel = program->createKernel("drift");
+                kernel->addArg(cc.getPosq());
+                kernel->addArg(correction);
+                kernel->addArg(cc.getVelm());
+                addReal(kernel, flow.h);
+                break;
+            case SubFlow::Thermostat: {
+                // The thermal speeds are per particle: one temperature for all of a step's thermostats.
+                if (haveBath && flow.bath.kT != bath.kT)
+                    throw OpenMMException(owner + ": the thermostats of one step must share one temperature");
+                haveBath = true;
+                bath = flow.bath;
+                const VelocityFlow ou = computeVelocityFlow(flow.bath.friction, flow.h);
+                kernel = program->createKernel("thermostat");
+                kernel->addArg(cc.getVelm());
+                kernel->addArg(cc.getAtomIndexArray());
+                kernel->addArg(thermalSpeed);
+                kernel->addArg(thermostated);
+                addReal(kernel, ou.decay);
+                addReal(kernel, ou.noise);
+                kernel->addArg((std::uint64_t)0);
+                addRandomArgs(kernel);
+                break;
+            }
+            case SubFlow::StiffFlow: {
+                if (!modes)
+                    break; // prepared again when the modes are measured
+                StiffModes::Propagator propagator;
+                const bool middleFlow = flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
+                modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
+                                         flow.stiffBath.kT, propagator,
+                                         flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
+                uploadMixed(cc, propagators[p], propagator.data, "flavorPropagator");
+                vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
+                uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
+                propagatorNoisy[p] = propagator.noisy ? 1 : 0;
+                kernel = program->createKernel("stiffFlow");
+                kernel->addArg(modes->getNumComponents());
+                kernel->addArg(components);
+                kernel->addArg(componentLayout);
+                kernel->addArg(componentParticles);
+                kernel->addArg(slotOf);
+                kernel->addArg(propagators[p]);
+                kernel->addArg(propagatorOffsets[p]);
+                kernel->addArg(eigenvectors);
+                kernel->addArg(eigenvectorOffset);
+                kernel->addArg(sqrtMass);
+                kernel->addArg(scratch);
+                kernel->addArg(scratchOffset);
+                kernel->addArg(cc.getPosq());
+                kernel->addArg(correction);
+                kernel->addArg(cc.getVelm());
+                kernel->addArg(slotForces[0]);
+                addReal(kernel, 0.0);
+                kernel->addArg(propagatorNoisy[p]);
+                kernel->addArg((std::uint64_t)0);
+                addRandomArgs(kernel);
+                break;
+            }
+            case SubFlow::FilteredStiffFlow:
+            case SubFlow::FilteredKick:
+            case SubFlow::HarmonicFlow:
+            case SubFlow::FrozenDrift:
+            case SubFlow::FrozenKick:
+                throw OpenMMException(owner + " on the " + platformName + " platform: " + unsupported(flow.kind) +
+                                      " is not supported there yet; use the Reference or CPU platform");
+            }
+            passKernels[p].push_back(kernel);
+        }
+    }
+    vector<double> speeds(numParticles, 0.0);
+    for (int i = 0; i < numParticles; ++i) {
+        const double mass = system.getParticleMass(i);
+        speeds[i] = std::sqrt(bath.kT * (mass == 0.0 ? 0.0 : 1.0 / mass));
+    }
+    thermalSpeed.upload(speeds, true);
+    invalidateForces();
+}
+
+void CommonFlowStepper::invalidateForces() {
+    std::fill(slotValid.begin(), slotValid.end(), false);
+    virtualSitesPlaced = false;
+}
+
+void CommonFlowStepper::placeVirtualSites() {
+    if (hasVirtualSites && !virtualSitesPlaced)
+        cc.getIntegrationUtilities().computeVirtualSites();
+    virtualSitesPlaced = true;
+}
+
+void CommonFlowStepper::ensureForces(ContextImpl& context, int slot) {
+    if (slotValid[slot])
+        return;
+    placeVirtualSites();
+    context.calcForcesAndEnergy(true, false, plan.slotGroups[slot]);
+    copyForcesKernel->setArg(1, slotForces[slot]);
+    copyForcesKernel->execute(cc.getNumAtoms());
+    slotValid[slot] = true;
+}
+
+void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance) {
+    bool drifts = false;
+    vector<ComputeKernel>& kernels = passKernels[passIndex];
+    for (size_t k = 0; k < pass.flows.size(); ++k) {
+        const SubFlow& flow = pass.flows[k];
+        switch (flow.kind) {
+        case SubFlow::Drift:
+            drifts = true;
+            if (hasConstraints) {
+                // With constraints a pass is one sub-flow or a run of kicks and thermostats (analyzeStep).
+                const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+                if (doubles) {
+                    driftDisplacementKernel->setArg(2, flow.h);
+                    applyDisplacementKernel->setArg(4, 1.0 / flow.h);
+                } else {
+                    driftDisplacementKernel->setArg(2, (float)flow.h);
+                    applyDisplacementKernel->setArg(4, (float)(1.0 / flow.h));
+                }
+                driftDisplacementKernel->execute(cc.getNumAtoms());
+                cc.getIntegrationUtilities().applyConstraints(constraintTolerance);
+                applyDisplacementKernel->execute(cc.getNumAtoms());
+            } else {
+                kernels[k]->execute(cc.getNumAtoms());
+            }
+            break;
+        case SubFlow::Thermostat:
+            kernels[k]->setArg(6, (std::uint64_t)(nextStream + (std::uint64_t)pass.streams[k]));
+            kernels[k]->execute(cc.getNumAtoms());
+            break;
+        default:
+            kernels[k]->execute(cc.getNumAtoms());
+            break;
+        }
+    }
+    if (drifts)
+        invalidateForces();
+    else if (hasConstraints)
+        cc.getIntegrationUtilities().applyVelocityConstraints(constraintTolerance);
+}
+
+void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
+    if (!modes)
+        throw OpenMMException(owner + ": a stiff flow needs the stiff modes");
+    ComputeKernel& kernel = passKernels[passIndex][0];
+    findAtomsKernel->execute(cc.getNumAtoms());
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    kernel->setArg(15, slotForces[fusedSlot >= 0 ? fusedSlot : 0]);
+    if (doubles)
+        kernel->setArg(16, fusedSlot >= 0 ? fusedStep : 0.0);
+    else
+        kernel->setArg(16, (float)(fusedSlot >= 0 ? fusedStep : 0.0));
+    kernel->setArg(18, (std::uint64_t)(nextStream + (std::uint64_t)std::max(0, pass.streams[0])));
+    kernel->execute(modes->getNumComponents());
+    fusedSlot = -1;
+    invalidateForces();
+}
+
+void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
+    ContextSelector selector(cc);
+    if (!forcesValid)
+        invalidateForces();
+    history.stepStarted();
+    for (size_t p = 0; p < plan.passes.size(); ++p) {
+        const FlowPass& pass = plan.passes[p];
+        // Every kick of a pass reads forces at the positions where the pass begins.
+        for (size_t k = 0; k < pass.flows.size(); ++k)
+            if (pass.flows[k].kind == SubFlow::Kick)
+                ensureForces(context, pass.slots[k]);
+        if (pass.fusedIntoNext) {
+            fusedSlot = pass.slots[0];
+            fusedStep = pass.flows[0].h;
+            continue;
+        }
+        if (pass.flows[0].kind == SubFlow::StiffFlow)
+            runStiffFlow(pass, p);
+        else
+            runParticlePass(pass, p, constraintTolerance);
+    }
+    nextStream += (std::uint64_t)plan.noiseStreams;
+    placeVirtualSites();
+    cc.setTime(cc.getTime() + stepSize);
+    cc.setStepCount(cc.getStepCount() + 1);
+    cc.reorderAtoms();
+    forcesValid = true;
+}
+
+double CommonFlowStepper::kineticEnergy() {
+    ContextSelector selector(cc);
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const vector<int>& order = cc.getAtomIndex();
+    vector<double> perParticle(numParticles, 0.0);
+    if (doubles) {
+        vector<mm_double4> v;
+        cc.getVelm().download(v);
+        for (int atom = 0; atom < cc.getNumAtoms(); ++atom)
+            perParticle[order[atom]] = v[atom].x * v[atom].x + v[atom].y * v[atom].y + v[atom].z * v[atom].z;
+    } else {
+        vector<mm_float4> v;
+        cc.getVelm().download(v);
+        for (int atom = 0; atom < cc.getNumAtoms(); ++atom)
+            perParticle[order[atom]] =
+                (double)v[atom].x * v[atom].x + (double)v[atom].y * v[atom].y + (double)v[atom].z * v[atom].z;
+    }
+    // Summed in the System's order, as the CPU engine sums it.
+    double energy = 0.0;
+    for (int i = 0; i < numParticles; ++i)
+        energy += system.getParticleMass(i) * perParticle[i];
+    return 0.5 * energy;
+}
+
+void CommonFlowStepper::createCheckpoint(std::ostream& stream) const {
+    writeFlowCheckpoint(stream, owner, seed, nextStream, history);
+}
+
+void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+    std::uint64_t storedSeed = 0, storedStream = 0;
+    StepHistory::Stored storedHistory;
+    const string problem = readFlowCheckpoint(stream, owner, history, storedSeed, storedStream, storedHistory);
+    if (!problem.empty()) {
+        rollback.restore(context);
+        invalidateForces();
+        throw OpenMMException(flowCheckpointError(owner, problem));
+    }
+    setRandomSeed(storedSeed);
+    nextStream = storedStream;
+    history.load(storedHistory);
+    invalidateForces();
+}
+
+void CommonFlowStepper::saveContextState(ContextImpl& context, bool withParameters) {
+    rollback.save(context, withParameters);
+}
+
+namespace {
+
+const char* const FlavorName = "FlavorIntegrator";
+const char* const ImpulseName = "StochasticImpulseIntegrator";
+
+string splittingName(StochasticImpulseIntegrator::Splitting splitting) {
+    switch (splitting) {
+    case StochasticImpulseIntegrator::LieTrotter:
+        return "LieTrotter";
+    case StochasticImpulseIntegrator::Strang:
+        return "Strang";
+    case StochasticImpulseIntegrator::Yoshida4:
+        return "Yoshida4";
+    case StochasticImpulseIntegrator::Filtered:
+        return "Filtered";
+    case StochasticImpulseIntegrator::Warped:
+        return "Warped";
+    }
+    return std::to_string((int)splitting);
+}
+
+} // namespace
+
+void CommonFlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
+    // The platform sets up its buffers (forces, atom order) before the kernels use them, as OpenMM's own do.
+    cc.initializeContexts();
+    ContextSelector selector(cc);
+    stepper = std::make_unique<CommonFlowStepper>(cc, system, FlavorName, getPlatform().getName());
+    stepper->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
+}
+
+void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                                     bool& /*stiffModesValid*/) {
+    ContextSelector selector(cc);
+    FlavorParameters current = flavorParameters(integrator);
+    validateFlavorStep(current);
+    if (current.averaging != FlavorIntegrator::Nonintrusive)
+        throw OpenMMException(
+            string(FlavorName) + " on the " + getPlatform().getName() + " platform: the averaging " +
+            (current.averaging == FlavorIntegrator::Artificial ? "Artificial" : "ArtificialProjected") +
+            " (FlavorIntegrator::setAveraging) is not supported there yet; use the Nonintrusive "
+            "averaging, or the Reference or CPU platform");
+    if (!configured || !(current == parameters)) {
+        // Rebuilt only when a parameter changed, so the step loop does not allocate.
+        parameters = current;
+        stepper->setSchedule(flavorSchedule(parameters), [](SubFlow::Kind) {
+            return string("the artificial averagings' sub-flows (FlavorIntegrator::setAveraging)");
+        });
+        configured = true;
+    }
+    stepper->setFrictionParticles(integrator.getFrictionParticles());
+    stepper->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
+}
+
+double CommonFlavorStepKernel::computeKineticEnergy(ContextImpl& /*context*/, const FlavorIntegrator& /*integrator*/) {
+    return stepper->kineticEnergy();
+}
+
+void CommonFlavorStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
+    stepper->createCheckpoint(stream);
+}
+
+void CommonFlavorStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+    ContextSelector selector(cc);
+    stepper->loadCheckpoint(context, stream);
+}
+
+void CommonFlavorStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
+    ContextSelector selector(cc);
+    stepper->saveContextState(context, withParameters);
+}
+
+void CommonFlavorStepKernel::forgetStepHistory() {
+    stepper->forgetStepHistory();
+}
+
+void CommonImpulseStepKernel::initialize(const System& system, const StochasticImpulseIntegrator& integrator) {
+    // The platform sets up its buffers (forces, atom order) before the kernels use them, as OpenMM's own do.
+    cc.initializeContexts();
+    ContextSelector selector(cc);
+    stepper = std::make_unique<CommonFlowStepper>(cc, system, ImpulseName, getPlatform().getName());
+    stepper->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
+    measurement =
+        std::make_unique<StiffModesMeasurement>(system, ImpulseName, "use FlavorIntegrator for nonlinear stiff forces");
+}
+
+void CommonImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups) {
+    if (context.getSystem().getNumConstraints() > 0)
+        throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
+                              " platform: a System with constraints is not supported there yet (the stiff flow "
+                              "does not carry constrained particles); use the Reference or CPU platform");
+    auto checkConstraints = [](const StiffModes&) {};
+    if (measurement->measure(context, stiffGroups, checkConstraints))
+        stepper->setStiffModes(measurement->getModes());
+}
+
+void CommonImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseIntegrator& integrator,
+                                      bool& forcesValid, bool& stiffModesValid) {
+    ContextSelector selector(cc);
+    const ImpulseParameters current = impulseParameters(integrator);
+    validateImpulseStep(current);
+    if (!configured || !(current == parameters)) {
+        // Rebuilt only when a parameter changed, so the step loop does not allocate.
+        const string splitting = splittingName(current.splitting);
+        stepper->setSchedule(impulseSchedule(current), [splitting](SubFlow::Kind) {
+            return "the splitting " + splitting + " (StochasticImpulseIntegrator::setSplitting)";
+        });
+        parameters = current;
+        configured = true;
+    }
+    if (!stiffModesValid || !measurement->getModes()) {
+        measureStiffModes(context, parameters.stiffGroups);
+        stiffModesValid = true;
+    }
+    stepper->step(context, integrator.getConstraintTolerance(), parameters.stepSize, forcesValid);
+}
+
+vector<double> CommonImpulseStepKernel::getStiffModeFrequencies(ContextImpl& context,
+                                                                const StochasticImpulseIntegrator& integrator,
+                                                                bool& stiffModesValid) {
+    ContextSelector selector(cc);
+    if (!stiffModesValid || !measurement->getModes()) {
+        measureStiffModes(context, integrator.getStiffGroups());
+        stiffModesValid = true;
+    }
+    return measurement->getModes()->getStiffFrequencies();
+}
+
+double CommonImpulseStepKernel::computeKineticEnergy(ContextImpl& /*context*/,
+                                                     const StochasticImpulseIntegrator& /*integrator*/) {
+    return stepper->kineticEnergy();
+}
+
+void CommonImpulseStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
+    stepper->createCheckpoint(stream);
+}
+
+void CommonImpulseStepKernel::loadCheckpoint(ContextImpl& context, std::istream& stream) {
+    ContextSelector selector(cc);
+    stepper->loadCheckpoint(context, stream);
+}
+
+void CommonImpulseStepKernel::saveContextState(ContextImpl& context, bool withParameters) {
+    ContextSelector selector(cc);
+    stepper->saveContextState(context, withParameters);
+}
+
+void CommonImpulseStepKernel::forgetStepHistory() {
+    stepper->forgetStepHistory();
+}

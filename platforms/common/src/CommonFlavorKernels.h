@@ -1,0 +1,153 @@
+#ifndef OPENMM_FLAVORS_COMMON_FLAVOR_KERNELS_H_
+#define OPENMM_FLAVORS_COMMON_FLAVOR_KERNELS_H_
+
+#include "ContextRollback.h"
+#include "FlavorKernels.h"
+#include "ParticleFlows.h"
+#include "StepHistory.h"
+#include "StiffModes.h"
+#include "StiffProbe.h"
+#include "internal/FlowSchedule.h"
+#include "openmm/System.h"
+#include "openmm/common/ComputeArray.h"
+#include "openmm/common/ComputeContext.h"
+#include "openmm/common/ComputeKernel.h"
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace FlavorPlugin {
+
+/**
+ * The step engine on a platform of OpenMM's common compute API (OpenCL; CUDA would use the same class): executes the
+ * passes of a StepPlan with kernels from kernels/flowPasses.cc.  Kick, Drift and Thermostat passes, System
+ * constraints and virtual sites through IntegrationUtilities, and the exact stiff flow (StiffFlow, with a fused kick)
+ * one component per work-item; the same counter-based normals as CounterRandom, so a double-precision trajectory
+ * follows the Reference one to rounding.  Force slots hold copies of the platform's forces in the System's particle
+ * order, so they survive the Context's reordering of atoms.  Steps whose sub-flows it does not have yet are rejected
+ * by setSchedule(), naming the setting that asks for them.
+ */
+class CommonFlowStepper {
+public:
+    /** owner and platformName name the integrator and the platform in messages. */
+    CommonFlowStepper(OpenMM::ComputeContext& cc, const OpenMM::System& system, std::string owner,
+                      std::string platformName);
+    ~CommonFlowStepper();
+    /**
+     * Sets the schedule of one step; cheap when nothing changed.  unsupported(kind) names the setting that asks for a
+     * sub-flow kind this backend does not have yet (the exception says so).
+     */
+    void setSchedule(const Schedule& schedule, const std::function<std::string(SubFlow::Kind)>& unsupported);
+    /** Sets the decomposed stiff potential that StiffFlow applies and uploads its constant parts. */
+    void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    /** Restricts the thermostats to the given particles; an empty list means every particle. */
+    void setFrictionParticles(const std::vector<int>& particles);
+    /** Sets the seed of the random streams and restarts them. */
+    void setRandomSeed(std::uint64_t seed);
+    /** Takes one step and advances the Context's time by stepSize and its step count by one. */
+    void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
+    double kineticEnergy();
+    void createCheckpoint(std::ostream& stream) const;
+    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream);
+    void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
+    void forgetStepHistory() { history.forget(); }
+
+private:
+    /** Analyses the schedule, checks that every sub-flow is supported and precomputes the constants of each pass. */
+    void prepare();
+    /** Evaluates the forces of a slot (virtual sites placed first) unless they are valid. */
+    void ensureForces(OpenMM::ContextImpl& context, int slot);
+    void placeVirtualSites();
+    void invalidateForces();
+    void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
+    void runStiffFlow(const FlowPass& pass, size_t passIndex);
+    /** Adds the key and ziggurat arguments of the random streams to a kernel. */
+    void addRandomArgs(OpenMM::ComputeKernel& kernel);
+
+    OpenMM::ComputeContext& cc;
+    const OpenMM::System& system;
+    std::string owner, platformName;
+    int numParticles;
+    bool hasConstraints, hasVirtualSites, virtualSitesPlaced = false;
+    std::function<std::string(SubFlow::Kind)> unsupported;
+    Schedule schedule;
+    StepPlan plan;
+    std::shared_ptr<const StiffModes> modes;
+    std::vector<int> frictionParticles;
+    bool frictionParticlesSet = false;
+    std::uint64_t seed = 0, nextStream = 0;
+    StepHistory history;
+    ContextRollback rollback;
+
+    OpenMM::ComputeProgram program;
+    OpenMM::ComputeKernel copyForcesKernel, findAtomsKernel, driftDisplacementKernel, applyDisplacementKernel;
+    std::vector<OpenMM::ComputeArray> slotForces;
+    std::vector<bool> slotValid;
+    OpenMM::ComputeArray kn, wn, fn, thermalSpeed, thermostated, slotOf;
+    // Per pass, per flow: the kernel with its arguments set (the stream of a thermostat is set per step).
+    std::vector<std::vector<OpenMM::ComputeKernel>> passKernels;
+    // The stiff components: their table, particles, eigenvectors, masses, scratch, and per StiffFlow pass its
+    // propagator with its offsets and whether it is noisy.
+    OpenMM::ComputeArray components, componentLayout, componentParticles, eigenvectors, eigenvectorOffset, sqrtMass,
+        scratch, scratchOffset;
+    std::vector<OpenMM::ComputeArray> propagators, propagatorOffsets;
+    std::vector<int> propagatorNoisy;
+    int fusedSlot = -1;
+    double fusedStep = 0.0;
+};
+
+/** The FlavorIntegrator kernel of the common compute platforms: the nonintrusive averaging. */
+class CommonFlavorStepKernel : public IntegrateFlavorStepKernel {
+public:
+    CommonFlavorStepKernel(std::string name, const OpenMM::Platform& platform, OpenMM::ComputeContext& cc)
+        : IntegrateFlavorStepKernel(name, platform), cc(cc) {}
+    void initialize(const OpenMM::System& system, const FlavorIntegrator& integrator) override;
+    void execute(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
+                 bool& stiffModesValid) override;
+    double computeKineticEnergy(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator) override;
+    void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
+    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
+    void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
+    void forgetStepHistory() override;
+    int getFrozenSet() const override { return (int)SubFlow::FrozenSet::None; }
+
+private:
+    OpenMM::ComputeContext& cc;
+    std::unique_ptr<CommonFlowStepper> stepper;
+    bool configured = false;
+    FlavorParameters parameters;
+};
+
+/** The StochasticImpulseIntegrator kernel of the common compute platforms: the LieTrotter, Strang and Yoshida4 steps.
+ */
+class CommonImpulseStepKernel : public IntegrateStochasticImpulseStepKernel {
+public:
+    CommonImpulseStepKernel(std::string name, const OpenMM::Platform& platform, OpenMM::ComputeContext& cc)
+        : IntegrateStochasticImpulseStepKernel(name, platform), cc(cc) {}
+    void initialize(const OpenMM::System& system, const StochasticImpulseIntegrator& integrator) override;
+    void execute(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
+                 bool& stiffModesValid) override;
+    std::vector<double> getStiffModeFrequencies(OpenMM::ContextImpl& context,
+                                                const StochasticImpulseIntegrator& integrator,
+                                                bool& stiffModesValid) override;
+    double computeKineticEnergy(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator) override;
+    void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
+    void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
+    void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
+    void forgetStepHistory() override;
+
+private:
+    void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);
+    OpenMM::ComputeContext& cc;
+    std::unique_ptr<CommonFlowStepper> stepper;
+    std::unique_ptr<StiffModesMeasurement> measurement;
+    bool configured = false;
+    ImpulseParameters parameters;
+};
+
+} // namespace FlavorPlugin
+
+#endif

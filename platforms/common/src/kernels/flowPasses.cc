@@ -1,0 +1,409 @@
+/**
+ * The particle flows of the step engine on OpenMM's common compute platforms, in the common kernel language: kicks,
+ * drifts, Ornstein-Uhlenbeck flows and the exact stiff flow of one component per work-item, with the counter-based
+ * normals of openmmapi/include/internal/CounterRandom.h (Philox4x32-10 and the same ziggurat), so that a
+ * double-precision trajectory follows the Reference platform's to rounding.
+ *
+ * Arrays indexed by particle in the System's order are marked "system order"; posq, velm and the force buffer are in
+ * the Context's atom order, and atomIndex maps an atom to its particle (slotOf the other way).
+ *
+ * Defines: NUM_ATOMS, PADDED_NUM_ATOMS.
+ */
+
+#ifdef __OPENCL_VERSION__
+// Each product and sum rounded as the CPU engine rounds it.
+#pragma OPENCL FP_CONTRACT OFF
+#endif
+
+#define ZIGGURAT_TAIL_START ((mixed) 3.442619855899)
+#define FORCE_SCALE ((mixed) (1.0 / 4294967296.0))
+#define MAX_SMALL_SIZE 18
+
+/** Philox4x32-10 (Salmon et al., SC'11) of the counter c with the key (k0, k1), in place. */
+DEVICE void philox4x32(unsigned int* c, unsigned int k0, unsigned int k1) {
+    for (int round = 0; round < 10; ++round) {
+        const mm_ulong p0 = (mm_ulong) 0xD2511F53u * c[0];
+        const mm_ulong p1 = (mm_ulong) 0xCD9E8D57u * c[2];
+        const unsigned int c0 = (unsigned int) (p1 >> 32) ^ c[1] ^ k0;
+        const unsigned int c1 = (unsigned int) p1;
+        const unsigned int c2 = (unsigned int) (p0 >> 32) ^ c[3] ^ k1;
+        const unsigned int c3 = (unsigned int) p0;
+        c[0] = c0;
+        c[1] = c1;
+        c[2] = c2;
+        c[3] = c3;
+        k0 += 0x9E3779B9u;
+        k1 += 0xBB67AE85u;
+    }
+}
+
+/** Further random words of one counter, one block at a time (CounterRandom's Spare). */
+typedef struct {
+    unsigned int counter[4], words[4];
+    int used;
+    unsigned int k0, k1;
+} SpareWords;
+
+DEVICE unsigned int nextSpareWord(SpareWords* spare) {
+    if (spare->used == 4) {
+        spare->counter[3]++;
+        for (int k = 0; k < 4; ++k)
+            spare->words[k] = spare->counter[k];
+        philox4x32(spare->words, spare->k0, spare->k1);
+        spare->used = 0;
+    }
+    return spare->words[spare->used++];
+}
+
+DEVICE mixed uniformOpen(unsigned int x) {
+    return ((mixed) x + (mixed) 0.5) * (mixed) (1.0 / 4294967296.0);
+}
+
+/** One standard normal number from a signed 32-bit value and a layer by the 128-layer ziggurat. */
+DEVICE mixed zigguratNormal(int value, unsigned int layer, SpareWords* spare, GLOBAL const unsigned int* RESTRICT kn,
+        GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+    while (true) {
+        const mm_long magnitude = value < 0 ? -(mm_long) value : (mm_long) value;
+        const mixed x = (mixed) value * wn[layer];
+        if (magnitude < (mm_long) kn[layer])
+            return x;
+        if (layer == 0) {
+            mixed tailX, tailY;
+            do {
+                tailX = -log(uniformOpen(nextSpareWord(spare))) / ZIGGURAT_TAIL_START;
+                tailY = -log(uniformOpen(nextSpareWord(spare)));
+            } while (tailY + tailY < tailX * tailX);
+            return value > 0 ? ZIGGURAT_TAIL_START + tailX : -ZIGGURAT_TAIL_START - tailX;
+        }
+        if (fn[layer] + uniformOpen(nextSpareWord(spare)) * (fn[layer - 1] - fn[layer]) < exp((mixed) -0.5 * x * x))
+            return x;
+        value = (int) nextSpareWord(spare);
+        layer = nextSpareWord(spare) & 127;
+    }
+}
+
+/** The three normal numbers of one particle in one stream (CounterRandom::normals). */
+DEVICE void counterNormals(mm_ulong stream, unsigned int particle, unsigned int k0, unsigned int k1,
+        GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn,
+        mixed* result) {
+    unsigned int bits[4] = {(unsigned int) stream, (unsigned int) (stream >> 32), particle, 0};
+    philox4x32(bits, k0, k1);
+    SpareWords spare;
+    spare.counter[0] = (unsigned int) stream;
+    spare.counter[1] = (unsigned int) (stream >> 32);
+    spare.counter[2] = particle;
+    spare.counter[3] = 0;
+    spare.used = 4;
+    spare.k0 = k0;
+    spare.k1 = k1;
+    for (int k = 0; k < 3; ++k)
+        result[k] = zigguratNormal((int) bits[k], (bits[3] >> (7 * k)) & 127, &spare, kn, wn, fn);
+}
+
+DEVICE mixed4 loadPosition(GLOBAL const real4* RESTRICT posq, GLOBAL const real4* RESTRICT posqCorrection, int atom) {
+#ifdef USE_MIXED_PRECISION
+    const real4 p1 = posq[atom];
+    const real4 p2 = posqCorrection[atom];
+    return make_mixed4(p1.x + (mixed) p2.x, p1.y + (mixed) p2.y, p1.z + (mixed) p2.z, p1.w);
+#else
+    return posq[atom];
+#endif
+}
+
+DEVICE void storePosition(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection, int atom, mixed4 pos) {
+#ifdef USE_MIXED_PRECISION
+    posq[atom] = make_real4((real) pos.x, (real) pos.y, (real) pos.z, (real) pos.w);
+    posqCorrection[atom] = make_real4(pos.x - (real) pos.x, pos.y - (real) pos.y, pos.z - (real) pos.z, 0);
+#else
+    posq[atom] = pos;
+#endif
+}
+
+/** Copies the platform's fixed-point forces into a force slot, in system order. */
+KERNEL void copyForces(GLOBAL const mm_long* RESTRICT force, GLOBAL mixed4* RESTRICT slot,
+        GLOBAL const int* RESTRICT atomIndex) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE)
+        slot[atomIndex[atom]] = make_mixed4(FORCE_SCALE * (mixed) force[atom],
+                FORCE_SCALE * (mixed) force[atom + PADDED_NUM_ATOMS],
+                FORCE_SCALE * (mixed) force[atom + 2 * PADDED_NUM_ATOMS], 0);
+}
+
+/** slotOf[particle] = the atom that holds it now. */
+KERNEL void findAtoms(GLOBAL const int* RESTRICT atomIndex, GLOBAL int* RESTRICT slotOf) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE)
+        slotOf[atomIndex[atom]] = atom;
+}
+
+/** v += h M^-1 F for the forces of one slot. */
+KERNEL void kick(GLOBAL mixed4* RESTRICT velm, GLOBAL const mixed4* RESTRICT slot,
+        GLOBAL const int* RESTRICT atomIndex, mixed h) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        mixed4 v = velm[atom];
+        if (v.w == 0)
+            continue;
+        const mixed4 f = slot[atomIndex[atom]];
+        const mixed scale = h * v.w;
+        v.x += scale * f.x;
+        v.y += scale * f.y;
+        v.z += scale * f.z;
+        velm[atom] = v;
+    }
+}
+
+/** q += h v; massless particles never move. */
+KERNEL void drift(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
+        GLOBAL const mixed4* RESTRICT velm, mixed h) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        const mixed4 v = velm[atom];
+        if (v.w == 0)
+            continue;
+        mixed4 pos = loadPosition(posq, posqCorrection, atom);
+        pos.x += h * v.x;
+        pos.y += h * v.y;
+        pos.z += h * v.z;
+        storePosition(posq, posqCorrection, atom, pos);
+    }
+}
+
+/** A constrained drift: its displacement h v, which IntegrationUtilities::applyConstraints() then corrects. */
+KERNEL void driftDisplacement(GLOBAL mixed4* RESTRICT posDelta, GLOBAL const mixed4* RESTRICT velm, mixed h) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        const mixed4 v = velm[atom];
+        posDelta[atom] = (v.w == 0 ? make_mixed4(0, 0, 0, 0) : make_mixed4(h * v.x, h * v.y, h * v.z, 0));
+    }
+}
+
+/** A constrained drift: moves by the corrected displacement and sets the velocity to the chord over the drift. */
+KERNEL void applyDisplacement(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
+        GLOBAL const mixed4* RESTRICT posDelta, GLOBAL mixed4* RESTRICT velm, mixed inverseTime) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        mixed4 v = velm[atom];
+        if (v.w == 0)
+            continue;
+        const mixed4 before = loadPosition(posq, posqCorrection, atom);
+        const mixed4 delta = posDelta[atom];
+        mixed4 pos = before;
+        pos.x += delta.x;
+        pos.y += delta.y;
+        pos.z += delta.z;
+        storePosition(posq, posqCorrection, atom, pos);
+        v.x = (pos.x - before.x) * inverseTime;
+        v.y = (pos.y - before.y) * inverseTime;
+        v.z = (pos.z - before.z) * inverseTime;
+        velm[atom] = v;
+    }
+}
+
+/**
+ * The exact Ornstein-Uhlenbeck flow v = decay v + noise sqrt(kT/m) xi of the thermostated particles (thermalSpeed:
+ * sqrt(kT/m), system order; thermostated: 1 or 0, system order).
+ */
+KERNEL void thermostat(GLOBAL mixed4* RESTRICT velm, GLOBAL const int* RESTRICT atomIndex,
+        GLOBAL const mixed* RESTRICT thermalSpeed, GLOBAL const int* RESTRICT thermostated, mixed decay, mixed noise,
+        mm_ulong stream, unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
+        GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        mixed4 v = velm[atom];
+        const int particle = atomIndex[atom];
+        if (v.w == 0 || thermostated[particle] == 0)
+            continue;
+        mixed xi[3];
+        counterNormals(stream, (unsigned int) particle, k0, k1, kn, wn, fn, xi);
+        const mixed scale = noise * thermalSpeed[particle];
+        v.x = v.x * decay + xi[0] * scale;
+        v.y = v.y * decay + xi[1] * scale;
+        v.z = v.z * decay + xi[2] * scale;
+        velm[atom] = v;
+    }
+}
+
+/** sum (D x C) += a (D x D) x (D x C), in the order of the CPU engine's propagateSmall. */
+DEVICE void addProduct(mixed* sum, GLOBAL const mixed* RESTRICT a, const mixed* x, int D, int C) {
+    for (int i = 0; i < D; ++i)
+        for (int j = 0; j < D; ++j)
+            for (int c = 0; c < C; ++c)
+                sum[i * C + c] += a[i * D + j] * x[j * C + c];
+}
+
+/**
+ * Reads one particle's position, velocity (after the fused kick, if kickStep is not 0) and, when noisy, its two noise
+ * vectors into 3-element slices.
+ */
+DEVICE void readStiffParticle(GLOBAL const real4* RESTRICT posq, GLOBAL const real4* RESTRICT posqCorrection,
+        GLOBAL const mixed4* RESTRICT velm, int atom, int particle, GLOBAL const mixed4* RESTRICT kickForces,
+        mixed kickStep, int noisy, mm_ulong stream, unsigned int k0, unsigned int k1,
+        GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn,
+        mixed* q, mixed* v, mixed* xi1, mixed* xi2) {
+    const mixed4 pos = loadPosition(posq, posqCorrection, atom);
+    mixed4 vel = velm[atom];
+    q[0] = pos.x;
+    q[1] = pos.y;
+    q[2] = pos.z;
+    v[0] = vel.x;
+    v[1] = vel.y;
+    v[2] = vel.z;
+    if (kickStep != 0) {
+        const mixed scale = kickStep * vel.w;
+        const mixed4 f = kickForces[particle];
+        v[0] += scale * f.x;
+        v[1] += scale * f.y;
+        v[2] += scale * f.z;
+    }
+    if (noisy) {
+        counterNormals(stream, 2 * (unsigned int) particle, k0, k1, kn, wn, fn, xi1);
+        counterNormals(stream, 2 * (unsigned int) particle + 1, k0, k1, kn, wn, fn, xi2);
+    }
+}
+
+DEVICE void writeStiffParticle(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
+        GLOBAL mixed4* RESTRICT velm, int atom, const mixed* q, const mixed* v) {
+    mixed4 pos = loadPosition(posq, posqCorrection, atom);
+    pos.x = q[0];
+    pos.y = q[1];
+    pos.z = q[2];
+    storePosition(posq, posqCorrection, atom, pos);
+    mixed4 vel = velm[atom];
+    vel.x = v[0];
+    vel.y = v[1];
+    vel.z = v[2];
+    velm[atom] = vel;
+}
+
+/**
+ * The exact flow of the quadratic stiff potential (StiffModes::Propagator), one component per work-item.
+ * components: per component (first particle in particles, number of particles, rows D, columns C); layout: per
+ * component 1 if its propagator is in particle space (PropagatorLayout), 0 if in mode space (ModeLayout, with its
+ * eigenvectors at eigenvectorOffset and 24 values per particle of scratch at scratchOffset); propagatorOffset: where
+ * each component's part of propagator starts.
+ */
+KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components, GLOBAL const int* RESTRICT layout,
+        GLOBAL const int* RESTRICT particles, GLOBAL const int* RESTRICT slotOf,
+        GLOBAL const mixed* RESTRICT propagator, GLOBAL const int* RESTRICT propagatorOffset,
+        GLOBAL const mixed* RESTRICT eigenvectors, GLOBAL const int* RESTRICT eigenvectorOffset,
+        GLOBAL const mixed* RESTRICT sqrtMass, GLOBAL mixed* RESTRICT scratch, GLOBAL const int* RESTRICT scratchOffset,
+        GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection, GLOBAL mixed4* RESTRICT velm,
+        GLOBAL const mixed4* RESTRICT kickForces, mixed kickStep, int noisy, mm_ulong stream, unsigned int k0,
+        unsigned int k1, GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn,
+        GLOBAL const mixed* RESTRICT fn) {
+    for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
+        const int4 comp = components[c];
+        const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w;
+        GLOBAL const mixed* m = propagator + propagatorOffset[c];
+        if (layout[c]) {
+            // Small: q' = Axx q + Axv v + gx + Nxx xi1, v' = Avx q + Avv v + gv + Nvx xi1 + Nvv xi2 (D x D matrices).
+            mixed q[MAX_SMALL_SIZE], v[MAX_SMALL_SIZE], xi1[MAX_SMALL_SIZE], xi2[MAX_SMALL_SIZE];
+            mixed newQ[MAX_SMALL_SIZE], newV[MAX_SMALL_SIZE];
+            for (int p = 0; p < numParticles; ++p) {
+                const int particle = particles[first + p];
+                readStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, kickForces, kickStep, noisy,
+                        stream, k0, k1, kn, wn, fn, q + 3 * p, v + 3 * p, xi1 + 3 * p, xi2 + 3 * p);
+            }
+            const int DD = D * D, DC = D * C;
+            GLOBAL const mixed* gx = m + 4 * DD;
+            GLOBAL const mixed* gv = gx + DC;
+            GLOBAL const mixed* noiseMatrices = gv + DC;
+            for (int k = 0; k < DC; ++k) {
+                newQ[k] = gx[k];
+                newV[k] = gv[k];
+            }
+            addProduct(newQ, m, q, D, C);
+            addProduct(newQ, m + DD, v, D, C);
+            if (noisy)
+                addProduct(newQ, noiseMatrices, xi1, D, C);
+            addProduct(newV, m + 2 * DD, q, D, C);
+            addProduct(newV, m + 3 * DD, v, D, C);
+            if (noisy) {
+                addProduct(newV, noiseMatrices + DD, xi1, D, C);
+                addProduct(newV, noiseMatrices + 2 * DD, xi2, D, C);
+            }
+            for (int p = 0; p < numParticles; ++p)
+                writeStiffParticle(posq, posqCorrection, velm, slotOf[particles[first + p]], newQ + 3 * p,
+                        newV + 3 * p);
+            continue;
+        }
+        // Large: mass-weighted coordinates into mode space, each mode's 2 x 2 flow and noise, and back.
+        GLOBAL const mixed* u = eigenvectors + eigenvectorOffset[c];
+        const int width = (noisy ? 4 : 2) * C;
+        GLOBAL mixed* particleSpace = scratch + scratchOffset[c];
+        GLOBAL mixed* modeSpace = particleSpace + D * width;
+        for (int p = 0; p < numParticles; ++p) {
+            const int particle = particles[first + p];
+            mixed q[3], v[3], xi1[3], xi2[3];
+            readStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, kickForces, kickStep, noisy,
+                    stream, k0, k1, kn, wn, fn, q, v, xi1, xi2);
+            const mixed s = sqrtMass[particle];
+            for (int d = 0; d < 3; ++d) {
+                GLOBAL mixed* row = particleSpace + (C == 3 ? p * width + d : (3 * p + d) * width);
+                row[0] = s * q[d];
+                row[C] = s * v[d];
+                if (noisy) {
+                    row[2 * C] = xi1[d];
+                    row[3 * C] = xi2[d];
+                }
+            }
+        }
+        // modeSpace = U^T particleSpace.
+        for (int k = 0; k < D; ++k) {
+            GLOBAL const mixed* column = u + k * D;
+            for (int w = 0; w < width; ++w) {
+                mixed sum = 0;
+                for (int i = 0; i < D; ++i)
+                    sum += column[i] * particleSpace[i * width + w];
+                modeSpace[k * width + w] = sum;
+            }
+        }
+        const int perMode = noisy ? 7 : 4;
+        GLOBAL const mixed* gx = m + perMode * D;
+        GLOBAL const mixed* gv = gx + D * C;
+        for (int k = 0; k < D; ++k) {
+            GLOBAL const mixed* f = m + perMode * k;
+            GLOBAL const mixed* in = modeSpace + k * width;
+            GLOBAL mixed* out = particleSpace + k * 2 * C;
+            for (int col = 0; col < C; ++col) {
+                const mixed x = in[col], v = in[C + col];
+                mixed newX = f[0] * x + f[1] * v + gx[k * C + col];
+                mixed newV = f[2] * x + f[3] * v + gv[k * C + col];
+                if (noisy) {
+                    newX += f[4] * in[2 * C + col];
+                    newV += f[5] * in[2 * C + col] + f[6] * in[3 * C + col];
+                }
+                out[col] = newX;
+                out[C + col] = newV;
+            }
+        }
+        // modeSpace = U particleSpace, four modes at a time as the CPU engine's fromModes.
+        const int W = 2 * C;
+        for (int i = 0; i < D * W; ++i)
+            modeSpace[i] = 0;
+        int k = 0;
+        for (; k + 4 <= D; k += 4) {
+            GLOBAL const mixed* c0 = u + k * D;
+            GLOBAL const mixed* c1 = c0 + D;
+            GLOBAL const mixed* c2 = c1 + D;
+            GLOBAL const mixed* c3 = c2 + D;
+            GLOBAL const mixed* mode = particleSpace + k * W;
+            for (int i = 0; i < D; ++i)
+                for (int w = 0; w < W; ++w)
+                    modeSpace[i * W + w] +=
+                            c0[i] * mode[w] + c1[i] * mode[W + w] + c2[i] * mode[2 * W + w] + c3[i] * mode[3 * W + w];
+        }
+        for (; k < D; ++k) {
+            GLOBAL const mixed* column = u + k * D;
+            GLOBAL const mixed* mode = particleSpace + k * W;
+            for (int i = 0; i < D; ++i)
+                for (int w = 0; w < W; ++w)
+                    modeSpace[i * W + w] += column[i] * mode[w];
+        }
+        for (int p = 0; p < numParticles; ++p) {
+            const int particle = particles[first + p];
+            const mixed inverse = 1 / sqrtMass[particle];
+            mixed q[3], v[3];
+            for (int d = 0; d < 3; ++d) {
+                GLOBAL const mixed* row = modeSpace + (C == 3 ? p * 2 * C + d : (3 * p + d) * 2 * C);
+                q[d] = inverse * row[0];
+                v[d] = inverse * row[C];
+            }
+            writeStiffParticle(posq, posqCorrection, velm, slotOf[particle], q, v);
+        }
+    }
+}

@@ -1,0 +1,201 @@
+// The OpenCL backend against the Reference platform: in double precision the same counter-based noise and the same
+// arithmetic make every supported scheme follow the Reference trajectory to rounding, and every setting the backend
+// does not have yet is rejected by name.  Skipped where OpenMM has no OpenCL platform (no OpenCL driver) or this
+// build has no OpenCL backend.  One Context per platform and integrator, reused for every setting of that integrator
+// (PoCL compiles each program once per Context).
+
+#include "FlavorIntegrator.h"
+#include "StochasticImpulseIntegrator.h"
+#include "TestSystems.h"
+#include "openmm/Context.h"
+#include "openmm/OpenMMException.h"
+#include "openmm/State.h"
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <gtest/gtest.h>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+using namespace FlavorPlugin;
+using namespace FlavorTests;
+using namespace OpenMM;
+using std::string;
+using std::vector;
+
+namespace {
+
+constexpr int Steps = 45;
+/** nm: what double-precision rounding leaves after Steps steps of these small systems. */
+constexpr double Tolerance = 1e-7;
+
+bool haveOpenCL() {
+#ifdef FLAVORS_HAVE_OPENCL
+    try {
+        Platform::getPlatformByName("OpenCL");
+        return true;
+    } catch (const OpenMMException&) {
+    }
+#endif
+    return false;
+}
+
+/** Two FPU chains (m = 3, omega = 50) moving in all three directions. */
+struct FpuChains {
+    std::unique_ptr<System> system{fpuSystem(3, 50.0, 2)};
+    vector<Vec3> positions = fpuPositions({1, 0.2, -0.4}, {0.02, -0.01, 0.01}, 2), velocities;
+    FpuChains() {
+        for (size_t i = 0; i < positions.size(); ++i) {
+            positions[i][2] = 0.02 * std::cos(0.9 * i);
+            velocities.push_back(Vec3(0.2 * std::cos(0.4 * i), 0.1 * std::sin(1.7 * i), 0.07 * std::cos(1.1 * i)));
+        }
+    }
+};
+
+/** One integrator on Reference and on OpenCL (double precision), stepped side by side. */
+template <class IntegratorType> struct SideBySide {
+    std::unique_ptr<IntegratorType> reference, opencl;
+    std::unique_ptr<Context> referenceContext, openclContext;
+    SideBySide(const System& system, const std::function<IntegratorType*()>& make) : reference(make()), opencl(make()) {
+        referenceContext = std::make_unique<Context>(system, *reference, Platform::getPlatformByName("Reference"));
+        openclContext = std::make_unique<Context>(system, *opencl, Platform::getPlatformByName("OpenCL"),
+                                                  std::map<string, string>{{"Precision", "double"}});
+    }
+    /** Applies a setting to both integrators, starts both from the same state and returns the largest deviation. */
+    double run(const std::function<void(IntegratorType&)>& setting, const FpuChains& chains) {
+        double largest = 0.0;
+        setting(*reference);
+        setting(*opencl);
+        for (Context* context : {referenceContext.get(), openclContext.get()}) {
+            context->setTime(0.0);
+            context->setPositions(chains.positions);
+            context->setVelocities(chains.velocities);
+        }
+        reference->step(Steps);
+        opencl->step(Steps);
+        const State a = referenceContext->getState(State::Positions | State::Velocities);
+        const State b = openclContext->getState(State::Positions | State::Velocities);
+        for (size_t i = 0; i < a.getPositions().size(); ++i)
+            for (int d = 0; d < 3; ++d)
+                largest = std::max(largest, std::abs(a.getPositions()[i][d] - b.getPositions()[i][d]));
+        EXPECT_NEAR(a.getTime(), b.getTime(), 1e-12);
+        return largest;
+    }
+};
+
+void expectRejected(const std::function<void()>& step, const string& setting) {
+    try {
+        step();
+        ADD_FAILURE() << "no exception for " << setting;
+    } catch (const OpenMMException& e) {
+        EXPECT_NE(string(e.what()).find(setting), string::npos) << e.what();
+        EXPECT_NE(string(e.what()).find("OpenCL"), string::npos) << e.what();
+    }
+}
+
+} // namespace
+
+TEST(OpenCLBackend, NonintrusiveFlavorFollowsReferenceInDoublePrecision) {
+    if (!haveOpenCL())
+        GTEST_SKIP() << "no OpenCL platform";
+    using F = FlavorIntegrator;
+    FpuChains chains;
+    SideBySide<F> flavors(*chains.system, [] {
+        F* f = new F(0.02, 0.004, StiffMask);
+        f->setTemperature(300.0);
+        f->setRandomNumberSeed(31);
+        return f;
+    });
+    const std::map<string, std::function<void(F&)>> settings = {
+        {"verlet", [](F& f) { f.setScheme(F::Verlet); }},
+        {"euler", [](F& f) { f.setScheme(F::SymplecticEuler); }},
+        {"euler/langevin", [](F& f) { f.setFriction(5.0); }},
+        {"verlet/langevin",
+         [](F& f) {
+             f.setScheme(F::Verlet);
+             f.setFriction(5.0);
+         }},
+        {"verlet/stiff-friction", [](F& f) { f.setStiffFriction(true); }},
+        {"verlet/friction-particles",
+         [](F& f) {
+             f.setStiffFriction(false);
+             f.setFrictionParticles({0, 3, 7});
+         }},
+    };
+    // In this order: each setting adds to the last.
+    for (const char* name : {"verlet", "euler", "euler/langevin", "verlet/langevin", "verlet/stiff-friction",
+                             "verlet/friction-particles"}) {
+        const double deviation = flavors.run(settings.at(name), chains);
+        std::cout << "FLAVOR " << name << ": largest deviation from Reference " << deviation << " nm" << std::endl;
+        EXPECT_LE(deviation, Tolerance) << name;
+    }
+}
+
+TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
+    if (!haveOpenCL())
+        GTEST_SKIP() << "no OpenCL platform";
+    using S = StochasticImpulseIntegrator;
+    FpuChains chains;
+    SideBySide<S> sims(*chains.system, [] {
+        S* s = new S(300.0, 0.0, 0.02, StiffMask);
+        s->setRandomNumberSeed(37);
+        return s;
+    });
+    const vector<std::pair<string, std::function<void(S&)>>> settings = {
+        {"strang", [](S& s) { s.setSplitting(S::Strang); }},
+        {"strang/langevin", [](S& s) { s.setFriction(5.0); }},
+        {"strang/mode-bath",
+         [](S& s) {
+             s.setStiffModeTemperature(10.0);
+             s.setStiffModeFriction(20.0);
+         }},
+        {"lie-trotter/langevin", [](S& s) { s.setSplitting(S::LieTrotter); }},
+        {"yoshida4",
+         [](S& s) {
+             s.setFriction(0.0);
+             s.setStiffModeFriction(0.0);
+             s.setSplitting(S::Yoshida4);
+         }},
+    };
+    for (const auto& setting : settings) {
+        const double deviation = sims.run(setting.second, chains);
+        std::cout << "SIM " << setting.first << ": largest deviation from Reference " << deviation << " nm"
+                  << std::endl;
+        EXPECT_LE(deviation, Tolerance) << setting.first;
+    }
+}
+
+TEST(OpenCLBackend, RejectsWhatItDoesNotHaveByName) {
+    if (!haveOpenCL())
+        GTEST_SKIP() << "no OpenCL platform";
+    Platform& platform = Platform::getPlatformByName("OpenCL");
+    FpuChains chains;
+    {
+        FlavorIntegrator flavor(0.02, 0.004, StiffMask);
+        flavor.setAveraging(FlavorIntegrator::ArtificialProjected);
+        Context context(*chains.system, flavor, platform);
+        context.setPositions(chains.positions);
+        expectRejected([&] { flavor.step(1); }, "ArtificialProjected");
+    }
+    {
+        StochasticImpulseIntegrator sim(300.0, 5.0, 0.02, StiffMask);
+        Context context(*chains.system, sim, platform);
+        context.setPositions(chains.positions);
+        for (auto splitting : {StochasticImpulseIntegrator::Filtered, StochasticImpulseIntegrator::Warped}) {
+            sim.setSplitting(splitting);
+            expectRejected([&] { sim.step(1); },
+                           splitting == StochasticImpulseIntegrator::Filtered ? "Filtered" : "Warped");
+        }
+    }
+    {
+        std::unique_ptr<System> system(fpuSystem(3, 50.0, 2));
+        system->addConstraint(1, 2, 0.5);
+        StochasticImpulseIntegrator sim(300.0, 5.0, 0.02, StiffMask);
+        Context context(*system, sim, platform);
+        context.setPositions(chains.positions);
+        expectRejected([&] { sim.step(1); }, "constraints");
+    }
+}

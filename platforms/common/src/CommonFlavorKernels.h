@@ -112,7 +112,9 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
     void forgetStepHistory() override;
+    // The artificial averagings are not on this backend yet: nothing freezes.
     int getFrozenSet() const override { return (int)SubFlow::FrozenSet::None; }
+    int getNumFrozen() const override { return 0; }
 
 private:
     OpenMM::ComputeContext& cc;

@@ -16,19 +16,25 @@ def middle_flavor():
     return integrator
 
 
-def test_the_flavor_step_names_what_freezes_once_the_first_step_has_measured_it():
-    integrator = middle_flavor()
-    step = "K_S(τ) θK_S(δ−τ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)   [O: 300 K, 1/ps; θ holds "
-    assert integrator.describeStep() == step + ("the stiff modes if the stiff groups are quadratic, else their bonded "
-                                                "distances (measured at the first step)]")
+def water_context(integrator, waters):
+    """A Reference Context of flexible water, its bonds and angles stiff (group 1)."""
     forcefield = app.ForceField("tip3p.xml")
     modeller = app.Modeller(app.Topology(), [])
-    modeller.addSolvent(forcefield, model="tip3p", numAdded=20)
+    modeller.addSolvent(forcefield, model="tip3p", numAdded=waters)
     system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.NoCutoff, rigidWater=False)
     for force in system.getForces():
         force.setForceGroup(1 if isinstance(force, (openmm.HarmonicBondForce, openmm.HarmonicAngleForce)) else 0)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
     context.setPositions(modeller.positions)
+    return context
+
+
+def test_the_flavor_step_names_what_freezes_once_the_first_step_has_measured_it():
+    integrator = middle_flavor()
+    step = "K_S(τ) θK_S(δ−τ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)   [O: 300 K, 1/ps; θ holds "
+    assert integrator.describeStep() == step + ("the stiff modes if the stiff groups are quadratic, else their bonded "
+                                                "distances (measured at the first step)]")
+    context = water_context(integrator, 20)
     integrator.step(1)
     # 20 waters: two bonds and the H-H distance of the angle each.
     assert integrator.describeStep() == step + "the 60 stiff bonded distances]"
@@ -52,16 +58,9 @@ def test_the_sim_step_names_its_splitting_placement_and_baths():
 
 def test_describe_context_lists_every_force_with_its_role_and_what_freezes():
     integrator = middle_flavor()
-    forcefield = app.ForceField("tip3p.xml")
-    modeller = app.Modeller(app.Topology(), [])
-    modeller.addSolvent(forcefield, model="tip3p", numAdded=10)
-    system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.NoCutoff, rigidWater=False)
-    for force in system.getForces():
-        force.setForceGroup(1 if isinstance(force, (openmm.HarmonicBondForce, openmm.HarmonicAngleForce)) else 0)
     with pytest.raises(openmm.OpenMMException, match="bound to a Context"):
         integrator.describeContext()
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
-    context.setPositions(modeller.positions)
+    context = water_context(integrator, 10)
     text = integrator.describeContext()
     assert text.startswith("FlavorIntegrator, mesostep δ = 2 fs, microstep τ = 0.5 fs\nstep: K_S(τ)")
     assert "force 0 (HarmonicBondForce, force group 1): stiff" in text
@@ -87,7 +86,8 @@ def test_describe_context_gives_the_stiff_modes_and_omega_h():
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("Reference"))
     context.setPositions([openmm.Vec3(0, 0, 0), openmm.Vec3(0.001, 0, 0), openmm.Vec3(0.3, 0, 0)])
     text = integrator.describeContext()
-    # The Drude-like pair's relative mode: omega = sqrt(k/mu) = 1035.8/ps (mu = 0.39 amu), 3 directions; omega H = 0.8242 pi.
+    # The Drude-like pair's relative mode: omega = sqrt(k/mu) = 1035.8/ps (mu = 0.39 amu), 3 directions,
+    # omega H = 0.8242 pi.
     assert "force 0 (HarmonicBondForce, force group 1): stiff\n" in text
     assert "force 1 (CustomExternalForce, force group 0): soft\n" in text
     assert "stiff modes: 3, ω from 1036 to 1036 /ps, ωH from 0.8242π to 0.8242π\n" in text

@@ -223,18 +223,40 @@ def blew_up(run, reference):
             or abs(run["induced_ratio"][0] - reference["induced_ratio"][0]) > 0.5)
 
 
+SHORT_NAMES = {"induced_ratio": "induced/SCF", "dipole": "dipole", "pe_per_molecule": "PE", "g_oo_peak": "g_OO peak",
+               "t_com": "T_COM", "t_drude": "T_Drude"}
+
+
 def verdict(runs, reference_label):
-    """The title's verdict: the fastest SIM run within the reference's error bars on every observable."""
-    good = [r for r in runs.values() if r["integrator"] != "DrudeLangevin" and
-            all(r.get("within_error_of_reference", {}).values()) and r.get("within_error_of_reference")]
+    """The title's verdict: the fastest SIM run within 2 s.e. of the reference on every observable (the JSON's
+    within_error_of_reference), or else the SIM run off in the fewest observables, which it names (and whether
+    DrudeLangevin at its smallest further step is off in them too)."""
+    def misses(run):
+        return [key for key, _ in OBSERVABLES if not run.get("within_error_of_reference", {}).get(key, False)]
+
+    sims = [r for r in runs.values() if r["integrator"] != "DrudeLangevin" and r.get("within_error_of_reference")]
     baseline = runs.get("DrudeLangevin_1fs")
-    if not good:
-        return "no SIM run is within the reference's error bars on every observable"
-    best = max(good, key=lambda r: r["ns_per_day"])
-    speed = (f" at {best['ns_per_day'] / baseline['ns_per_day']:.2f}× the speed of DrudeLangevin H = 1 fs"
-             if baseline else "")
-    return (f"SIM {best['integrator']} H = {best['step_fs']:g} fs is within the reference's error bars on every "
-            f"observable{speed}")
+
+    def speed(run):
+        return (f" ({run['ns_per_day'] / baseline['ns_per_day']:.2f}× the speed of DrudeLangevin H = 1 fs)"
+                if baseline else "")
+
+    good = [r for r in sims if not misses(r)]
+    if good:
+        best = max(good, key=lambda r: r["ns_per_day"])
+        return (f"SIM {best['integrator']} H = {best['step_fs']:g} fs is within 2 s.e. of the reference on every "
+                f"observable{speed(best)}")
+    if not sims:
+        return "no SIM run completed"
+    closest = min(sims, key=lambda r: (len(misses(r)), -r["ns_per_day"]))
+    off = misses(closest)
+    text = (f"no SIM run is within 2 s.e. of the reference on every observable; closest: {closest['integrator']} "
+            f"H = {closest['step_fs']:g} fs{speed(closest)}, off only in " + ", ".join(SHORT_NAMES[k] for k in off))
+    peers = sorted((r for label, r in runs.items() if r["integrator"] == "DrudeLangevin" and label != reference_label
+                    and r.get("within_error_of_reference")), key=lambda r: r["step_fs"])
+    if peers and set(off) <= set(misses(peers[0])):
+        text += f", as is DrudeLangevin H = {peers[0]['step_fs']:g} fs"
+    return text
 
 
 def plot(data, path):
@@ -267,7 +289,7 @@ def plot(data, path):
                                 xytext=(4, -10 if value > high else 4), fontsize=7, color="tab:red")
         ax.set_ylim(low, high)
         ax.set_xticks(range(len(labels)))
-        ax.set_xticklabels(ticks, rotation=90, fontsize=7)
+        ax.set_xticklabels(ticks, rotation=90, fontsize=9)
         ax.set_ylabel(title)
     ax = axes.flat[6]
     for index, label in enumerate(labels):
@@ -280,18 +302,22 @@ def plot(data, path):
     if kept:
         ax.set_ylim(0, 1.15 * max(kept))
     ax.set_xticks(range(len(labels)))
-    ax.set_xticklabels(ticks, rotation=90, fontsize=7)
+    ax.set_xticklabels(ticks, rotation=90, fontsize=9)
     ax.set_ylabel("speed (ns/day, CPU platform, 2 threads)")
     ax = axes.flat[7]
     r = np.array(data["g_oo_r_nm"])
+    styles = {}  # runs of one integrator told apart by line style
     for label in labels:
         run = runs[label]
         if label not in blown:
-            ax.plot(r, run["g_oo"], color=colors[run["integrator"]], lw=0.8, alpha=0.7,
+            style = ("-", "--", ":", "-.")[styles.setdefault(run["integrator"], 0) % 4]
+            styles[run["integrator"]] += 1
+            ax.plot(r, run["g_oo"], color=colors[run["integrator"]], ls=style, lw=1.0, alpha=0.8,
                     label=f"{run['integrator']} H = {run['step_fs']:g} fs")
     ax.set_xlabel("r (nm)")
     ax.set_ylabel("g_OO(r)")
-    ax.legend(fontsize=6, ncol=2, loc="lower right")
+    # Below the panel (its neighbours have their tick labels there), so that it hides no curve.
+    ax.legend(fontsize=9, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False)
     failed = [f"{r['integrator']} H = {r['step_fs']:g} fs (NaN)" for r in data.get("failed_runs", [])]
     failed += [f"{runs[lb]['integrator']} H = {runs[lb]['step_fs']:g} fs (blew up: ▲▼ × hollow bar)"
                for lb in labels if lb in blown]
@@ -302,11 +328,11 @@ def plot(data, path):
                   "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement"}
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
     fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
-                 f"{verdict(runs, data['reference'])}\n"
                  "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
-                 ") against DrudeLangevinIntegrator (black); Drude modes at 1 K, 20/ps; error bars ±1 s.e. of block "
-                 "means", fontsize=11)
-    fig.tight_layout(rect=(0, 0.03, 1, 0.96))
+                 ") against DrudeLangevinIntegrator (black), reference DrudeLangevin H = "
+                 f"{reference['step_fs']:g} fs\n{verdict(runs, data['reference'])}\n"
+                 "Drude modes at 1 K, 20/ps; error bars ±1 s.e. of block means", fontsize=11)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.94))
     reporting.save_figure(fig, path, 110)
 
 

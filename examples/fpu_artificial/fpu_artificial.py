@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import os
+import re
 import time
 
 import numpy as np
@@ -189,31 +190,84 @@ def long_time(args):
     reporting.save_outputs(args.out, "fpu_long", result, lambda path: plot_long(result, path))
 
 
+def run_label(name):
+    """A run's name in the charts' notation, with the steps' units: "δ=0.002 τ=0.0005" as "δ = 0.002 ps, τ = 0.0005 ps",
+    "H=0.002" as "H = 0.002 ps" (the SIM step), "h=1e-4" as "h = 1e-4 ps" (the Verlet step)."""
+    label = re.sub(r"([δτHh])=([0-9.e-]+)", r"\1 = \2 ps", name)
+    return label.replace("ps τ", "ps, τ")
+
+
+def initial_energy():
+    """E(0): the total energy (6.7) of the start, at rest (every run starts there)."""
+    q = np.array([p.x for p in start_positions()])
+    return float(total_energy(q, np.zeros_like(q)))
+
+
+def long_verdict(result):
+    """The title's verdict: whether every run stayed finite and its energy error E(t) - E(0) did not grow from the
+    first to the second half of the run, with each run's largest |E(t) - E(0)| / E(0)."""
+    start = initial_energy()
+    parts, bounded = [], True
+    for name, run in result["runs"].items():
+        energy = np.array(run["H"], dtype=float)
+        short = name.split(" ")[0]
+        if not run["stable"] or not len(energy) or not np.all(np.isfinite(energy)):
+            parts.append("%s blew up" % short)
+            bounded = False
+            continue
+        excursion = np.abs(energy - start)
+        half = len(excursion) // 2
+        grows = bool(half) and excursion[half:].max() > 2 * excursion[:half].max()
+        bounded = bounded and not grows
+        parts.append("%s %.2g %%%s" % (short, 100 * excursion.max() / abs(start), " and growing" if grows else ""))
+    head = ("all three stay bounded (the energy error does not grow from the first half to the second)" if bounded
+            else "not every run stays bounded")
+    return "%s; largest |E(t) − E(0)|/E(0): %s" % (head, ", ".join(parts))
+
+
+def power_of_ten(n):
+    """n as "2·10⁷" (or as it is below 1000)."""
+    if n < 1000:
+        return "%d" % n
+    exponent = int(math.floor(math.log10(n)))
+    mantissa = n / 10 ** exponent
+    digits = str(exponent).translate(str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻"))
+    return ("%.3g·10%s" % (mantissa, digits)) if round(mantissa, 3) != 1 else "10" + digits
+
+
 def plot_long(result, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = reporting.pyplot()
     times = np.array(result["times"])
-    fig, axes = plt.subplots(len(result["runs"]), 2, figsize=(16, 3.6 * len(result["runs"])), squeeze=False)
+    start = initial_energy()
+    fig, axes = plt.subplots(len(result["runs"]), 2, figsize=(16, 3.6 * len(result["runs"]) + 1.2), squeeze=False)
+    lines = []
     for row, (name, run) in enumerate(result["runs"].items()):
         energies = np.array(run["I"])
+        title = "%s: %s steps in %.0f s" % (run_label(name), power_of_ten(run["steps"]), run["wall_s"])
         ax = axes[row, 0]
-        for j in range(M):
-            ax.plot(times[:len(energies)], energies[:, j], lw=0.8, label="$I_%d$" % (j + 1))
-        ax.set_ylabel("stiff spring energy $I_j$ (kJ/mol)")
-        ax.set_title(name)
-        ax.legend(fontsize=8, loc="upper right")
+        lines = [ax.plot(times[:len(energies)], energies[:, j], lw=0.8, label="$I_%d$" % (j + 1))[0]
+                 for j in range(M) if len(energies)]
+        ax.set_ylabel("stiff spring energy $I_j$ (kJ/mol)", fontsize=10)
+        ax.set_title(title, fontsize=11)
         ax = axes[row, 1]
-        ax.plot(times[:len(run["H"])], np.array(run["H"]) - run["H"][0], "k", lw=0.8)
-        ax.set_ylabel("H(t) − H(first sample) (kJ/mol)")
-        ax.set_title(name + ": total energy")
+        ax.plot(times[:len(run["H"])], np.array(run["H"]) - start, "k", lw=0.8)
+        ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+        ax.set_ylabel("E(t) − E(0) (kJ/mol)", fontsize=10)
+        ax.set_title("%s: total energy E" % name.split(" ")[0], fontsize=11)
     for ax in axes[-1]:
-        ax.set_xlabel("t (ps; eq. 6.7 in units 1 amu, 1 nm, 1 ps)")
-    fig.suptitle("FPU chain (m = 3, ω = %g) over T = ω² = %g: energy exchange among the stiff springs and total energy "
-                 "(FLAVORS paper, Fig. 6.8)" % (result["omega"], result["T"]))
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
+        ax.set_xlabel("t (ps)", fontsize=10)
+    # One legend for the three springs, below the panels, so that it hides no line.
+    fig.legend(lines, ["$I_%d$, stiff spring %d" % (j + 1, j + 1) for j in range(len(lines))], loc="lower center",
+               ncol=M, fontsize=10, frameon=False, bbox_to_anchor=(0.5, 0.012))
+    fig.text(0.01, 0.005, "Eq. (6.7) in OpenMM units (masses 1 amu, lengths in nm, t in ps, energies in kJ/mol); "
+             "E: the total energy of (6.7), sampled every %g ps; E(0) = %.6f kJ/mol, the start at rest." % (
+                 times[1] - times[0] if len(times) > 1 else 0, start),
+             fontsize=9)
+    fig.suptitle("FPU chain (m = 3, ω = %g/ps) over T = %g ps (ω² in the paper's units; FLAVORS paper, Fig. 6.8): "
+                 "FLAVOR, the impulse method (SIM) and Verlet, no reference\n%s" % (result["omega"], result["T"], long_verdict(result)),
+                 fontsize=12)
+    fig.tight_layout(rect=(0, 0.05, 1, 0.95))
+    reporting.save_figure(fig, path, 80)
 
 
 def plot(result, path):
@@ -237,8 +291,7 @@ def plot(result, path):
     fig.suptitle("FPU chain (m = 3, ω = %g): energy exchange among the stiff springs, FLAVOR averagings (δ = 0.002) "
                  "against velocity Verlet (h = 1e-5)" % result["omega"])
     fig.tight_layout(rect=(0, 0.1, 1, 1))
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    reporting.save_figure(fig, path, 90)
 
 
 if __name__ == "__main__":

@@ -217,8 +217,7 @@ def plot(records, path):
     fig.suptitle("Flexible TIP3P water (1,503 atoms, PME, 300 K): FLAVOR averagings against OpenMM's Langevin "
                  "integrators, block-average error bars")
     fig.tight_layout(rect=(0, 0.02, 1, 1))
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    reporting.save_figure(fig, path, dpi=90)
 
 
 def main():

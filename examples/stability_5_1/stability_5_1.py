@@ -159,8 +159,7 @@ def plot_errors(result, path):
     fig.suptitle("Errors of the SymplecticEuler FLAVORs on system (5.1), ω = %g, against its exact solution "
                  "(FLAVORS paper, Fig. 5.2)" % result["omega"])
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    reporting.save_figure(fig, path, dpi=90)
 
 
 def one_step_matrix(artificial, delta, tau):
@@ -269,8 +268,7 @@ def plot(result, deltas, ratios, path):
     fig.suptitle("Stability domains on system (5.1), found by running FlavorIntegrator for %d mesosteps "
                  "(FLAVORS paper, Fig. 5.1)" % result["steps"])
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    reporting.save_figure(fig, path, dpi=100)
 
 
 if __name__ == "__main__":

@@ -31,7 +31,8 @@ fail() {
 }
 
 [ -f benchmarks/device_check.sh ] || fail "run it from the repository root"
-[ -x "$BUILD/tests/TestFlavorsPlatforms" ] || fail "$BUILD/tests/TestFlavorsPlatforms is missing: run 'make build' first"
+[ -x "$BUILD/tests/TestFlavorsPlatforms" ] ||
+    fail "$BUILD/tests/TestFlavorsPlatforms is missing: run 'make build' first"
 mkdir -p "$OUT" || fail "cannot create $OUT"
 started=$(date +%s)
 
@@ -44,7 +45,7 @@ if ls /etc/OpenCL/vendors/*.icd >/dev/null 2>&1; then
 else
     echo "  none"
 fi
-[ -n "${OCL_ICD_VENDORS:-}" ] && echo "  (OCL_ICD_VENDORS=$OCL_ICD_VENDORS: the OpenCL loader reads the ICDs there instead)"
+[ -n "${OCL_ICD_VENDORS:-}" ] && echo "  (OCL_ICD_VENDORS=$OCL_ICD_VENDORS: the loader reads the ICDs there instead)"
 if command -v nvidia-smi >/dev/null 2>&1; then
     echo "nvidia-smi: $(nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>&1 | head -4 | tr '\n' ';')"
 fi
@@ -176,8 +177,10 @@ EOF
 
 echo
 echo "== summary ($OUT/device_check.json)"
-echo "  OpenCL tests: $([ $tests_status -eq 0 ] && echo passed || echo "FAILED (exit $tests_status)") in ${tests_seconds} s"
-echo "  benchmark:    $([ $bench_status -eq 0 ] && echo done || echo "FAILED (exit $bench_status)") in ${bench_seconds} s"
+tests_result=$([ $tests_status -eq 0 ] && echo passed || echo "FAILED (exit $tests_status)")
+bench_result=$([ $bench_status -eq 0 ] && echo done || echo "FAILED (exit $bench_status)")
+echo "  OpenCL tests: $tests_result in ${tests_seconds} s"
+echo "  benchmark:    $bench_result in ${bench_seconds} s"
 [ $tests_status -eq 0 ] || fail "the OpenCL tests failed: see $OUT/opencl_tests.log"
 [ $bench_status -eq 0 ] || fail "the OpenCL benchmark failed: see $OUT/opencl_benchmark.stderr.log"
 echo "device_check: OK"

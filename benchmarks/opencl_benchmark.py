@@ -5,7 +5,7 @@ in interleaved batches (flavorbench.runners.time_batches: every peer steps one b
 machine's load hits them alike).  Each batch ends with a download of the velocities, so that the OpenCL queue has
 drained before the clock stops.
 
-Scenes (each in every precision of --precision, "mixed" being OpenMM's default on OpenCL):
+Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
   drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs.  The scene's SIM
                   peer (Warped splitting, Middle placement, 2.5 fs, on rigid water) is NOT available on OpenCL yet: the
                   Warped splitting, the Middle placement and SIMs on Systems with constraints are rejected there.

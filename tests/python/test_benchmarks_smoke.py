@@ -1,5 +1,6 @@
-"""Smoke tests of benchmarks/work_precision.py, stability.py, sim_step_cost.py and sim_work_precision.py: each runs
-with --quick into a temporary folder, exits 0 and writes its JSON, markdown and charts with the expected structure.
+"""Smoke tests of benchmarks/work_precision.py, stability.py, sim_step_cost.py, sim_work_precision.py and (where OpenMM
+has an OpenCL platform) the FPU scene of opencl_benchmark.py: each runs with --quick into a temporary folder, exits 0
+and writes its JSON, markdown and charts with the expected structure.
 The C++ helper benchmarks/step_cost is run once on each of its two systems.
 The numbers themselves are the benchmarks' business, not the tests'; only what must hold by construction is
 checked."""
@@ -10,6 +11,8 @@ import subprocess
 import sys
 
 import conftest
+import openmm
+import pytest
 from flavorbench.helper import find_helper
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -160,3 +163,24 @@ def test_frozen_energy_drift_rejects_a_mesostep_not_above_the_microstep(tmp_path
     result = conftest.run_quick(os.path.join(BENCHMARKS, "frozen_energy_drift.py"), tmp_path, extra=("--deltas", "1"))
     assert result.returncode != 0
     assert "--deltas: 1 fs is not allowed" in result.stderr
+
+
+def has_opencl():
+    return any(openmm.Platform.getPlatform(i).getName() == "OpenCL" for i in range(openmm.Platform.getNumPlatforms()))
+
+
+def test_opencl_benchmark_quick(tmp_path):
+    """The FPU scene of benchmarks/opencl_benchmark.py in double precision: every peer runs on OpenCL and is timed."""
+    if not has_opencl():
+        pytest.skip("OpenMM has no OpenCL platform here (no OpenCL driver)")
+    result = conftest.run_quick(os.path.join(BENCHMARKS, "opencl_benchmark.py"), tmp_path, timeout=300,
+                                extra=("--scenes", "fpu", "--precision", "double"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert (tmp_path / "opencl_benchmark.png").stat().st_size > 0
+    with open(tmp_path / "opencl_benchmark.json") as f:
+        data = json.load(f)
+    run = data["scenes"]["fpu"]["precisions"]["double"]
+    assert run["device"]["Precision"] == "double"
+    assert set(run["peers"]) == {"Verlet h=0.002", "SIM Strang H=0.002", "SIM Strang H=0.01"}
+    for peer in run["peers"].values():
+        assert peer["available"] and peer["ns_per_day"] > 0 and len(peer["all"]) == data["repeats"]

@@ -24,7 +24,7 @@ void uploadMixed(ComputeContext& cc, ComputeArray& array, vector<double> values,
     const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
     if (values.empty())
         values.push_back(0.0);
-    if (!array.isInitialized() || array.getSize() != (int)values.size()) {
+    if (!array.isInitialized() || (size_t)array.getSize() != values.size()) {
         if (array.isInitialized())
             array.resize((int)values.size());
         else
@@ -39,7 +39,7 @@ void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, con
         values.push_back(0);
     if (!array.isInitialized())
         array.initialize<int>(cc, (int)values.size(), name);
-    else if (array.getSize() != (int)values.size())
+    else if ((size_t)array.getSize() != values.size())
         array.resize((int)values.size());
     array.upload(values);
 }
@@ -495,10 +495,12 @@ void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrato
 }
 
 double CommonFlavorStepKernel::computeKineticEnergy(ContextImpl& /*context*/, const FlavorIntegrator& /*integrator*/) {
+    ContextSelector selector(cc);
     return stepper->kineticEnergy();
 }
 
 void CommonFlavorStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
+    ContextSelector selector(cc);
     stepper->createCheckpoint(stream);
 }
 
@@ -513,6 +515,7 @@ void CommonFlavorStepKernel::saveContextState(ContextImpl& context, bool withPar
 }
 
 void CommonFlavorStepKernel::forgetStepHistory() {
+    ContextSelector selector(cc);
     stepper->forgetStepHistory();
 }
 
@@ -570,10 +573,12 @@ vector<double> CommonImpulseStepKernel::getStiffModeFrequencies(ContextImpl& con
 
 double CommonImpulseStepKernel::computeKineticEnergy(ContextImpl& /*context*/,
                                                      const StochasticImpulseIntegrator& /*integrator*/) {
+    ContextSelector selector(cc);
     return stepper->kineticEnergy();
 }
 
 void CommonImpulseStepKernel::createCheckpoint(ContextImpl& /*context*/, std::ostream& stream) const {
+    ContextSelector selector(cc);
     stepper->createCheckpoint(stream);
 }
 
@@ -588,5 +593,6 @@ void CommonImpulseStepKernel::saveContextState(ContextImpl& context, bool withPa
 }
 
 void CommonImpulseStepKernel::forgetStepHistory() {
+    ContextSelector selector(cc);
     stepper->forgetStepHistory();
 }

@@ -1,0 +1,291 @@
+#!/usr/bin/env python3
+"""Speed on OpenMM's OpenCL platform: what the plugin's OpenCL backend runs today (the nonintrusive FLAVOR, the SIM's
+LieTrotter/Strang/Yoshida4 splittings) beside OpenMM's own integrators on the same platform, in the same run, timed
+in interleaved batches (flavorbench.runners.time_batches: every peer steps one batch in turn, so a change of the
+machine's load hits them alike).  Each batch ends with a download of the velocities, so that the OpenCL queue has
+drained before the clock stops.
+
+Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
+  drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs.  The scene's SIM
+                  peer (Warped splitting, Middle placement, 2.5 fs, on rigid water) is NOT available on OpenCL yet: the
+                  Warped splitting, the Middle placement and SIMs on Systems with constraints are rejected there.
+                  The script still tries to create it and records OpenMM's error; nothing is timed for it.
+  flexible_water  flexible TIP3P water (PME; examples/flexible_water): LangevinMiddle flexible 0.5, 1 and 2 fs against
+                  the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,
+                  tau = 0.5 fs: the scene's setting, there with the bonds only).  The artificial FLAVOR
+                  (ArtificialProjected) is not available on OpenCL yet; its error is recorded likewise.
+  fpu             FPU chains (FLAVORS paper eq. 6.7, omega = 50, reduced units read by OpenMM as ps), 200 copies:
+                  the SIM (Strang, no thermostat) at H = 0.01 (omega H = 0.5) against OpenMM's VerletIntegrator at
+                  h = 0.002 (omega h = 0.1) and the same SIM at h = 0.002.  Timing only: Strang is accurate at
+                  small omega H (benchmarks/sim_work_precision.py measures accuracy on Reference).
+
+The start states are made on the CPU platform (minimization and a short equilibration), then every peer starts from
+them.  With PoCL (a CPU OpenCL driver) the times are a CPU's: only the ratios between peers of one run mean anything.
+
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/opencl_benchmark.py [--quick] [--out DIR]
+        [--precision mixed double] [--scenes drude_water flexible_water fpu] [--target S] [--repeats N]
+
+$FLAVORS_BENCH_QUICK=1 acts as --quick; $FLAVORS_OPENCL_PLATFORM_INDEX and $FLAVORS_OPENCL_DEVICE_INDEX pick the OpenCL
+device (OpenMM's OpenCLPlatformIndex and DeviceIndex; by default OpenMM chooses).  Progress goes to stderr; the table
+to stdout; DIR/opencl_benchmark.json (every batch) and DIR/opencl_benchmark.png (ns/day bars per peer).
+"""
+import os
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [os.path.join(HERE, "..", "examples", scene) for scene in ("drude_water", "flexible_water")]
+
+import numpy as np  # noqa: E402
+import openmm as mm  # noqa: E402
+import openmm.unit as unit  # noqa: E402
+
+import openmmflavors  # noqa: E402
+from flavorbench import reporting, runners  # noqa: E402
+from flavorbench.runners import time_batches  # noqa: E402
+from flavorbench.systems import chain_positions, fpu_system  # noqa: E402
+
+import drude_water  # noqa: E402
+import flexible_water  # noqa: E402
+
+SCENES = ("drude_water", "flexible_water", "fpu")
+# OpenMM picks the OpenCL device itself unless these name one (benchmarks/device_check.sh sets them to the GPU's).
+DEVICE_PROPERTIES = {key: os.environ[variable] for key, variable in
+                     (("OpenCLPlatformIndex", "FLAVORS_OPENCL_PLATFORM_INDEX"),
+                      ("DeviceIndex", "FLAVORS_OPENCL_DEVICE_INDEX")) if os.environ.get(variable)}
+FPU_OMEGA, FPU_M = 50.0, 3
+
+
+def log(message):
+    print(message, file=sys.stderr, flush=True)
+
+
+class Drained:
+    """integrator.step(n), then a download of the velocities: OpenCL enqueues a step's kernels and returns, so a
+    batch's time is complete only once the queue has drained."""
+
+    def __init__(self, context, integrator):
+        self.context, self.integrator = context, integrator
+
+    def step(self, n):
+        self.integrator.step(n)
+        self.context.getState(getVelocities=True)
+
+
+def opencl_platform():
+    try:
+        return mm.Platform.getPlatformByName("OpenCL")
+    except Exception:
+        names = [mm.Platform.getPlatform(i).getName() for i in range(mm.Platform.getNumPlatforms())]
+        sys.exit("opencl_benchmark: OpenMM has no OpenCL platform (platforms: %s); install an OpenCL driver (an ICD "
+                 "in /etc/OpenCL/vendors, e.g. NVIDIA's or pocl-opencl-icd)" % ", ".join(names))
+
+
+def short_reason(error):
+    """Why a peer is not timed, in a few words for the table and the chart (the JSON keeps OpenMM's whole message)."""
+    text = str(error)
+    if "not quadratic" in text:
+        return "rejected: stiff forces not quadratic at this precision"
+    if "not yet" in text or "not supported" in text or "unsupported" in text:
+        return "not available on OpenCL yet"
+    return "failed: " + text[:40]
+
+
+def device_of(platform, context):
+    return {key: platform.getPropertyValue(context, key)
+            for key in ("DeviceName", "OpenCLPlatformName", "Precision", "DeviceIndex", "OpenCLPlatformIndex")}
+
+
+# ----------------------------------------------------------------------------------------------------------------------
+# Scenes: each returns (description, start, peers); a peer is (name, step in fs, system, integrator factory, note)
+# and start(context) puts a new Context at the scene's start state.
+
+def drude_scene(quick):
+    molecules = 64 if quick else 256
+    log(f"drude_water: {molecules} SWM4-NDP molecules, minimizing and equilibrating on the CPU platform")
+    system, _, positions, _ = drude_water.build_water(molecules)
+    state = drude_water.equilibrated_state(system, positions, 1.0, 50 if quick else 1000, 1)
+    peers = [("DrudeLangevin 1 fs", 1.0, system, lambda: drude_water.make_integrator("DrudeLangevin", 1.0, 7), ""),
+             ("SIM Warped Middle 2.5 fs", 2.5, system, lambda: drude_water.make_integrator("WarpedMiddle", 2.5, 7),
+              "the scene's SIM peer")]
+    description = f"{molecules} SWM4-NDP molecules ({system.getNumParticles()} particles), rigid, PME"
+    return description, lambda context: context.setState(state), peers
+
+
+def flexible_scene(quick):
+    molecules = 216 if quick else 501
+    log(f"flexible_water: {molecules} TIP3P molecules, minimizing and equilibrating on the CPU platform")
+    forcefield, modeller = flexible_water.build_box(molecules)
+    positions = flexible_water.common_start(forcefield, modeller, 0.05 if quick else 1.0, 2, 20 if quick else 200)
+    system = flexible_water.make_system(forcefield, modeller.topology, False)
+    stiff = {flexible_water.BOND_GROUP, flexible_water.ANGLE_GROUP}
+
+    def langevin_middle(step_fs):
+        return lambda: mm.LangevinMiddleIntegrator(flexible_water.TEMPERATURE, flexible_water.FRICTION, step_fs * 1e-3)
+
+    def flavor(averaging):
+        def factory():
+            integrator = openmmflavors.FlavorIntegrator(2.0 * unit.femtosecond, 0.5 * unit.femtosecond, stiff)
+            integrator.setAveraging(averaging)
+            integrator.setTemperature(flexible_water.TEMPERATURE * unit.kelvin)
+            integrator.setFriction(flexible_water.FRICTION / unit.picosecond)
+            integrator.setRandomNumberSeed(1234)
+            return integrator
+        return factory
+
+    FI = openmmflavors.FlavorIntegrator
+    peers = [(f"LangevinMiddle flexible {h:g} fs", h, system, langevin_middle(h), "") for h in (0.5, 1.0, 2.0)]
+    peers += [("FLAVOR Nonintrusive +angles δ=2 fs τ=0.5 fs", 2.0, system, flavor(FI.Nonintrusive),
+               "O-H bonds and H-O-H angles stiff"),
+              ("FLAVOR ArtificialProjected +angles δ=2 fs τ=0.5 fs", 2.0, system, flavor(FI.ArtificialProjected),
+               "the scene's artificial FLAVOR")]
+
+    def start(context):
+        context.setPositions(positions)
+        context.setVelocitiesToTemperature(flexible_water.TEMPERATURE * unit.kelvin, 7)
+
+    description = f"{molecules} flexible TIP3P molecules ({3 * molecules} atoms), PME, 300 K, friction 1/ps"
+    return description, start, peers
+
+
+def fpu_scene(quick):
+    # The SIM measures its stiff modes on the host through the Context (a few force evaluations per particle): on PoCL
+    # that took about 5 minutes for 2000 chains, so the scene stays small.
+    chains = 50 if quick else 200
+    system = fpu_system(FPU_M, FPU_OMEGA, chains)
+    positions = chain_positions(FPU_M, FPU_OMEGA, chains)
+
+    # Steps in reduced time units (OpenMM reads them as ps); the peers' "fs" are 1e-3 units.
+    peers = [("Verlet h=0.002", 2.0, system, lambda: mm.VerletIntegrator(0.002), "omega h = 0.1"),
+             ("SIM Strang H=0.002", 2.0, system, lambda: runners.sim(0.002, "Strang"), "omega H = 0.1"),
+             ("SIM Strang H=0.01", 10.0, system, lambda: runners.sim(0.01, "Strang"), "omega H = 0.5")]
+
+    # The chains do not interact: all at y = 0 (chain_positions spreads them along y).  Far from the origin, single
+    # and mixed precision round the stiff bonds' forces so coarsely that the SIM's check that its stiff forces are
+    # quadratic rejects them (2000 chains at y = c: second differences 1e-4 relative, 1e-5 allowed).
+    positions[:, 1] = 0.0
+
+    def start(context):
+        context.setPositions(positions)
+        context.setVelocities(np.zeros_like(positions))
+
+    description = (f"{chains} FPU chains of {2 * FPU_M} unit masses (omega = {FPU_OMEGA:g}; reduced units, 1 unit "
+                   "read as 1 ps)")
+    return description, start, peers
+
+
+# ----------------------------------------------------------------------------------------------------------------------
+
+def run_scene(name, scene, platform, precisions, target, repeats):
+    description, start, peers = scene
+    result = {"system": description, "precisions": {}}
+    for precision in precisions:
+        log(f"{name}, {precision} precision: creating the Contexts (the OpenCL kernels compile on first use)")
+        cases, steps, records, device = {}, {}, {}, None
+        for peer, step_fs, system, factory, note in peers:
+            integrator = factory()
+            began = time.perf_counter()
+            try:
+                context = mm.Context(system, integrator, platform, dict(DEVICE_PROPERTIES, Precision=precision))
+                start(context)
+                integrator.step(1)
+            except mm.OpenMMException as error:
+                records[peer] = {"available": False, "error": str(error), "reason": short_reason(error),
+                                 "step_fs": step_fs, "note": note, "setup_s": time.perf_counter() - began}
+                log(f"  {peer}: not timed ({records[peer]['reason']}): {error}")
+                continue
+            log(f"  {peer}: ready in {time.perf_counter() - began:.1f} s")
+            device = device or device_of(platform, context)
+            cases[peer] = (context, Drained(context, integrator))
+            steps[peer] = step_fs
+            records[peer] = {"available": True, "step_fs": step_fs, "note": note,
+                             "setup_s": time.perf_counter() - began}
+        timings = time_batches(cases, target, repeats, label=f"{name} {precision}")
+        for peer, timing in timings.items():
+            records[peer].update(timing)
+            records[peer]["ns_per_day"] = steps[peer] * 86400 / timing["us_per_step"]
+            records[peer]["ns_per_day_median"] = steps[peer] * 86400 / timing["us_per_step_median"]
+        result["precisions"][precision] = {"device": device, "peers": records}
+        del cases
+    return result
+
+
+def print_tables(data):
+    for name, scene in data["scenes"].items():
+        for precision, run in scene["precisions"].items():
+            peers = run["peers"]
+            timed = [p for p in peers.values() if p["available"]]
+            base = timed[0]["ns_per_day"] if timed else float("nan")
+            rows = []
+            for peer, record in peers.items():
+                if record["available"]:
+                    rows.append([peer, record["step_fs"], record["us_per_step"], record["ns_per_day"],
+                                 record["ns_per_day"] / base, ""])
+                else:
+                    rows.append([peer, record["step_fs"], "-", "-", "-", record["reason"]])
+            reporting.table(f"{name}: {scene['system']}, OpenCL {precision} "
+                            f"({(run['device'] or {}).get('DeviceName', '?')})",
+                            [("peer", 50, "s"), ("step fs", 8, ".3g"), ("us/step", 10, ".4g"),
+                             ("ns/day", 10, ".4g"), ("ratio", 7, ".3g"),
+                             ("", 1, "s")], rows)
+
+
+def plot(data, path):
+    plt = reporting.pyplot()
+    panels = [(name, precision, run) for name, scene in data["scenes"].items()
+              for precision, run in scene["precisions"].items()]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(11, 2.2 + 1.1 * sum(len(r["peers"]) for *_, r in panels) / 2),
+                             squeeze=False)
+    device = next(((r["device"] or {}).get("DeviceName") for *_, r in panels if r["device"]), "?")
+    opencl = next(((r["device"] or {}).get("OpenCLPlatformName") for *_, r in panels if r["device"]), "?")
+    for ax, (name, precision, run) in zip(axes[:, 0], panels):
+        peers = list(run["peers"].items())
+        y = np.arange(len(peers))
+        values = [r["ns_per_day"] if r["available"] else 0.0 for _, r in peers]
+        colors = ["tab:orange" if p.startswith(("FLAVOR", "SIM")) else "tab:blue" for p, _ in peers]
+        ax.barh(y, values, color=colors)
+        top = max(values) if max(values) > 0 else 1.0
+        for i, (peer, record) in enumerate(peers):
+            text = f"{record['ns_per_day']:.3g}" if record["available"] else record["reason"]
+            ax.text(values[i] + 0.01 * top, i, text, va="center", fontsize=8,
+                    color="black" if record["available"] else "tab:red")
+        ax.set_yticks(y)
+        ax.set_yticklabels([p for p, _ in peers], fontsize=8)
+        ax.invert_yaxis()
+        ax.set_xlim(0, 1.35 * top)
+        unit_note = " (reduced time units read as ps)" if name == "fpu" else ""
+        ax.set_xlabel(f"ns/day{unit_note}")
+        ax.set_title(f"{name}: {data['scenes'][name]['system']} — {precision} precision", fontsize=9)
+    pocl = "pocl" in opencl.lower() or "portable computing language" in opencl.lower()
+    fig.suptitle(f"ns/day on OpenMM's OpenCL platform ({opencl}: {device}): the plugin's integrators (orange)\n"
+                 "against OpenMM's own (blue) in the same run, interleaved batches, best batch.  " +
+                 ("PoCL is a CPU OpenCL driver:\nits times are a CPU's, only the ratios within a panel count"
+                  if pocl else "Compare ratios within a panel"), fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.5 / fig.get_figheight()))  # room for the three lines of the title
+    reporting.save_figure(fig, path, 110)
+
+
+def main():
+    p = reporting.parser(__doc__, "opencl", quick_help="a smoke run: small systems, short batches")
+    p.add_argument("--precision", nargs="+", default=["mixed", "double"], choices=["single", "mixed", "double"])
+    p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
+    p.add_argument("--target", type=float, default=None, help="seconds per batch (default 3, --quick 0.5)")
+    p.add_argument("--repeats", type=int, default=None, help="rounds of batches (default 5, --quick 2)")
+    args = p.parse_args()
+    if os.environ.get("FLAVORS_BENCH_QUICK", "") not in ("", "0"):
+        args.quick = True
+        reporting.set_smoke_run(True)
+    target = args.target or (0.5 if args.quick else 3.0)
+    repeats = args.repeats or (2 if args.quick else 5)
+    platform = opencl_platform()
+    builders = {"drude_water": drude_scene, "flexible_water": flexible_scene, "fpu": fpu_scene}
+    data = {"command": " ".join(sys.argv), "quick": args.quick, "batch_target_s": target, "repeats": repeats,
+            "openmm_version": mm.Platform.getOpenMMVersion(), "scenes": {}}
+    for name in args.scenes:
+        data["scenes"][name] = run_scene(name, builders[name](args.quick), platform, args.precision, target, repeats)
+    print_tables(data)
+    reporting.save_outputs(args.out, "opencl_benchmark", data, lambda path: plot(data, path))
+
+
+if __name__ == "__main__":
+    main()

@@ -17,6 +17,7 @@ namespace FlavorTests {
  */
 inline const std::vector<std::string>& suitesNotOnOpenCL() {
     static const std::vector<std::string> suites = {
+        "EngineSchedules",       // runs the CPU-side engine (FlowStepRunner) on Reference and CPU particle data
         "FlavorAccuracy",        // blow-up past 1e50 (OpenCL's fixed-point forces saturate); a 20 s run on PoCL
         "FlavorArtificial",      // artificial averagings (frozen stage)
         "FlavorFrozenMomenta",   // artificial averagings (frozen distances)

@@ -117,3 +117,31 @@ def test_unknown_parameter_is_rejected_on_a_bound_integrator_which_keeps_its_set
     integrator.step(2)
     assert context.getParameter("t") == pytest.approx(0.002, abs=1e-15)
 
+
+
+def test_checkpoint_continues_the_clock_and_a_version_2_checkpoint_still_loads():
+    integrator = FlavorIntegrator(DELTA, TAU, {1})
+    integrator.setStiffClockParameter("t")
+    context = make(integrator)
+    integrator.step(7)
+    checkpoint = context.createCheckpoint()
+    integrator.step(5)
+    expected = context.getState(getPositions=True).getPositions(asNumpy=True)
+    context.loadCheckpoint(checkpoint)
+    integrator.step(5)
+    assert (context.getState(getPositions=True).getPositions(asNumpy=True) == expected).all()
+    # Version 2 had no stiff clock: its 16 bytes before the end tag gone, the clock restarts from the Context's
+    # time times tau/delta, the same clock to rounding.
+    tag = b"openmm-flavors integrator state\n"
+    end = b"end of openmm-flavors integrator state\n"
+    start, stop = checkpoint.index(tag), checkpoint.index(end)
+    name_length = int.from_bytes(checkpoint[start + len(tag):start + len(tag) + 4], "little")
+    version_at = start + len(tag) + 4 + name_length
+    assert int.from_bytes(checkpoint[version_at:version_at + 4], "little") == 3
+    old = (checkpoint[:version_at] + (2).to_bytes(4, "little") + checkpoint[version_at + 4:stop - 16] +
+           checkpoint[stop:])
+    context.loadCheckpoint(old)
+    integrator.step(5)
+    x = context.getState(getPositions=True).getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+    assert abs(x[0][0] - expected.value_in_unit(unit.nanometer)[0][0]) < 1e-12
+    assert context.getParameter("t") == pytest.approx(0.012, abs=1e-15)

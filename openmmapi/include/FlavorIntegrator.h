@@ -187,9 +187,10 @@ public:
      * physical time.  Evaluations of the soft groups alone leave the parameter as it is: only stiff forces may read
      * it (a soft force that depends on time needs a parameter of its own, set to the Context's time).
      *
-     * The clock starts at the Context's time times tau/delta at the first step and whenever the time is set from
-     * outside, and a checkpoint carries it (the continuation is identical).  It needs the Nonintrusive averaging; a
-     * step with another averaging throws.  An empty name (the default) switches it off.
+     * The clock starts at the Context's time times tau/delta at the first step, whenever the time is set from
+     * outside and whenever tau or delta changes, and a checkpoint carries it (the continuation is identical).  It
+     * needs the Nonintrusive averaging; a step with another averaging throws.  An empty name (the default) switches
+     * it off.
      *
      * @throws OpenMMException if the integrator is bound to a Context that has no global parameter name; the
      *         integrator then keeps its previous setting.  Creating a Context checks the same.

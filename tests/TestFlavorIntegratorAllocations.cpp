@@ -8,10 +8,12 @@
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/CustomExternalForce.h"
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/VerletIntegrator.h"
 #include <atomic>
 #include <cstdlib>
+#include <functional>
 #include <memory>
 #include <new>
 
@@ -42,7 +44,8 @@ using namespace OpenMM;
 class StepAllocations : public PlatformTest {
 protected:
     /** Allocations per step, averaged over 50 steps after 5 warm-up steps. */
-    double allocationsPerStep(Integrator& integrator, bool bonded = false) {
+    double allocationsPerStep(Integrator& integrator, bool bonded = false,
+                              const std::function<void(System&)>& edit = nullptr) {
         // The FPU chains' stiff springs have rest length 0 (quadratic); bonded moves every rest length to 0.1, so
         // the artificial FLAVOR freezes them with the constraint solver.
         std::unique_ptr<System> system(fpuSystem(3, 50.0, 400));
@@ -57,6 +60,8 @@ protected:
                 positions[p2] = positions[p1] + Vec3(0.1, 0.01, 0.003);
             }
         }
+        if (edit)
+            edit(*system);
         Context context(*system, integrator, platform(), properties());
         context.setPositions(positions);
         integrator.step(5);
@@ -116,4 +121,23 @@ TEST_P(StepAllocations, StepsAllocateNoMoreThanTheirForceEvaluations) {
     RecordProperty("flavorAllocationsPerStep", std::to_string(flavorSteps));
     RecordProperty("langevinFlavorAllocationsPerStep", std::to_string(langevinSteps));
     RecordProperty("simAllocationsPerStep", std::to_string(simSteps));
+}
+
+TEST_P(StepAllocations, StiffClockStepsAllocateNoMoreThanTheirForceEvaluations) {
+    // A stiff force that reads the clock: each stiff evaluation sets the parameter first.
+    auto addClockedForce = [](System& system) {
+        auto* forcing = new CustomExternalForce("0.01*sin(1000*stiffClockTime)*x");
+        forcing->addGlobalParameter("stiffClockTime", 0.0);
+        for (int i = 0; i < system.getNumParticles(); ++i)
+            forcing->addParticle(i, {});
+        forcing->setForceGroup(1);
+        system.addForce(forcing);
+    };
+    VerletIntegrator verlet(1e-3);
+    const double perEvaluation = allocationsPerStep(verlet, false, addClockedForce);
+    FlavorIntegrator flavor(0.01, 0.001, StiffMask);
+    flavor.setStiffClockParameter("stiffClockTime");
+    const double flavorSteps = allocationsPerStep(flavor, false, addClockedForce);
+    EXPECT_LE(flavorSteps, 3 * perEvaluation); // 3 evaluations per Verlet FLAVOR step, as without a clock
+    RecordProperty("stiffClockFlavorAllocationsPerStep", std::to_string(flavorSteps));
 }

@@ -8,6 +8,7 @@
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/CustomExternalForce.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/State.h"
 #include <algorithm>
@@ -197,5 +198,16 @@ TEST(OpenCLBackend, RejectsWhatItDoesNotHaveByName) {
         Context context(*system, sim, platform);
         context.setPositions(chains.positions);
         expectRejected([&] { sim.step(1); }, "constraints");
+    }
+    {
+        std::unique_ptr<System> system(fpuSystem(3, 50.0, 2));
+        auto* clocked = new CustomExternalForce("t*x");
+        clocked->addGlobalParameter("t", 0.0);
+        system->addForce(clocked);
+        FlavorIntegrator flavor(0.02, 0.004, StiffMask);
+        flavor.setStiffClockParameter("t");
+        Context context(*system, flavor, platform);
+        context.setPositions(chains.positions);
+        expectRejected([&] { flavor.step(1); }, "setStiffClockParameter(\"t\")");
     }
 }

@@ -174,6 +174,29 @@ public:
      */
     void setExactFastFlow(bool exact);
     /**
+     * Get the name of the Context global parameter that carries the stiff clock, or "" if there is none (the
+     * default).  See setStiffClockParameter().
+     */
+    const std::string& getStiffClockParameter() const { return stiffClockParameter; }
+    /**
+     * Synchronize a time-dependent stiff force on the tau time scale (FLAVORS paper, eq. (6.15)): before every
+     * evaluation of forces that include a stiff group, the Context global parameter name is set to the stiff clock,
+     * in ps: n tau for the n-th mesostep since the Context's time origin, plus the stiff time within the current
+     * microstep at which the kick acts (0 for the opening kick, tau for the closing kick of the Verlet scheme).  The
+     * stiff clock advances tau per mesostep while the Context's time advances delta; with tau = delta it is the
+     * physical time.  Evaluations of the soft groups alone leave the parameter as it is: only stiff forces may read
+     * it (a soft force that depends on time needs a parameter of its own, set to the Context's time).
+     *
+     * The clock starts at the Context's time times tau/delta at the first step, whenever the time is set from
+     * outside and whenever tau or delta changes, and a checkpoint carries it (the continuation is identical).  It
+     * needs the Nonintrusive averaging; a step with another averaging throws.  An empty name (the default) switches
+     * it off.
+     *
+     * @throws OpenMMException if the integrator is bound to a Context that has no global parameter name; the
+     *         integrator then keeps its previous setting.  Creating a Context checks the same.
+     */
+    void setStiffClockParameter(const std::string& name);
+    /**
      * Freeze the distance between two particles during the artificial FLAVOR's frozen drift, in addition to the
      * distances the stiff bonded forces determine.  Needed when a stiff force of another type (e.g. a
      * CustomCompoundBondForce) is not quadratic.
@@ -322,6 +345,7 @@ private:
     std::vector<int> frictionParticles;
     std::vector<std::pair<int, int>> frozenDistances;
     int randomNumberSeed;
+    std::string stiffClockParameter;
     // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
     StepKernelBinding binding;
     IntegrateFlavorStepKernel* stepKernel;

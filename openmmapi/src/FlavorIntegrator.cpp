@@ -39,6 +39,19 @@ void requireSoftForce(const System& system, const string& parameter, int stiffGr
             "(in Python, {1} means group 1); put the soft forces in other groups (Force.setForceGroup)");
 }
 
+/** Throws, naming the parameter, unless the Context has a global parameter name (or name is empty). */
+void requireClockParameter(const ContextImpl& context, const string& name) {
+    if (name.empty() || context.getParameters().count(name) != 0)
+        return;
+    string known;
+    for (const auto& parameter : context.getParameters())
+        known += (known.empty() ? "" : ", ") + parameter.first;
+    throwInvalidParameter(Owner, "stiffClockParameter", "\"" + name + "\"",
+                          "the Context has no global parameter \"" + name +
+                              "\" (its global parameters: " + (known.empty() ? string("none") : known) +
+                              "); define it in the stiff force (e.g. addGlobalParameter of a Custom force)");
+}
+
 } // namespace
 
 FlavorIntegrator::FlavorIntegrator(double mesoStep, double microStep, int stiffGroups)
@@ -154,6 +167,12 @@ void FlavorIntegrator::getFrozenDistance(int index, int& particle1, int& particl
     particle2 = frozenDistances[index].second;
 }
 
+void FlavorIntegrator::setStiffClockParameter(const string& name) {
+    if (context != nullptr)
+        requireClockParameter(*context, name);
+    stiffClockParameter = name;
+}
+
 void FlavorIntegrator::setTemperature(double temp) {
     requireNonNegative(Owner, "temperature", temp, "K");
     temperature = temp;
@@ -201,6 +220,7 @@ void FlavorIntegrator::initialize(ContextImpl& contextRef) {
     requireStiffGroupsIntegrated(Owner, "integrationForceGroups", stiffGroups, getIntegrationForceGroups());
     requireSoftForce(contextRef.getSystem(), "stiffGroups", stiffGroups, getIntegrationForceGroups());
     requireParticleIndices(frictionParticles, contextRef.getSystem().getNumParticles());
+    requireClockParameter(contextRef, stiffClockParameter);
     if (averaging != Nonintrusive)
         rejectUnfreezableStiffForces(contextRef.getSystem(), stiffGroups, !frozenDistances.empty());
     for (const std::pair<int, int>& pair : frozenDistances)

@@ -23,7 +23,8 @@ public:
 
 bool sameSettings(const SubFlow& a, const SubFlow& b) {
     return a.kind == b.kind && a.groups == b.groups && a.bath == b.bath && a.stiffBath == b.stiffBath &&
-           a.frequency == b.frequency && a.zeroModes == b.zeroModes && a.response == b.response && a.frozen == b.frozen;
+           a.frequency == b.frequency && a.zeroModes == b.zeroModes && a.response == b.response &&
+           a.frozen == b.frozen && a.clocked == b.clocked && a.clock == b.clock;
 }
 
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
@@ -31,7 +32,8 @@ bool composesExactly(const SubFlow& a, const SubFlow& b) {
 }
 
 bool disjointKicksOverOneStep(const SubFlow& a, const SubFlow& b) {
-    return a.kind == SubFlow::Kick && b.kind == SubFlow::Kick && a.h == b.h && (a.groups & b.groups) == 0;
+    return a.kind == SubFlow::Kick && b.kind == SubFlow::Kick && a.h == b.h && (a.groups & b.groups) == 0 &&
+           !a.clocked && !b.clocked;
 }
 
 /** The artificial FLAVOR (eq. (2.11) and its symmetric composition); see flavorSchedule(). */
@@ -171,6 +173,7 @@ FlavorParameters FlavorPlugin::flavorParameters(const FlavorIntegrator& integrat
                        integrator.getStiffFriction(),
                        integrator.getThermostatPlacement()};
     p.kT = BOLTZ * integrator.getTemperature();
+    p.stiffClock = !integrator.getStiffClockParameter().empty();
     return p;
 }
 
@@ -184,6 +187,13 @@ Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
     ScheduleBuilder b(p.mesoStep, tau);
     Schedule& s = b.steps;
     auto kick = [&](double h, double a, double c, int groups) { s.push_back(b.flow(SubFlow::Kick, h, a, c, groups)); };
+    // A kick of all groups on the stiff clock, at the stiff time clock within the microstep.
+    auto clockedKick = [&](double h, double a, double c, double clock) {
+        SubFlow f = b.flow(SubFlow::Kick, h, a, c, all);
+        f.clocked = p.stiffClock && (all & p.stiffGroups) != 0;
+        f.clock = f.clocked ? clock : 0.0;
+        s.push_back(f);
+    };
     auto drift = [&](double h, double a, double c) { s.push_back(b.flow(SubFlow::Drift, h, a, c)); };
     auto thermostat = [&](double h, double a, double c) {
         SubFlow f = b.flow(SubFlow::Thermostat, h, a, c);
@@ -194,7 +204,7 @@ Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
         // Eq. (2.17); Langevin: eqs. (4.7) and (4.8).
         if (friction)
             thermostat(tau, 0, 1);
-        kick(tau, 0, 1, all);
+        clockedKick(tau, 0, 1, 0.0);
         drift(tau, 0, 1);
         if (friction && !p.stiffFriction)
             thermostat(rest, 1, -1);
@@ -206,13 +216,13 @@ Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
         const double edgeA = p.stiffFriction ? 0 : 0.5, edgeB = p.stiffFriction ? 0.5 : 0;
         if (friction)
             thermostat(edge, edgeA, edgeB);
-        kick(tau / 2, 0, 0.5, all);
+        clockedKick(tau / 2, 0, 0.5, 0.0);
         drift(tau / 2, 0, 0.5);
         kick(rest / 2, 0.5, -0.5, soft);
         drift(rest, 1, -1);
         kick(rest / 2, 0.5, -0.5, soft);
         drift(tau / 2, 0, 0.5);
-        kick(tau / 2, 0, 0.5, all);
+        clockedKick(tau / 2, 0, 0.5, tau);
         if (friction)
             thermostat(edge, edgeA, edgeB);
     }

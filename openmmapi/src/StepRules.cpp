@@ -77,6 +77,12 @@ void FlavorPlugin::validateFlavorStep(const FlavorParameters& p) {
                 "; allowed: FlavorIntegrator::Edges (0) with every scheme and averaging, Middle with the Verlet "
                 "scheme, an artificial averaging and setExactFastFlow(false)");
     }
+    if (p.stiffClock && p.averaging != FlavorIntegrator::Nonintrusive)
+        throw OpenMM::OpenMMException(
+            "FlavorIntegrator: a stiff clock (setStiffClockParameter) is not allowed with averaging = " +
+            string(p.averaging == FlavorIntegrator::Artificial ? "Artificial (1)" : "ArtificialProjected (2)") +
+            ": the artificial averagings measure the stiff potential once, and a stiff force that depends on the "
+            "clock changes with it; allowed: the Nonintrusive averaging (0)");
     if (p.averaging != FlavorIntegrator::Nonintrusive && p.exactFastFlow && p.frozen == SubFlow::FrozenSet::Distances)
         throw OpenMM::OpenMMException("FlavorIntegrator: the stiff force groups are not quadratic (their distances are "
                                       "frozen with constraints), so they have no exact fast flow; call "

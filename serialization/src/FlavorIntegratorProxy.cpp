@@ -13,7 +13,9 @@ FlavorIntegratorProxy::FlavorIntegratorProxy() : SerializationProxy("FlavorInteg
 
 void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const FlavorIntegrator& integrator = *reinterpret_cast<const FlavorIntegrator*>(object);
-    node.setIntProperty("version", 3);
+    // Version 4 added the stiff clock: without one the document is the version 3 one, which older builds read.
+    const bool stiffClock = !integrator.getStiffClockParameter().empty();
+    node.setIntProperty("version", stiffClock ? 4 : 3);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("microStep", integrator.getMicroStep());
     node.setIntProperty("stiffGroups", integrator.getStiffGroups());
@@ -27,6 +29,8 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
     node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
     node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
     node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
+    if (stiffClock)
+        node.setStringProperty("stiffClockParameter", integrator.getStiffClockParameter());
     SerializationNode& particles = node.createChildNode("FrictionParticles");
     for (int p : integrator.getFrictionParticles())
         particles.createChildNode("Particle").setIntProperty("index", p);
@@ -40,9 +44,9 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
 
 void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version < 1 || version > 3)
+    if (version < 1 || version > 4)
         throw OpenMMException("FlavorIntegrator: unsupported serialization version " + std::to_string(version) +
-                              "; this library reads versions 1, 2 and 3");
+                              "; this library reads versions 1 to 4");
     auto integrator = std::make_unique<FlavorIntegrator>(
         node.getDoubleProperty("stepSize"), node.getDoubleProperty("microStep"), node.getIntProperty("stiffGroups"));
     integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
@@ -60,6 +64,8 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
+    if (version >= 4) // earlier versions had no stiff clock
+        integrator->setStiffClockParameter(node.getStringProperty("stiffClockParameter"));
     std::vector<int> particles;
     for (const SerializationNode& particle : node.getChildNode("FrictionParticles").getChildren())
         particles.push_back(particle.getIntProperty("index"));

@@ -103,11 +103,20 @@ struct SubFlow {
     ZeroModeFlow zeroModes = ZeroModeFlow::Exact;
     KickResponse response = KickResponse::None;
     FrozenSet frozen = FrozenSet::None;
+    /**
+     * A Kick of stiff groups with a stiff clock (FlavorIntegrator::setStiffClockParameter): its forces are evaluated
+     * with the clock parameter at the step's stiff clock plus clock (ps), the stiff time elapsed in the step's
+     * microstep where the kick acts (0 before the microstep's drift, tau after it).  Kicks without it leave the
+     * parameter alone.
+     */
+    bool clocked = false;
+    double clock = 0.0;
     /** h in the integrator's time scales, for describeStep(); not part of what the sub-flow does (operator==). */
     StepLength length = {};
     bool operator==(const SubFlow& o) const {
         return kind == o.kind && h == o.h && groups == o.groups && bath == o.bath && stiffBath == o.stiffBath &&
-               frequency == o.frequency && zeroModes == o.zeroModes && response == o.response && frozen == o.frozen;
+               frequency == o.frequency && zeroModes == o.zeroModes && response == o.response && frozen == o.frozen &&
+               clocked == o.clocked && clock == o.clock;
     }
     bool operator!=(const SubFlow& o) const { return !(*this == o); }
 };
@@ -131,11 +140,14 @@ struct FlavorParameters {
     double kT = 0.0;
     /** Artificial averagings: what freezes (measured from the stiff forces when the first step starts). */
     SubFlow::FrozenSet frozen = SubFlow::FrozenSet::StiffModes;
+    /** Whether the kicks of stiff groups run on the stiff clock (a clock parameter is set). */
+    bool stiffClock = false;
     bool operator==(const FlavorParameters& o) const {
         return scheme == o.scheme && averaging == o.averaging && exactFastFlow == o.exactFastFlow &&
                mesoStep == o.mesoStep && microStep == o.microStep && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && friction == o.friction && stiffFriction == o.stiffFriction &&
-               thermostatPlacement == o.thermostatPlacement && kT == o.kT && frozen == o.frozen;
+               thermostatPlacement == o.thermostatPlacement && kT == o.kT && frozen == o.frozen &&
+               stiffClock == o.stiffClock;
     }
 };
 

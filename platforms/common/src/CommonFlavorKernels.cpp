@@ -482,6 +482,11 @@ void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrato
             (current.averaging == FlavorIntegrator::Artificial ? "Artificial" : "ArtificialProjected") +
             " (FlavorIntegrator::setAveraging) is not supported there yet; use the Nonintrusive "
             "averaging, or the Reference or CPU platform");
+    if (current.stiffClock)
+        throw OpenMMException(string(FlavorName) + " on the " + getPlatform().getName() +
+                              " platform: a stiff clock (FlavorIntegrator::setStiffClockParameter(\"" +
+                              integrator.getStiffClockParameter() +
+                              "\")) is not supported there yet; set it to \"\", or use the Reference or CPU platform");
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;

@@ -37,6 +37,8 @@ private:
     std::vector<std::pair<int, int>> frozenPairs;
     bool configured;
     FlavorParameters parameters;
+    // The stiff clock parameter the runner was given (FlavorIntegrator::setStiffClockParameter).
+    std::string clockParameter;
 };
 
 } // namespace FlavorPlugin

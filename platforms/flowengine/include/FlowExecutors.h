@@ -47,6 +47,8 @@ struct StepState {
     /** A kick the next stiff flow applies as it reads velocities (FlowPass::fusedIntoNext): its forces and step. */
     const OpenMM::Vec3* fusedKickForces = nullptr;
     double fusedKickStep = 0.0;
+    /** The stiff clock where the step starts (ps); a clocked kick reads forces at this plus its SubFlow::clock. */
+    double stiffClock = 0.0;
 };
 
 /**

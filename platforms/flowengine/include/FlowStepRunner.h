@@ -3,6 +3,7 @@
 
 #include "ConstraintProjector.h"
 #include "ContextRollback.h"
+#include "FlowCheckpoint.h"
 #include "FlowExecutors.h"
 #include "ForceCache.h"
 #include "FrozenDistances.h"
@@ -47,6 +48,12 @@ public:
     void setFrozenDistances(std::shared_ptr<FrozenDistances> distances);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
     void setFrictionParticles(const std::vector<int>& particles);
+    /**
+     * Runs the clocked kicks of the schedule on the stiff clock: the Context global parameter parameter is set before
+     * their forces are evaluated; the clock advances microStep per step and starts (first step, time set from
+     * outside) at the Context's time times microStep / mesoStep.  Cheap when nothing changed.
+     */
+    void setStiffClock(const std::string& parameter, double microStep, double mesoStep);
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
     /**
@@ -90,6 +97,10 @@ private:
     StepHistory history;
     ContextRollback rollback;
     std::uint64_t seed = 0, nextStream = 0;
+    // The stiff clock (time NaN while it is off, so that a checkpoint without one starts it afresh).
+    StiffClockState stiffClock;
+    bool clockOn = false;
+    double clockAdvance = 0.0, clockRatio = 1.0;
     CounterRandom random;
     EngineParts parts;
     ParticlePassExecutor particlePasses;

@@ -2,6 +2,7 @@
 #define OPENMM_FLAVORS_FORCE_CACHE_H_
 
 #include "openmm/Vec3.h"
+#include <string>
 #include <vector>
 
 namespace OpenMM {
@@ -19,8 +20,15 @@ public:
     explicit ForceCache(bool hasVirtualSites) : hasVirtualSites(hasVirtualSites) {}
     /** Sets the force-group set of each slot; every slot starts invalid. */
     void setSlots(const std::vector<int>& slotGroups, int numParticles);
-    /** The forces of a slot at the current positions, evaluated (virtual sites placed first) if not valid. */
-    const std::vector<OpenMM::Vec3>& get(OpenMM::ContextImpl& context, int slot);
+    /**
+     * The forces of a slot at the current positions, evaluated (virtual sites placed first) if not valid.  A clocked
+     * read (clocked = true, a kick of stiff groups on the stiff clock) needs forces evaluated with the clock parameter
+     * at clock: forces of the slot evaluated at another clock value are evaluated again, with the parameter set first.
+     */
+    const std::vector<OpenMM::Vec3>& get(OpenMM::ContextImpl& context, int slot, bool clocked = false,
+                                         double clock = 0.0);
+    /** Names the Context global parameter that clocked reads set (StepPlan's clocked kicks); "" for none. */
+    void setClockParameter(const std::string& name) { clockParameter = name; }
     /** The forces a slot last held, valid or not (a Filtered flow reads those where it began). */
     const std::vector<OpenMM::Vec3>& last(int slot) const { return slots[slot].forces; }
     /** Positions changed: every slot and the virtual sites are out of date. */
@@ -32,8 +40,12 @@ private:
     struct Slot {
         int groups;
         bool valid;
+        // Whether the forces were evaluated with the clock parameter set, and to what.
+        bool clocked = false;
+        double clock = 0.0;
         std::vector<OpenMM::Vec3> forces;
     };
+    std::string clockParameter;
     std::vector<Slot> slots;
     bool hasVirtualSites;
     bool virtualSitesPlaced = false;

@@ -36,10 +36,12 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         current.frozen = frozenSet();
         validateFlavorStep(current);
     }
-    if (!configured || !(current == parameters)) {
+    if (!configured || !(current == parameters) || integrator.getStiffClockParameter() != clockParameter) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;
+        clockParameter = integrator.getStiffClockParameter();
         runner->setSchedule(flavorSchedule(parameters));
+        runner->setStiffClock(clockParameter, parameters.microStep, parameters.mesoStep);
         configured = true;
     }
     runner->setFrictionParticles(integrator.getFrictionParticles());

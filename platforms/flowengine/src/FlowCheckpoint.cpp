@@ -7,11 +7,12 @@ using namespace FlavorPlugin;
 namespace {
 
 // The integrator's part of a checkpoint: Tag, the integrator's name (length, then characters), the format version,
-// the seed and the stream counter, (version 2) the step history (StepHistory::write), EndTag.  Version 1 checkpoints
-// (no history) still load, with an empty history.
+// the seed and the stream counter, (version 2) the step history (StepHistory::write), (version 3) the stiff clock
+// and the time at which it holds, EndTag.  Version 1 checkpoints (no history) still load, with an empty history;
+// versions 1 and 2 with a stiff clock that starts afresh.
 const char CheckpointTag[] = "openmm-flavors integrator state\n";
 const char CheckpointEndTag[] = "end of openmm-flavors integrator state\n";
-const std::uint32_t CheckpointVersion = 2;
+const std::uint32_t CheckpointVersion = 3;
 const std::uint32_t MaxNameLength = 64;
 
 template <class T> bool readValue(std::istream& stream, T& value) {
@@ -30,7 +31,8 @@ bool readBytes(std::istream& stream, std::string& text, size_t length) {
 } // namespace
 
 void FlavorPlugin::writeFlowCheckpoint(std::ostream& stream, const std::string& integratorName, std::uint64_t seed,
-                                       std::uint64_t nextStream, const StepHistory& history) {
+                                       std::uint64_t nextStream, const StepHistory& history,
+                                       const StiffClockState& clock) {
     const std::uint32_t nameLength = (std::uint32_t)integratorName.size();
     stream.write(CheckpointTag, sizeof(CheckpointTag) - 1);
     stream.write((const char*)&nameLength, sizeof(nameLength));
@@ -39,13 +41,17 @@ void FlavorPlugin::writeFlowCheckpoint(std::ostream& stream, const std::string& 
     stream.write((const char*)&seed, sizeof(seed));
     stream.write((const char*)&nextStream, sizeof(nextStream));
     history.write(stream);
+    stream.write((const char*)&clock.clock, sizeof(clock.clock));
+    stream.write((const char*)&clock.time, sizeof(clock.time));
     stream.write(CheckpointEndTag, sizeof(CheckpointEndTag) - 1);
 }
 
 std::string FlavorPlugin::readFlowCheckpoint(std::istream& stream, const std::string& integratorName,
                                              const StepHistory& history, std::uint64_t& storedSeed,
-                                             std::uint64_t& storedStream, StepHistory::Stored& storedHistory) {
+                                             std::uint64_t& storedStream, StepHistory::Stored& storedHistory,
+                                             StiffClockState* clock) {
     std::string problem;
+    StiffClockState storedClock;
     std::string tag, name, endTag;
     std::uint32_t nameLength = 0, version = 0;
     const bool hasTag = readBytes(stream, tag, sizeof(CheckpointTag) - 1);
@@ -61,7 +67,7 @@ std::string FlavorPlugin::readFlowCheckpoint(std::istream& stream, const std::st
         problem = "it was made with " + name;
     else if (!readValue(stream, version))
         problem = "it is truncated (no format version)";
-    else if (version != 1 && version != CheckpointVersion)
+    else if (version < 1 || version > CheckpointVersion)
         problem = "it has format version " + std::to_string(version) + "; this build reads versions 1 to " +
                   std::to_string(CheckpointVersion);
     else if (!readValue(stream, storedSeed) || !readValue(stream, storedStream))
@@ -69,10 +75,14 @@ std::string FlavorPlugin::readFlowCheckpoint(std::istream& stream, const std::st
     else if (version >= 2 && !history.read(stream, storedHistory))
         problem = "it is truncated or corrupt (the step history (constraint shares and force differences) is "
                   "incomplete or names particles this System does not have)";
+    else if (version >= 3 && (!readValue(stream, storedClock.clock) || !readValue(stream, storedClock.time)))
+        problem = "it is truncated (the stiff clock is incomplete)";
     else if (!readBytes(stream, endTag, sizeof(CheckpointEndTag) - 1))
         problem = "it is truncated (no end tag)";
     else if (endTag != std::string(CheckpointEndTag, sizeof(CheckpointEndTag) - 1))
         problem = "it is corrupt (no end tag after the random streams)";
+    if (problem.empty() && clock != nullptr)
+        *clock = storedClock;
     return problem;
 }
 

@@ -4,6 +4,7 @@
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferencePlatform.h"
 #include <istream>
+#include <limits>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -78,6 +79,17 @@ void FlowStepRunner::prepare() {
         passExecutors.push_back(&executorFor(pass.flows[0].kind));
 }
 
+void FlowStepRunner::setStiffClock(const std::string& parameter, double microStep, double mesoStep) {
+    forces.setClockParameter(parameter);
+    // A clock that ran with other time scales starts afresh; one loaded from a checkpoint before the first step
+    // continues.
+    if (clockOn && (parameter.empty() || microStep != clockAdvance || microStep / mesoStep != clockRatio))
+        stiffClock.time = std::numeric_limits<double>::quiet_NaN();
+    clockOn = !parameter.empty();
+    clockAdvance = microStep;
+    clockRatio = microStep / mesoStep;
+}
+
 void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
     seed = newSeed;
     random = CounterRandom(seed);
@@ -88,11 +100,18 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     if (!forcesValid)
         forces.invalidate();
     history.stepStarted();
+    auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
+    // The stiff clock continues where the last step left it unless the time was set from outside (or it never ran).
+    if (clockOn && data.time != stiffClock.time)
+        stiffClock.clock = data.time * clockRatio;
     StepState state{context, constraintTolerance, nextStream};
+    state.stiffClock = stiffClock.clock;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const FlowPass& pass = plan.passes[p];
         if (pass.fusedIntoNext) {
-            state.fusedKickForces = forces.get(context, pass.slots[0]).data();
+            state.fusedKickForces =
+                forces.get(context, pass.slots[0], pass.flows[0].clocked, state.stiffClock + pass.flows[0].clock)
+                    .data();
             state.fusedKickStep = pass.flows[0].h;
             continue;
         }
@@ -103,9 +122,12 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         constraints->takeShares(stepSize, history.shareForces);
     // Positions that forces were evaluated at already have their virtual sites.
     forces.placeVirtualSites(context);
-    auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
     data.time += stepSize;
     data.stepCount++;
+    if (clockOn) {
+        stiffClock.clock += clockAdvance;
+        stiffClock.time = data.time;
+    }
     forcesValid = true;
 }
 
@@ -131,14 +153,15 @@ void FlowStepRunner::saveContextState(ContextImpl& context, bool withParameters)
 }
 
 void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& integratorName) const {
-    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history);
+    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history, stiffClock);
 }
 
 void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, const std::string& integratorName) {
     std::uint64_t storedSeed = 0, storedStream = 0;
     StepHistory::Stored storedHistory;
+    StiffClockState storedClock;
     const std::string problem =
-        readFlowCheckpoint(stream, integratorName, history, storedSeed, storedStream, storedHistory);
+        readFlowCheckpoint(stream, integratorName, history, storedSeed, storedStream, storedHistory, &storedClock);
     if (!problem.empty()) {
         rollback.restore(context);
         forces.invalidate();
@@ -146,6 +169,7 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
     }
     setRandomSeed(storedSeed);
     nextStream = storedStream;
+    stiffClock = storedClock;
     history.load(storedHistory);
     if (parts.distances)
         parts.distances->forgetFactorizations();

@@ -69,9 +69,12 @@ void ParticlePassExecutor::run(const FlowPass& flowPass, size_t passIndex, StepS
     pass.firstStream = state.firstStream;
     bool drifts = false;
     double driftTime = 0.0;
-    for (const PreparedFlow& flow : flows) {
+    for (size_t k = 0; k < flows.size(); ++k) {
+        const PreparedFlow& flow = flows[k];
+        const SubFlow& setting = flowPass.flows[k];
         if (flow.kind == SubFlow::Kick)
-            pass.slotForces[flow.slot] = parts.forces.get(state.context, flow.slot).data();
+            pass.slotForces[flow.slot] =
+                parts.forces.get(state.context, flow.slot, setting.clocked, state.stiffClock + setting.clock).data();
         if (flow.kind == SubFlow::Drift) {
             drifts = true;
             driftTime += flow.h;

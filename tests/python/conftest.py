@@ -193,3 +193,15 @@ def run_quick(script, out, timeout=120, extra=()):
 def pytest_configure(config):
     # A correct configuration gives no openmmflavors.FlavorsWarning; tests that expect one say so (pytest.warns).
     config.addinivalue_line("filterwarnings", "error::openmmflavors.FlavorsWarning")
+
+
+def protein_recipe_flavor(seed=0):
+    """The artificial FLAVOR of the protein and water recipes: ArtificialProjected, Middle placement, delta = 2 fs,
+    tau = 0.5 fs, stiff group 1, 300 K at 1/ps."""
+    integrator = FlavorIntegrator(2 * unit.femtoseconds, 0.5 * unit.femtoseconds, {STIFF_GROUP})
+    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
+    integrator.setThermostatPlacement(FlavorIntegrator.Middle)
+    integrator.setTemperature(300 * unit.kelvin)
+    integrator.setFriction(1 / unit.picosecond)
+    integrator.setRandomNumberSeed(seed)
+    return integrator

@@ -11,6 +11,7 @@ import openmm.app as app
 import openmm.unit as unit
 import pytest
 
+from conftest import protein_recipe_flavor
 from openmmflavors import FlavorIntegrator
 
 
@@ -27,13 +28,7 @@ def water():
 
 
 def artificial_flavor():
-    integrator = FlavorIntegrator(2 * unit.femtoseconds, 0.5 * unit.femtoseconds, {1})
-    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
-    integrator.setThermostatPlacement(FlavorIntegrator.Middle)
-    integrator.setTemperature(300 * unit.kelvin)
-    integrator.setFriction(1 / unit.picosecond)
-    integrator.setRandomNumberSeed(5)
-    return integrator
+    return protein_recipe_flavor(seed=5)
 
 
 def nonintrusive_flavor():

@@ -4,16 +4,8 @@ import openmm.app as app
 import openmm.unit as unit
 import pytest
 
+from conftest import protein_recipe_flavor
 from openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator
-
-
-def middle_flavor():
-    integrator = FlavorIntegrator(2 * unit.femtoseconds, 0.5 * unit.femtoseconds, {1})
-    integrator.setAveraging(FlavorIntegrator.ArtificialProjected)
-    integrator.setThermostatPlacement(FlavorIntegrator.Middle)
-    integrator.setTemperature(300 * unit.kelvin)
-    integrator.setFriction(1 / unit.picosecond)
-    return integrator
 
 
 def water_context(integrator, waters):
@@ -30,7 +22,7 @@ def water_context(integrator, waters):
 
 
 def test_the_flavor_step_names_what_freezes_once_the_first_step_has_measured_it():
-    integrator = middle_flavor()
+    integrator = protein_recipe_flavor()
     step = "K_S(τ) θK_S(δ−τ) θ((δ−τ)/2) K_F(τ) D(τ/2) O(δ) D(τ/2) θ((δ−τ)/2)   [O: 300 K, 1/ps; θ holds "
     assert integrator.describeStep() == step + ("the stiff modes if the stiff groups are quadratic, else their bonded "
                                                 "distances (measured at the first step)]")
@@ -57,7 +49,7 @@ def test_the_sim_step_names_its_splitting_placement_and_baths():
 
 
 def test_describe_context_lists_every_force_with_its_role_and_what_freezes():
-    integrator = middle_flavor()
+    integrator = protein_recipe_flavor()
     with pytest.raises(openmm.OpenMMException, match="bound to a Context"):
         integrator.describeContext()
     context = water_context(integrator, 10)

@@ -70,10 +70,6 @@ bool hasStiffAngles(const Force& force) {
     return false;
 }
 
-string femtoseconds(double ps) {
-    return formatNumber(ps * 1000.0) + " fs";
-}
-
 } // namespace
 
 vector<string> FlavorIntegrator::getConfigurationWarnings() const {
@@ -110,13 +106,13 @@ vector<string> FlavorIntegrator::getConfigurationWarnings() const {
                        "run-to-run error bars of LangevinMiddleIntegrator at 2 fs; at 3 fs the system ran 1.2 K warm)"
                      : "4 fs on flexible TIP3P water (examples/flexible_water, thermostat Middle: four runs within the "
                        "run-to-run error bars of LangevinMiddleIntegrator at 0.25 fs)";
-        warnings.push_back("FlavorIntegrator: mesoStep = " + femtoseconds(getStepSize()) +
+        warnings.push_back("FlavorIntegrator: mesoStep = " + formatFemtoseconds(getStepSize()) +
                            " is longer than any mesostep measured as accurate for an artificial FLAVOR with frozen "
                            "angles" +
                            string(torsions ? " in a System with torsions" : "") + ": " + measured +
                            ".  It runs, but nothing says it is accurate: compare the observables you need with a "
                            "reference run, or use mesoStep <= " +
-                           femtoseconds(limit) + ".");
+                           formatFemtoseconds(limit) + ".");
     }
     return warnings;
 }

@@ -33,10 +33,6 @@ string describeForces(const System& system, int stiffGroups, int integrationGrou
     return text;
 }
 
-string femtoseconds(double ps) {
-    return formatNumber(ps * 1000.0) + " fs";
-}
-
 void requireBound(const ContextImpl* context, const string& owner) {
     if (context == nullptr)
         throw OpenMMException(owner + ": describeContext() needs the integrator to be bound to a Context");
@@ -46,8 +42,8 @@ void requireBound(const ContextImpl* context, const string& owner) {
 
 string FlavorIntegrator::describeContext() const {
     requireBound(context, "FlavorIntegrator");
-    string text = "FlavorIntegrator, mesostep δ = " + femtoseconds(getMesoStep()) +
-                  ", microstep τ = " + femtoseconds(microStep) + "\nstep: " + describeStep() + "\n" +
+    string text = "FlavorIntegrator, mesostep δ = " + formatFemtoseconds(getMesoStep()) +
+                  ", microstep τ = " + formatFemtoseconds(microStep) + "\nstep: " + describeStep() + "\n" +
                   describeForces(context->getSystem(), stiffGroups, getIntegrationForceGroups());
     if (averaging == Nonintrusive)
         return text + "frozen: nothing (the nonintrusive averaging weakens the stiff forces by τ/δ instead)\n";
@@ -64,8 +60,9 @@ string FlavorIntegrator::describeContext() const {
 
 string StochasticImpulseIntegrator::describeContext() {
     requireBound(context, "StochasticImpulseIntegrator");
-    string text = "StochasticImpulseIntegrator, step H = " + femtoseconds(getStepSize()) + "\nstep: " + describeStep() +
-                  "\n" + describeForces(context->getSystem(), stiffGroups, getIntegrationForceGroups());
+    string text = "StochasticImpulseIntegrator, step H = " + formatFemtoseconds(getStepSize()) +
+                  "\nstep: " + describeStep() + "\n" +
+                  describeForces(context->getSystem(), stiffGroups, getIntegrationForceGroups());
     const std::vector<double> omega = getStiffModeFrequencies();
     std::vector<double> stiff;
     std::copy_if(omega.begin(), omega.end(), std::back_inserter(stiff), [](double w) { return w > 0.0; });

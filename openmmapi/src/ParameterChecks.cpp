@@ -22,6 +22,10 @@ std::string FlavorPlugin::formatNumber(double value) {
     return out.str();
 }
 
+std::string FlavorPlugin::formatFemtoseconds(double ps) {
+    return formatNumber(ps * 1000.0) + " fs";
+}
+
 void FlavorPlugin::throwInvalidParameter(const std::string& owner, const std::string& parameter,
                                          const std::string& value, const std::string& allowed) {
     throw OpenMM::OpenMMException(owner + ": " + parameter + " = " + value + " is not allowed; " + allowed);

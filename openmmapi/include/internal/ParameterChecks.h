@@ -12,6 +12,8 @@ namespace FlavorPlugin {
 
 /** Formats a number with the fewest digits that read back as the same double. */
 OPENMM_EXPORT_FLAVORS std::string formatNumber(double value);
+/** A time in ps written in fs, e.g. "2.5 fs". */
+OPENMM_EXPORT_FLAVORS std::string formatFemtoseconds(double ps);
 
 /**
  * Throws an OpenMMException that names the integrator, the parameter, the rejected value and what is allowed:

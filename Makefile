@@ -33,7 +33,7 @@ build: deps
 
 # Every C++ file of the project as .clang-format lays it out.
 format-check: deps
-	clang-format --dry-run --Werror $$(git ls-files '*.cpp' '*.h')
+	clang-format --dry-run --Werror $$(git ls-files '*.cpp' '*.h' '*.cc')
 
 test: format-check build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)

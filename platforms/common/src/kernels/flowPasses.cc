@@ -15,19 +15,19 @@
 #pragma OPENCL FP_CONTRACT OFF
 #endif
 
-#define ZIGGURAT_TAIL_START ((mixed) 3.442619855899)
-#define FORCE_SCALE ((mixed) (1.0 / 4294967296.0))
+#define ZIGGURAT_TAIL_START ((mixed)3.442619855899)
+#define FORCE_SCALE ((mixed)(1.0 / 4294967296.0))
 #define MAX_SMALL_SIZE 18
 
 /** Philox4x32-10 (Salmon et al., SC'11) of the counter c with the key (k0, k1), in place. */
 DEVICE void philox4x32(unsigned int* c, unsigned int k0, unsigned int k1) {
     for (int round = 0; round < 10; ++round) {
-        const mm_ulong p0 = (mm_ulong) 0xD2511F53u * c[0];
-        const mm_ulong p1 = (mm_ulong) 0xCD9E8D57u * c[2];
-        const unsigned int c0 = (unsigned int) (p1 >> 32) ^ c[1] ^ k0;
-        const unsigned int c1 = (unsigned int) p1;
-        const unsigned int c2 = (unsigned int) (p0 >> 32) ^ c[3] ^ k1;
-        const unsigned int c3 = (unsigned int) p0;
+        const mm_ulong p0 = (mm_ulong)0xD2511F53u * c[0];
+        const mm_ulong p1 = (mm_ulong)0xCD9E8D57u * c[2];
+        const unsigned int c0 = (unsigned int)(p1 >> 32) ^ c[1] ^ k0;
+        const unsigned int c1 = (unsigned int)p1;
+        const unsigned int c2 = (unsigned int)(p0 >> 32) ^ c[3] ^ k1;
+        const unsigned int c3 = (unsigned int)p0;
         c[0] = c0;
         c[1] = c1;
         c[2] = c2;
@@ -56,16 +56,16 @@ DEVICE unsigned int nextSpareWord(SpareWords* spare) {
 }
 
 DEVICE mixed uniformOpen(unsigned int x) {
-    return ((mixed) x + (mixed) 0.5) * (mixed) (1.0 / 4294967296.0);
+    return ((mixed)x + (mixed)0.5) * (mixed)(1.0 / 4294967296.0);
 }
 
 /** One standard normal number from a signed 32-bit value and a layer by the 128-layer ziggurat. */
 DEVICE mixed zigguratNormal(int value, unsigned int layer, SpareWords* spare, GLOBAL const unsigned int* RESTRICT kn,
-        GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+                            GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
     while (true) {
-        const mm_long magnitude = value < 0 ? -(mm_long) value : (mm_long) value;
-        const mixed x = (mixed) value * wn[layer];
-        if (magnitude < (mm_long) kn[layer])
+        const mm_long magnitude = value < 0 ? -(mm_long)value : (mm_long)value;
+        const mixed x = (mixed)value * wn[layer];
+        if (magnitude < (mm_long)kn[layer])
             return x;
         if (layer == 0) {
             mixed tailX, tailY;
@@ -75,36 +75,36 @@ DEVICE mixed zigguratNormal(int value, unsigned int layer, SpareWords* spare, GL
             } while (tailY + tailY < tailX * tailX);
             return value > 0 ? ZIGGURAT_TAIL_START + tailX : -ZIGGURAT_TAIL_START - tailX;
         }
-        if (fn[layer] + uniformOpen(nextSpareWord(spare)) * (fn[layer - 1] - fn[layer]) < exp((mixed) -0.5 * x * x))
+        if (fn[layer] + uniformOpen(nextSpareWord(spare)) * (fn[layer - 1] - fn[layer]) < exp((mixed)-0.5 * x * x))
             return x;
-        value = (int) nextSpareWord(spare);
+        value = (int)nextSpareWord(spare);
         layer = nextSpareWord(spare) & 127;
     }
 }
 
 /** The three normal numbers of one particle in one stream (CounterRandom::normals). */
 DEVICE void counterNormals(mm_ulong stream, unsigned int particle, unsigned int k0, unsigned int k1,
-        GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn,
-        mixed* result) {
-    unsigned int bits[4] = {(unsigned int) stream, (unsigned int) (stream >> 32), particle, 0};
+                           GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn,
+                           GLOBAL const mixed* RESTRICT fn, mixed* result) {
+    unsigned int bits[4] = {(unsigned int)stream, (unsigned int)(stream >> 32), particle, 0};
     philox4x32(bits, k0, k1);
     SpareWords spare;
-    spare.counter[0] = (unsigned int) stream;
-    spare.counter[1] = (unsigned int) (stream >> 32);
+    spare.counter[0] = (unsigned int)stream;
+    spare.counter[1] = (unsigned int)(stream >> 32);
     spare.counter[2] = particle;
     spare.counter[3] = 0;
     spare.used = 4;
     spare.k0 = k0;
     spare.k1 = k1;
     for (int k = 0; k < 3; ++k)
-        result[k] = zigguratNormal((int) bits[k], (bits[3] >> (7 * k)) & 127, &spare, kn, wn, fn);
+        result[k] = zigguratNormal((int)bits[k], (bits[3] >> (7 * k)) & 127, &spare, kn, wn, fn);
 }
 
 DEVICE mixed4 loadPosition(GLOBAL const real4* RESTRICT posq, GLOBAL const real4* RESTRICT posqCorrection, int atom) {
 #ifdef USE_MIXED_PRECISION
     const real4 p1 = posq[atom];
     const real4 p2 = posqCorrection[atom];
-    return make_mixed4(p1.x + (mixed) p2.x, p1.y + (mixed) p2.y, p1.z + (mixed) p2.z, p1.w);
+    return make_mixed4(p1.x + (mixed)p2.x, p1.y + (mixed)p2.y, p1.z + (mixed)p2.z, p1.w);
 #else
     return posq[atom];
 #endif
@@ -112,8 +112,8 @@ DEVICE mixed4 loadPosition(GLOBAL const real4* RESTRICT posq, GLOBAL const real4
 
 DEVICE void storePosition(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection, int atom, mixed4 pos) {
 #ifdef USE_MIXED_PRECISION
-    posq[atom] = make_real4((real) pos.x, (real) pos.y, (real) pos.z, (real) pos.w);
-    posqCorrection[atom] = make_real4(pos.x - (real) pos.x, pos.y - (real) pos.y, pos.z - (real) pos.z, 0);
+    posq[atom] = make_real4((real)pos.x, (real)pos.y, (real)pos.z, (real)pos.w);
+    posqCorrection[atom] = make_real4(pos.x - (real)pos.x, pos.y - (real)pos.y, pos.z - (real)pos.z, 0);
 #else
     posq[atom] = pos;
 #endif
@@ -121,11 +121,11 @@ DEVICE void storePosition(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT po
 
 /** Copies the platform's fixed-point forces into a force slot, in system order. */
 KERNEL void copyForces(GLOBAL const mm_long* RESTRICT force, GLOBAL mixed4* RESTRICT slot,
-        GLOBAL const int* RESTRICT atomIndex) {
+                       GLOBAL const int* RESTRICT atomIndex) {
     for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE)
-        slot[atomIndex[atom]] = make_mixed4(FORCE_SCALE * (mixed) force[atom],
-                FORCE_SCALE * (mixed) force[atom + PADDED_NUM_ATOMS],
-                FORCE_SCALE * (mixed) force[atom + 2 * PADDED_NUM_ATOMS], 0);
+        slot[atomIndex[atom]] =
+            make_mixed4(FORCE_SCALE * (mixed)force[atom], FORCE_SCALE * (mixed)force[atom + PADDED_NUM_ATOMS],
+                        FORCE_SCALE * (mixed)force[atom + 2 * PADDED_NUM_ATOMS], 0);
 }
 
 /** slotOf[particle] = the atom that holds it now. */
@@ -135,8 +135,8 @@ KERNEL void findAtoms(GLOBAL const int* RESTRICT atomIndex, GLOBAL int* RESTRICT
 }
 
 /** v += h M^-1 F for the forces of one slot. */
-KERNEL void kick(GLOBAL mixed4* RESTRICT velm, GLOBAL const mixed4* RESTRICT slot,
-        GLOBAL const int* RESTRICT atomIndex, mixed h) {
+KERNEL void kick(GLOBAL mixed4* RESTRICT velm, GLOBAL const mixed4* RESTRICT slot, GLOBAL const int* RESTRICT atomIndex,
+                 mixed h) {
     for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
         mixed4 v = velm[atom];
         if (v.w == 0)
@@ -152,7 +152,7 @@ KERNEL void kick(GLOBAL mixed4* RESTRICT velm, GLOBAL const mixed4* RESTRICT slo
 
 /** q += h v; massless particles never move. */
 KERNEL void drift(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
-        GLOBAL const mixed4* RESTRICT velm, mixed h) {
+                  GLOBAL const mixed4* RESTRICT velm, mixed h) {
     for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
         const mixed4 v = velm[atom];
         if (v.w == 0)
@@ -175,7 +175,7 @@ KERNEL void driftDisplacement(GLOBAL mixed4* RESTRICT posDelta, GLOBAL const mix
 
 /** A constrained drift: moves by the corrected displacement and sets the velocity to the chord over the drift. */
 KERNEL void applyDisplacement(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
-        GLOBAL const mixed4* RESTRICT posDelta, GLOBAL mixed4* RESTRICT velm, mixed inverseTime) {
+                              GLOBAL const mixed4* RESTRICT posDelta, GLOBAL mixed4* RESTRICT velm, mixed inverseTime) {
     for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
         mixed4 v = velm[atom];
         if (v.w == 0)
@@ -199,16 +199,17 @@ KERNEL void applyDisplacement(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRIC
  * sqrt(kT/m), system order; thermostated: 1 or 0, system order).
  */
 KERNEL void thermostat(GLOBAL mixed4* RESTRICT velm, GLOBAL const int* RESTRICT atomIndex,
-        GLOBAL const mixed* RESTRICT thermalSpeed, GLOBAL const int* RESTRICT thermostated, mixed decay, mixed noise,
-        mm_ulong stream, unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
-        GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+                       GLOBAL const mixed* RESTRICT thermalSpeed, GLOBAL const int* RESTRICT thermostated, mixed decay,
+                       mixed noise, mm_ulong stream, unsigned int k0, unsigned int k1,
+                       GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn,
+                       GLOBAL const mixed* RESTRICT fn) {
     for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
         mixed4 v = velm[atom];
         const int particle = atomIndex[atom];
         if (v.w == 0 || thermostated[particle] == 0)
             continue;
         mixed xi[3];
-        counterNormals(stream, (unsigned int) particle, k0, k1, kn, wn, fn, xi);
+        counterNormals(stream, (unsigned int)particle, k0, k1, kn, wn, fn, xi);
         const mixed scale = noise * thermalSpeed[particle];
         v.x = v.x * decay + xi[0] * scale;
         v.y = v.y * decay + xi[1] * scale;
@@ -230,10 +231,11 @@ DEVICE void addProduct(mixed* sum, GLOBAL const mixed* RESTRICT a, const mixed* 
  * vectors into 3-element slices.
  */
 DEVICE void readStiffParticle(GLOBAL const real4* RESTRICT posq, GLOBAL const real4* RESTRICT posqCorrection,
-        GLOBAL const mixed4* RESTRICT velm, int atom, int particle, GLOBAL const mixed4* RESTRICT kickForces,
-        mixed kickStep, int noisy, mm_ulong stream, unsigned int k0, unsigned int k1,
-        GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn,
-        mixed* q, mixed* v, mixed* xi1, mixed* xi2) {
+                              GLOBAL const mixed4* RESTRICT velm, int atom, int particle,
+                              GLOBAL const mixed4* RESTRICT kickForces, mixed kickStep, int noisy, mm_ulong stream,
+                              unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
+                              GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn, mixed* q, mixed* v,
+                              mixed* xi1, mixed* xi2) {
     const mixed4 pos = loadPosition(posq, posqCorrection, atom);
     mixed4 vel = velm[atom];
     q[0] = pos.x;
@@ -250,13 +252,13 @@ DEVICE void readStiffParticle(GLOBAL const real4* RESTRICT posq, GLOBAL const re
         v[2] += scale * f.z;
     }
     if (noisy) {
-        counterNormals(stream, 2 * (unsigned int) particle, k0, k1, kn, wn, fn, xi1);
-        counterNormals(stream, 2 * (unsigned int) particle + 1, k0, k1, kn, wn, fn, xi2);
+        counterNormals(stream, 2 * (unsigned int)particle, k0, k1, kn, wn, fn, xi1);
+        counterNormals(stream, 2 * (unsigned int)particle + 1, k0, k1, kn, wn, fn, xi2);
     }
 }
 
 DEVICE void writeStiffParticle(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
-        GLOBAL mixed4* RESTRICT velm, int atom, const mixed* q, const mixed* v) {
+                               GLOBAL mixed4* RESTRICT velm, int atom, const mixed* q, const mixed* v) {
     mixed4 pos = loadPosition(posq, posqCorrection, atom);
     pos.x = q[0];
     pos.y = q[1];
@@ -277,14 +279,15 @@ DEVICE void writeStiffParticle(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRI
  * each component's part of propagator starts.
  */
 KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components, GLOBAL const int* RESTRICT layout,
-        GLOBAL const int* RESTRICT particles, GLOBAL const int* RESTRICT slotOf,
-        GLOBAL const mixed* RESTRICT propagator, GLOBAL const int* RESTRICT propagatorOffset,
-        GLOBAL const mixed* RESTRICT eigenvectors, GLOBAL const int* RESTRICT eigenvectorOffset,
-        GLOBAL const mixed* RESTRICT sqrtMass, GLOBAL mixed* RESTRICT scratch, GLOBAL const int* RESTRICT scratchOffset,
-        GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection, GLOBAL mixed4* RESTRICT velm,
-        GLOBAL const mixed4* RESTRICT kickForces, mixed kickStep, int noisy, mm_ulong stream, unsigned int k0,
-        unsigned int k1, GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn,
-        GLOBAL const mixed* RESTRICT fn) {
+                      GLOBAL const int* RESTRICT particles, GLOBAL const int* RESTRICT slotOf,
+                      GLOBAL const mixed* RESTRICT propagator, GLOBAL const int* RESTRICT propagatorOffset,
+                      GLOBAL const mixed* RESTRICT eigenvectors, GLOBAL const int* RESTRICT eigenvectorOffset,
+                      GLOBAL const mixed* RESTRICT sqrtMass, GLOBAL mixed* RESTRICT scratch,
+                      GLOBAL const int* RESTRICT scratchOffset, GLOBAL real4* RESTRICT posq,
+                      GLOBAL real4* RESTRICT posqCorrection, GLOBAL mixed4* RESTRICT velm,
+                      GLOBAL const mixed4* RESTRICT kickForces, mixed kickStep, int noisy, mm_ulong stream,
+                      unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
+                      GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
     for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
         const int4 comp = components[c];
         const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w;
@@ -296,7 +299,7 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
             for (int p = 0; p < numParticles; ++p) {
                 const int particle = particles[first + p];
                 readStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, kickForces, kickStep, noisy,
-                        stream, k0, k1, kn, wn, fn, q + 3 * p, v + 3 * p, xi1 + 3 * p, xi2 + 3 * p);
+                                  stream, k0, k1, kn, wn, fn, q + 3 * p, v + 3 * p, xi1 + 3 * p, xi2 + 3 * p);
             }
             const int DD = D * D, DC = D * C;
             GLOBAL const mixed* gx = m + 4 * DD;
@@ -318,7 +321,7 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
             }
             for (int p = 0; p < numParticles; ++p)
                 writeStiffParticle(posq, posqCorrection, velm, slotOf[particles[first + p]], newQ + 3 * p,
-                        newV + 3 * p);
+                                   newV + 3 * p);
             continue;
         }
         // Large: mass-weighted coordinates into mode space, each mode's 2 x 2 flow and noise, and back.
@@ -330,7 +333,7 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
             const int particle = particles[first + p];
             mixed q[3], v[3], xi1[3], xi2[3];
             readStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, kickForces, kickStep, noisy,
-                    stream, k0, k1, kn, wn, fn, q, v, xi1, xi2);
+                              stream, k0, k1, kn, wn, fn, q, v, xi1, xi2);
             const mixed s = sqrtMass[particle];
             for (int d = 0; d < 3; ++d) {
                 GLOBAL mixed* row = particleSpace + (C == 3 ? p * width + d : (3 * p + d) * width);
@@ -385,7 +388,7 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
             for (int i = 0; i < D; ++i)
                 for (int w = 0; w < W; ++w)
                     modeSpace[i * W + w] +=
-                            c0[i] * mode[w] + c1[i] * mode[W + w] + c2[i] * mode[2 * W + w] + c3[i] * mode[3 * W + w];
+                        c0[i] * mode[w] + c1[i] * mode[W + w] + c2[i] * mode[2 * W + w] + c3[i] * mode[3 * W + w];
         }
         for (; k < D; ++k) {
             GLOBAL const mixed* column = u + k * D;

@@ -10,7 +10,7 @@
     boundary in delta is also found by bisection, from runs and from the matrix.  Lines: Theorem 5.1's delta = 2; the
     averaged oscillator (stiffness scaled by tau/delta) integrated with step delta, whose boundary
     delta^2 lambda_max(K_eff) = 4 tends to delta*tau*omega^2 = 2 (the stiff mode of this bond between two unit masses
-    has frequency sqrt(2) omega, so this is the README's delta*tau*omega_stiff^2 <= 4); and delta*tau*omega^2 = 4,
+    has frequency sqrt(2) omega, so this is the user guide's delta*tau*omega_stiff^2 <= 4); and delta*tau*omega^2 = 4,
     the same rule read with the paper's omega.
 (b) Resonance on the FPU chain (m = 3, omega = 200, Fig. 6.5 start): error at the end of a run against omega*H for
     r-RESPA (openmm.mtsintegrator.MTSIntegrator, outer step H, inner steps with omega*h <= 0.1), deterministic SIM
@@ -305,7 +305,7 @@ def plot_stability(a, path, dpi, small=False):
         ax.plot(avg, tw, color="tab:purple", lw=1.5, label="averaged oscillator: δ² λ_max(K_eff) = 4")
         d = np.linspace(0.05, 3.0, 200)
         ax.plot(d, 2.0 / d, color="tab:purple", lw=0.8, ls=":",
-                label="its asymptote δτω_stiff² = 4, the README's rule (ω_stiff = √2 ω: δτω² = 2)")
+                label="its asymptote δτω_stiff² = 4, the user guide's rule (ω_stiff = √2 ω: δτω² = 2)")
         ax.plot(d, 4.0 / d, color="tab:orange", lw=1.2, ls="--",
                 label="δτω² = 4: the same rule read with the paper's ω in place of ω_stiff")
         ax.axhline(math.sqrt(2) * a["omega"], color="gray", lw=0.8, ls="-.",

@@ -33,6 +33,7 @@ inline const std::vector<std::string>& suitesNotOnOpenCL() {
         "ImpulseMiddle",         // Filtered and Warped splittings (Middle placement)
         "ImpulseModeBath",       // Warped splitting
         "IntegratorGuards",      // artificial averagings; single-precision re-measurement after a failed load
+        "MetropolisAdjusted",    // the Metropolis adjustment (setMetropolis)
         "StepAllocations",       // counts the CPU engine's allocations
         "StoredTrajectories",    // trajectories stored bit for bit on Reference and CPU
         "ThreadedPaths",         // the CPU platform's thread pool

@@ -197,6 +197,38 @@ public:
      */
     void setStiffClockParameter(const std::string& name);
     /**
+     * Get whether each mesostep is a Metropolis-adjusted proposal (false by default).  See setMetropolis().
+     */
+    bool getMetropolis() const { return metropolis; }
+    /**
+     * Make each mesostep a Metropolis-adjusted proposal (FLAVORS paper, section 4.2.3), which samples the Boltzmann
+     * distribution of the integrated forces exactly at any step size.  The step becomes O(delta/2) [P] O(delta/2)
+     * (generalized hybrid Monte Carlo): the Ornstein-Uhlenbeck thermostat over half the mesostep outside, and the
+     * scheme without friction as the proposal P.  P is accepted with probability min(1, exp(-dH/kT)), dH the change
+     * of the total energy H = U + K (U of every integrated force group); on rejection the positions are put back and
+     * the velocities reversed.  With friction 0 each step is a plain accept-or-reject of the scheme's step.  The
+     * energy is evaluated with the forces the step needs anyway, so the cost is that of an energy term, not of a
+     * force evaluation.
+     *
+     * The proposal must be reversible and volume-preserving: the Verlet scheme with the Nonintrusive averaging, or
+     * with an artificial averaging whose stiff groups are quadratic (their stiff modes freeze linearly), qualify.
+     * With the Nonintrusive averaging the stiff coordinates drift over delta under only tau of stiff force, so where
+     * omega delta >> 1 nearly every proposal is rejected; the artificial averagings hold the stiff modes over
+     * delta - tau and keep a useful acceptance there (docs/USER_GUIDE.md gives measured rates).  A
+     * step throws an OpenMMException, and changes nothing, with the SymplecticEuler scheme (not symmetric, so not
+     * reversible), frozen bonded distances (held by an iterative solve, reversible only to its tolerance), System
+     * constraints (the same), a stiff clock (no conserved energy), the Middle placement or stiff friction (the
+     * thermostat is outside the proposal), or a temperature of 0.  getAcceptanceRate() reports the fraction accepted.
+     */
+    void setMetropolis(bool metropolis) { this->metropolis = metropolis; }
+    /**
+     * Get the fraction of the Metropolis-adjusted proposals accepted since the Context was created (a checkpoint
+     * carries the counts), or NaN if none was made.
+     *
+     * @throws OpenMMException if the integrator is not bound to a Context
+     */
+    double getAcceptanceRate() const;
+    /**
      * Freeze the distance between two particles during the artificial FLAVOR's frozen drift, in addition to the
      * distances the stiff bonded forces determine.  Needed when a stiff force of another type (e.g. a
      * CustomCompoundBondForce) is not quadratic.
@@ -346,6 +378,7 @@ private:
     std::vector<std::pair<int, int>> frozenDistances;
     int randomNumberSeed;
     std::string stiffClockParameter;
+    bool metropolis = false;
     // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
     StepKernelBinding binding;
     IntegrateFlavorStepKernel* stepKernel;

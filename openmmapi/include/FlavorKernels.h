@@ -39,6 +39,10 @@ public:
      * positions or velocities were set.
      */
     virtual void forgetStepHistory() = 0;
+    /**
+     * Get how many Metropolis-adjusted steps were proposed since the kernel was created, and how many accepted.
+     */
+    virtual void getProposalCounts(long long& proposed, long long& accepted) const = 0;
 };
 
 /**

@@ -168,6 +168,36 @@ public:
      * Warped splittings only; checked when a step is taken).
      */
     void setThermostatPlacement(ThermostatPlacement placement);
+    /**
+     * Get whether each step is a Metropolis-adjusted proposal (false by default).  See setMetropolis().
+     */
+    bool getMetropolis() const { return metropolis; }
+    /**
+     * Make each step a Metropolis-adjusted proposal (FLAVORS paper, section 4.2.3), which samples the Boltzmann
+     * distribution of the integrated forces exactly at any step size.  The step becomes O(H/2) [P] O(H/2)
+     * (generalized hybrid Monte Carlo): the Ornstein-Uhlenbeck thermostat over half the step on every particle
+     * outside, and the splitting without friction as the proposal P.  P is accepted with probability
+     * min(1, exp(-dH/kT)), dH the change of the total energy H = U + K (U of every integrated force group); on
+     * rejection the positions are put back and the velocities reversed.  With friction 0 each step is a plain
+     * accept-or-reject of the splitting's step.  The soft energy is evaluated with the soft forces the step needs
+     * anyway; the stiff energy is one evaluation of the stiff groups.
+     *
+     * The proposal must be reversible and volume-preserving: Strang, Yoshida4 and Filtered qualify (kicks and
+     * filtered kicks are shears, the exact flow a linear map of determinant 1, composed symmetrically).  A step
+     * throws an OpenMMException, and changes nothing, with LieTrotter (not symmetric), Warped (its step, as built,
+     * misses its start when reversed by about 1e-3 of a stiff mode's amplitude), the
+     * Middle placement (the thermostat is outside the proposal), a stiff-mode temperature or friction other than the
+     * integrator's (one Boltzmann target, one thermostat on whole particles), System constraints (reversible only to
+     * the constraint tolerance) or a temperature of 0.  getAcceptanceRate() reports the fraction accepted.
+     */
+    void setMetropolis(bool metropolis) { this->metropolis = metropolis; }
+    /**
+     * Get the fraction of the Metropolis-adjusted proposals accepted since the Context was created (a checkpoint
+     * carries the counts), or NaN if none was made.
+     *
+     * @throws OpenMMException if the integrator is not bound to a Context
+     */
+    double getAcceptanceRate() const;
     /** Get the random number seed.  See setRandomNumberSeed() for details. */
     int getRandomNumberSeed() const { return randomNumberSeed; }
     /**
@@ -235,6 +265,7 @@ private:
     Splitting splitting;
     ThermostatPlacement thermostatPlacement;
     int randomNumberSeed;
+    bool metropolis = false;
     // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
     StepKernelBinding binding;
     IntegrateStochasticImpulseStepKernel* stepKernel;

@@ -280,3 +280,7 @@ string FlavorIntegrator::describeStep() const {
     return describeSchedule(flavorSchedule(parameters), stiffGroups, getIntegrationForceGroups(), "δ", "τ",
                             stepKernel != nullptr ? stepKernel->getNumFrozen() : 0);
 }
+
+double FlavorIntegrator::getAcceptanceRate() const {
+    return binding.getAcceptanceRate(Owner);
+}

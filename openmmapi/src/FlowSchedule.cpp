@@ -132,11 +132,37 @@ Schedule artificialSchedule(const FlavorParameters& p) {
     return simplifySchedule(s);
 }
 
+/**
+ * Generalized hybrid Monte Carlo: O(h/2) [proposal] O(h/2), the deterministic proposal between its start and its
+ * test of the energy of groups (the thermostats only with friction).
+ */
+Schedule metropolisSchedule(const Schedule& proposal, double h, const Bath& bath, int groups) {
+    SubFlow thermostat{SubFlow::Thermostat, h / 2, 0};
+    thermostat.bath = bath;
+    thermostat.length = StepLength{0.5, 0.0};
+    SubFlow start{SubFlow::ProposalStart, 0.0, groups}, test{SubFlow::ProposalTest, 0.0, groups};
+    start.bath = test.bath = bath;
+    Schedule s;
+    if (bath.friction > 0.0)
+        s.push_back(thermostat);
+    s.push_back(start);
+    s.insert(s.end(), proposal.begin(), proposal.end());
+    s.push_back(test);
+    if (bath.friction > 0.0)
+        s.push_back(thermostat);
+    return simplifySchedule(s);
+}
+
+bool isProposalMarker(SubFlow::Kind kind) {
+    return kind == SubFlow::ProposalStart || kind == SubFlow::ProposalTest;
+}
+
 } // namespace
 
 bool FlavorPlugin::isCoupledFlow(SubFlow::Kind kind) {
     return kind == SubFlow::StiffFlow || kind == SubFlow::HarmonicFlow || kind == SubFlow::FrozenDrift ||
-           kind == SubFlow::FrozenKick || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick;
+           kind == SubFlow::FrozenKick || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick ||
+           isProposalMarker(kind);
 }
 
 bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
@@ -146,7 +172,7 @@ bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
 Schedule FlavorPlugin::simplifySchedule(const Schedule& schedule) {
     Schedule result;
     for (const SubFlow& flow : schedule) {
-        if (flow.h == 0.0 || (flow.kind == SubFlow::Kick && flow.groups == 0))
+        if ((flow.h == 0.0 && !isProposalMarker(flow.kind)) || (flow.kind == SubFlow::Kick && flow.groups == 0))
             continue;
         if (!result.empty() && composesExactly(result.back(), flow)) {
             result.back().h += flow.h;
@@ -174,10 +200,17 @@ FlavorParameters FlavorPlugin::flavorParameters(const FlavorIntegrator& integrat
                        integrator.getThermostatPlacement()};
     p.kT = BOLTZ * integrator.getTemperature();
     p.stiffClock = !integrator.getStiffClockParameter().empty();
+    p.metropolis = integrator.getMetropolis();
     return p;
 }
 
 Schedule FlavorPlugin::flavorSchedule(const FlavorParameters& p) {
+    if (p.metropolis) {
+        FlavorParameters proposal = p;
+        proposal.metropolis = false;
+        proposal.friction = 0.0;
+        return metropolisSchedule(flavorSchedule(proposal), p.mesoStep, Bath{p.kT, p.friction}, p.integrationGroups);
+    }
     if (p.averaging != FlavorIntegrator::Nonintrusive)
         return artificialSchedule(p);
     const double tau = p.microStep, rest = p.mesoStep - p.microStep;
@@ -235,10 +268,17 @@ ImpulseParameters FlavorPlugin::impulseParameters(const StochasticImpulseIntegra
     p.thermostatPlacement = integrator.getThermostatPlacement();
     p.bath = Bath{BOLTZ * integrator.getTemperature(), integrator.getFriction()};
     p.stiffBath = Bath{BOLTZ * integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()};
+    p.metropolis = integrator.getMetropolis();
     return p;
 }
 
 Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
+    if (p.metropolis) {
+        ImpulseParameters proposal = p;
+        proposal.metropolis = false;
+        proposal.bath.friction = proposal.stiffBath.friction = 0.0;
+        return metropolisSchedule(impulseSchedule(proposal), p.stepSize, p.bath, p.integrationGroups);
+    }
     const double H = p.stepSize;
     const int soft = p.integrationGroups & ~p.stiffGroups;
     ScheduleBuilder b(H);

@@ -54,7 +54,8 @@ string describeBath(const Bath& bath) {
 string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups, int integrationGroups,
                                       const string& meso, const string& micro, int numFrozen) {
     std::ostringstream out;
-    string baths, frozen;
+    string baths, frozen, proposal;
+    bool opened = false;
     for (const SubFlow& flow : schedule) {
         const string h = "(" + formatLength(flow.length, meso, micro) + ")";
         const string kick = kickName(flow.groups, stiffGroups, integrationGroups);
@@ -65,9 +66,17 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
         const string halfKick = (flow.response == SubFlow::KickResponse::Scaled ? "K^κ" + kick.substr(1) : kick) + "(" +
                                 formatLength({flow.length.mesoSteps / 2, flow.length.microSteps / 2}, meso, micro) +
                                 ")";
-        if (out.tellp() > 0)
+        if (out.tellp() > 0 && !opened && flow.kind != SubFlow::ProposalTest)
             out << " ";
+        opened = flow.kind == SubFlow::ProposalStart;
         switch (flow.kind) {
+        case SubFlow::ProposalStart:
+            out << "[";
+            break;
+        case SubFlow::ProposalTest:
+            out << "]_MH";
+            proposal = "[…]_MH: proposal accepted with min(1, exp(−ΔH/kT)), else reversed";
+            break;
         case SubFlow::Kick:
             out << kick << h;
             break;
@@ -107,6 +116,8 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
         }
     }
     string notes = baths;
+    if (!proposal.empty())
+        notes += (notes.empty() ? "" : "; ") + proposal;
     if (!frozen.empty())
         notes += (notes.empty() ? "" : "; ") + frozen;
     if (!notes.empty())

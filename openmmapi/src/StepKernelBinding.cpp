@@ -1,6 +1,8 @@
 #include "internal/StepKernelBinding.h"
 #include "FlavorKernels.h"
+#include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
+#include <limits>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -50,4 +52,12 @@ void StepKernelBinding::createCheckpoint(ContextImpl& context, std::ostream& str
 void StepKernelBinding::loadCheckpoint(ContextImpl& context, std::istream& stream) {
     stepKernel->loadCheckpoint(context, stream);
     forcesValid = false;
+}
+
+double StepKernelBinding::getAcceptanceRate(const std::string& owner) const {
+    if (stepKernel == nullptr)
+        throw OpenMMException(owner + ": getAcceptanceRate: the integrator is not bound to a Context");
+    long long proposed = 0, accepted = 0;
+    stepKernel->getProposalCounts(proposed, accepted);
+    return proposed == 0 ? std::numeric_limits<double>::quiet_NaN() : (double)accepted / (double)proposed;
 }

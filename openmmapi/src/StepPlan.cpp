@@ -11,7 +11,8 @@ bool readsForces(SubFlow::Kind kind) {
 }
 
 bool drawsNoise(SubFlow::Kind kind) {
-    return kind == SubFlow::Thermostat || kind == SubFlow::StiffFlow || kind == SubFlow::FilteredStiffFlow;
+    return kind == SubFlow::Thermostat || kind == SubFlow::StiffFlow || kind == SubFlow::FilteredStiffFlow ||
+           kind == SubFlow::ProposalTest;
 }
 
 bool isFrozenFlow(SubFlow::Kind kind) {

@@ -88,3 +88,80 @@ void FlavorPlugin::validateFlavorStep(const FlavorParameters& p) {
                                       "frozen with constraints), so they have no exact fast flow; call "
                                       "setExactFastFlow(false)");
 }
+
+namespace {
+
+/** The rejection of a Metropolis-adjusted step: what stops it (setting) and why (reason). */
+[[noreturn]] void rejectMetropolis(const string& owner, const string& setting, const string& reason) {
+    throw OpenMM::OpenMMException(owner + ": the Metropolis adjustment (setMetropolis(true)) is not allowed with " +
+                                  setting + ": " + reason +
+                                  ".  The adjustment needs a reversible, volume-preserving proposal and a Boltzmann "
+                                  "target; call setMetropolis(false) to step without it");
+}
+
+void requireMetropolisTarget(const string& owner, double kT, bool constrained) {
+    if (!(kT > 0.0))
+        rejectMetropolis(owner, "temperature = 0 K", "the acceptance exp(-ΔH/kT) needs a temperature > 0");
+    if (constrained)
+        rejectMetropolis(owner, "a System with constraints",
+                         "the constraint solves are reversible only to the constraint tolerance, which biases the "
+                         "acceptance; make the constrained bonds flexible (a stiff force group)");
+}
+
+} // namespace
+
+void FlavorPlugin::validateMetropolis(const FlavorParameters& p, bool constrained) {
+    if (!p.metropolis)
+        return;
+    const string owner = "FlavorIntegrator";
+    if (p.scheme != FlavorIntegrator::Verlet)
+        rejectMetropolis(owner, "scheme = SymplecticEuler (0)",
+                         "its step is not symmetric, so it is not reversible (the step with reversed velocities is "
+                         "not its inverse); allowed: Verlet (1)");
+    if (p.stiffClock)
+        rejectMetropolis(owner, "a stiff clock (setStiffClockParameter)",
+                         "the stiff forces change with the clock, so there is no conserved energy to test");
+    if (p.thermostatPlacement == FlavorIntegrator::Middle)
+        rejectMetropolis(owner, "thermostatPlacement = Middle (1)",
+                         "the adjusted step puts the thermostat outside the proposal, O(δ/2) [P] O(δ/2); allowed: "
+                         "Edges (0)");
+    if (p.stiffFriction)
+        rejectMetropolis(owner, "stiffFriction = true",
+                         "the adjusted step puts the thermostat outside the proposal, over the whole mesostep, "
+                         "O(δ/2) [P] O(δ/2); allowed: false");
+    if (p.averaging != FlavorIntegrator::Nonintrusive && p.frozen == SubFlow::FrozenSet::Distances)
+        rejectMetropolis(owner, "frozen bonded distances (the artificial averaging of nonlinear stiff forces)",
+                         "the frozen drift holds the distances by an iterative solve, reversible only to its "
+                         "tolerance; allowed: the Nonintrusive averaging, or an artificial one with quadratic stiff "
+                         "groups (their stiff modes freeze exactly)");
+    requireMetropolisTarget(owner, p.kT, constrained);
+}
+
+void FlavorPlugin::validateMetropolis(const ImpulseParameters& p, bool constrained) {
+    if (!p.metropolis)
+        return;
+    const string owner = "StochasticImpulseIntegrator";
+    if (p.splitting == StochasticImpulseIntegrator::LieTrotter)
+        rejectMetropolis(owner, "splitting = LieTrotter (0)",
+                         "its step E(H) K(H) is not symmetric, so it is not reversible; allowed: Strang (1), "
+                         "Yoshida4 (2) and Filtered (3)");
+    if (p.splitting == StochasticImpulseIntegrator::Warped)
+        rejectMetropolis(owner, "splitting = Warped (4)",
+                         "its step is not reversible: from the reversed end state it misses its start by about 1e-3 "
+                         "of a stiff mode's amplitude (the reversibility test); allowed: Strang (1), Yoshida4 (2) "
+                         "and Filtered (3)");
+    if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle)
+        rejectMetropolis(owner, "thermostatPlacement = Middle (1)",
+                         "the adjusted step puts the thermostat outside the proposal, O(H/2) [P] O(H/2); allowed: "
+                         "Throughout (0)");
+    if (p.stiffBath.kT != p.bath.kT)
+        rejectMetropolis(
+            owner, "a stiff-mode temperature (" + formatNumber(p.stiffBath.kT / p.bath.kT) + " times the temperature)",
+            "the Boltzmann target has one temperature; set the stiff-mode temperature equal to the temperature");
+    if (p.stiffBath.friction != p.bath.friction)
+        rejectMetropolis(owner, "stiffModeFriction = " + formatNumber(p.stiffBath.friction) + " 1/ps",
+                         "the adjusted step's thermostat acts on whole particles outside the proposal with the "
+                         "friction (" +
+                             formatNumber(p.bath.friction) + " 1/ps); set the stiff-mode friction equal to it");
+    requireMetropolisTarget(owner, p.bath.kT, constrained);
+}

@@ -156,3 +156,7 @@ string StochasticImpulseIntegrator::describeStep() const {
     return describeSchedule(impulseSchedule(impulseParameters(*this)), stiffGroups, getIntegrationForceGroups(), "H",
                             "");
 }
+
+double StochasticImpulseIntegrator::getAcceptanceRate() const {
+    return binding.getAcceptanceRate(Owner);
+}

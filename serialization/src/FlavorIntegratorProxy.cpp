@@ -13,9 +13,10 @@ FlavorIntegratorProxy::FlavorIntegratorProxy() : SerializationProxy("FlavorInteg
 
 void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const FlavorIntegrator& integrator = *reinterpret_cast<const FlavorIntegrator*>(object);
-    // Version 4 added the stiff clock: without one the document is the version 3 one, which older builds read.
-    const bool stiffClock = !integrator.getStiffClockParameter().empty();
-    node.setIntProperty("version", stiffClock ? 4 : 3);
+    // Version 4 added the stiff clock, version 5 the Metropolis adjustment: without them the document is the version 3
+    // one, which older builds read.
+    const int version = integrator.getMetropolis() ? 5 : !integrator.getStiffClockParameter().empty() ? 4 : 3;
+    node.setIntProperty("version", version);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("microStep", integrator.getMicroStep());
     node.setIntProperty("stiffGroups", integrator.getStiffGroups());
@@ -29,8 +30,10 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
     node.setIntProperty("randomSeed", integrator.getRandomNumberSeed());
     node.setDoubleProperty("constraintTolerance", integrator.getConstraintTolerance());
     node.setIntProperty("integrationForceGroups", integrator.getIntegrationForceGroups());
-    if (stiffClock)
+    if (version >= 4)
         node.setStringProperty("stiffClockParameter", integrator.getStiffClockParameter());
+    if (version >= 5)
+        node.setBoolProperty("metropolis", true);
     SerializationNode& particles = node.createChildNode("FrictionParticles");
     for (int p : integrator.getFrictionParticles())
         particles.createChildNode("Particle").setIntProperty("index", p);
@@ -44,9 +47,9 @@ void FlavorIntegratorProxy::serialize(const void* object, SerializationNode& nod
 
 void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version < 1 || version > 4)
+    if (version < 1 || version > 5)
         throw OpenMMException("FlavorIntegrator: unsupported serialization version " + std::to_string(version) +
-                              "; this library reads versions 1 to 4");
+                              "; this library reads versions 1 to 5");
     auto integrator = std::make_unique<FlavorIntegrator>(
         node.getDoubleProperty("stepSize"), node.getDoubleProperty("microStep"), node.getIntProperty("stiffGroups"));
     integrator->setScheme((FlavorIntegrator::Scheme)node.getIntProperty("scheme"));
@@ -66,6 +69,8 @@ void* FlavorIntegratorProxy::deserialize(const SerializationNode& node) const {
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
     if (version >= 4) // earlier versions had no stiff clock
         integrator->setStiffClockParameter(node.getStringProperty("stiffClockParameter"));
+    if (version >= 5)
+        integrator->setMetropolis(node.getBoolProperty("metropolis"));
     std::vector<int> particles;
     for (const SerializationNode& particle : node.getChildNode("FrictionParticles").getChildren())
         particles.push_back(particle.getIntProperty("index"));

@@ -13,7 +13,8 @@ StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
 
 void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
-    node.setIntProperty("version", 3);
+    // Version 4 added the Metropolis adjustment: without it the document is the version 3 one, which older builds read.
+    node.setIntProperty("version", integrator.getMetropolis() ? 4 : 3);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
@@ -29,13 +30,15 @@ void StochasticImpulseIntegratorProxy::serialize(const void* object, Serializati
         node.setDoubleProperty("stiffModeFriction", integrator.getStiffModeFriction());
     // Version 3: where the zero modes' thermostat acts.
     node.setIntProperty("thermostatPlacement", integrator.getThermostatPlacement());
+    if (integrator.getMetropolis())
+        node.setBoolProperty("metropolis", true);
 }
 
 void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version < 1 || version > 3)
+    if (version < 1 || version > 4)
         throw OpenMMException("StochasticImpulseIntegrator: unsupported serialization version " +
-                              std::to_string(version) + "; this library reads versions 1 to 3");
+                              std::to_string(version) + "; this library reads versions 1 to 4");
     auto integrator = std::make_unique<StochasticImpulseIntegrator>(
         node.getDoubleProperty("temperature"), node.getDoubleProperty("friction"), node.getDoubleProperty("stepSize"),
         node.getIntProperty("stiffGroups"));
@@ -50,5 +53,7 @@ void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& nod
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
+    if (version >= 4)
+        integrator->setMetropolis(node.getBoolProperty("metropolis"));
     return integrator.release();
 }

@@ -53,6 +53,11 @@ public:
     explicit CounterRandom(std::uint64_t seed = 0)
         : key0((std::uint32_t)seed), key1((std::uint32_t)(seed >> 32)), tables(&ZigguratTables::get()) {}
 
+    /** A uniform number in (0, 1) for a stream (a Metropolis test's; the counter's last word tells it from normals). */
+    double uniform(std::uint64_t stream) const {
+        return uniformOpen(philox({(std::uint32_t)stream, (std::uint32_t)(stream >> 32), 0, 1})[0]);
+    }
+
     /** Three independent standard normal numbers for one particle in one stream. */
     std::array<double, 3> normals(std::uint64_t stream, std::uint32_t particle) const {
         // One block: three 32-bit values, and the layer of each from separate bits of the fourth word (layer and

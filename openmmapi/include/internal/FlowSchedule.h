@@ -58,7 +58,17 @@ struct SubFlow {
          */
         FrozenDrift,
         /** Kick along the coordinates that are not frozen (frozen) only. */
-        FrozenKick
+        FrozenKick,
+        /**
+         * Opens a Metropolis proposal (h = 0): remembers the positions, velocities and the energy of the forces of
+         * groups (the integrated ones), H = U + K.
+         */
+        ProposalStart,
+        /**
+         * Closes the proposal (h = 0): accepts the state with probability min(1, exp(-(H - H_start) / kT)), kT from
+         * bath; otherwise puts back the state where the proposal started with its velocities reversed.
+         */
+        ProposalTest
     };
     /** The frequency at which the stiff modes of a mode flow turn. */
     enum class StiffFrequency {
@@ -142,12 +152,14 @@ struct FlavorParameters {
     SubFlow::FrozenSet frozen = SubFlow::FrozenSet::StiffModes;
     /** Whether the kicks of stiff groups run on the stiff clock (a clock parameter is set). */
     bool stiffClock = false;
+    /** Whether each step is a Metropolis-adjusted proposal (FlavorIntegrator::setMetropolis). */
+    bool metropolis = false;
     bool operator==(const FlavorParameters& o) const {
         return scheme == o.scheme && averaging == o.averaging && exactFastFlow == o.exactFastFlow &&
                mesoStep == o.mesoStep && microStep == o.microStep && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && friction == o.friction && stiffFriction == o.stiffFriction &&
                thermostatPlacement == o.thermostatPlacement && kT == o.kT && frozen == o.frozen &&
-               stiffClock == o.stiffClock;
+               stiffClock == o.stiffClock && metropolis == o.metropolis;
     }
 };
 
@@ -171,6 +183,9 @@ OPENMM_EXPORT_FLAVORS FlavorParameters flavorParameters(const FlavorIntegrator& 
  * microstep's drift:
  *
  *     K_soft(delta) theta^tr((delta-tau)/2) K_stiff(tau) D(tau/2) O D(tau/2) theta^tr((delta-tau)/2)
+ *
+ * Metropolis-adjusted (generalized hybrid Monte Carlo): O(delta/2) [P] O(delta/2), where the proposal P is the
+ * step's deterministic part (the schedule without friction) between a ProposalStart and a ProposalTest.
  */
 OPENMM_EXPORT_FLAVORS Schedule flavorSchedule(const FlavorParameters& parameters);
 
@@ -183,10 +198,12 @@ struct ImpulseParameters {
     StochasticImpulseIntegrator::ThermostatPlacement thermostatPlacement = StochasticImpulseIntegrator::Throughout;
     /** The bath of the zero modes and free particles, and that of the stiff modes. */
     Bath bath = {}, stiffBath = {};
+    /** Whether each step is a Metropolis-adjusted proposal (StochasticImpulseIntegrator::setMetropolis). */
+    bool metropolis = false;
     bool operator==(const ImpulseParameters& o) const {
         return splitting == o.splitting && stepSize == o.stepSize && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && thermostatPlacement == o.thermostatPlacement &&
-               bath == o.bath && stiffBath == o.stiffBath;
+               bath == o.bath && stiffBath == o.stiffBath && metropolis == o.metropolis;
     }
 };
 
@@ -198,6 +215,7 @@ OPENMM_EXPORT_FLAVORS ImpulseParameters impulseParameters(const StochasticImpuls
  * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
  * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered: kicks scaled by kappa; Warped: plain kicks and the
  * warped frequency; Middle placement: zero modes as LangevinMiddleIntegrator; E(H) alone without soft groups).
+ * Metropolis-adjusted: O(H/2) [P] O(H/2) as for the FLAVOR, P the splitting without friction.
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 
@@ -208,6 +226,14 @@ OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& paramete
 OPENMM_EXPORT_FLAVORS void validateFlavorStep(const FlavorParameters& parameters);
 /** As validateFlavorStep(), for a stochastic impulse step. */
 OPENMM_EXPORT_FLAVORS void validateImpulseStep(const ImpulseParameters& parameters);
+/**
+ * Throws an OpenMMException, naming the setting that stops it and why, unless the Metropolis-adjusted step
+ * (parameters.metropolis) has a proposal that is reversible and volume-preserving and a Boltzmann target; constrained
+ * says whether the System has constraints.  Checked when a step starts.
+ */
+OPENMM_EXPORT_FLAVORS void validateMetropolis(const FlavorParameters& parameters, bool constrained);
+/** As above, for a stochastic impulse step. */
+OPENMM_EXPORT_FLAVORS void validateMetropolis(const ImpulseParameters& parameters, bool constrained);
 /**
  * Throws, naming parameter ("splitting", "friction" or "stiffModeFriction") and its value, if the splitting is not
  * one of StochasticImpulseIntegrator::Splitting or is not defined with the friction coefficient (1/ps).
@@ -224,8 +250,8 @@ OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
 
 /**
  * Whether a sub-flow acts through the modes of the quadratic stiff potential or on frozen coordinates (StiffFlow,
- * HarmonicFlow, FrozenDrift, FrozenKick, FilteredStiffFlow, FilteredKick): it couples particles, so it is a pass of
- * its own.
+ * HarmonicFlow, FrozenDrift, FrozenKick, FilteredStiffFlow, FilteredKick), or on the whole state (ProposalStart,
+ * ProposalTest): it couples particles, so it is a pass of its own.
  */
 OPENMM_EXPORT_FLAVORS bool isCoupledFlow(SubFlow::Kind kind);
 
@@ -268,7 +294,7 @@ struct StepPlan {
     std::vector<FlowPass> passes;
     /** The distinct force-group sets the step reads, numbered as slots. */
     std::vector<int> slotGroups;
-    /** The random streams one step draws (each thermostat and each stiff flow has one). */
+    /** The random streams one step draws (each thermostat, stiff flow and proposal test has one). */
     int noiseStreams = 0;
 };
 

@@ -45,6 +45,11 @@ public:
     void afterSteps(OpenMM::ContextImpl& context, int steps);
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const;
     /**
+     * The fraction of Metropolis-adjusted proposals accepted since the kernel was created, NaN if none was made; owner
+     * names the integrator in the exception thrown when no kernel is bound.
+     */
+    double getAcceptanceRate(const std::string& owner) const;
+    /**
      * Loads the kernel's part of a checkpoint.  The stiff modes stay as measured: the continuation from the checkpoint
      * is then the one the Context had, bit for bit (a new Context measures them where its first step starts).
      */

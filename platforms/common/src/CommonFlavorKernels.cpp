@@ -271,6 +271,8 @@ void CommonFlowStepper::prepare() {
             case SubFlow::HarmonicFlow:
             case SubFlow::FrozenDrift:
             case SubFlow::FrozenKick:
+            case SubFlow::ProposalStart:
+            case SubFlow::ProposalTest:
                 throw OpenMMException(owner + " on the " + platformName + " platform: " + unsupported(flow.kind) +
                                       " is not supported there yet; use the Reference or CPU platform");
             }
@@ -487,6 +489,10 @@ void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrato
                               " platform: a stiff clock (FlavorIntegrator::setStiffClockParameter(\"" +
                               integrator.getStiffClockParameter() +
                               "\")) is not supported there yet; set it to \"\", or use the Reference or CPU platform");
+    if (current.metropolis)
+        throw OpenMMException(string(FlavorName) + " on the " + getPlatform().getName() +
+                              " platform: the Metropolis adjustment (FlavorIntegrator::setMetropolis(true)) is not "
+                              "supported there yet; set it to false, or use the Reference or CPU platform");
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;
@@ -549,6 +555,10 @@ void CommonImpulseStepKernel::execute(ContextImpl& context, const StochasticImpu
     ContextSelector selector(cc);
     const ImpulseParameters current = impulseParameters(integrator);
     validateImpulseStep(current);
+    if (current.metropolis)
+        throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
+                              " platform: the Metropolis adjustment (StochasticImpulseIntegrator::setMetropolis(true)) "
+                              "is not supported there yet; set it to false, or use the Reference or CPU platform");
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         const string splitting = splittingName(current.splitting);

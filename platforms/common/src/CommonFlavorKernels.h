@@ -112,6 +112,8 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
     void forgetStepHistory() override;
+    /** This platform has no Metropolis-adjusted step (execute() rejects it): no proposals. */
+    void getProposalCounts(long long& proposed, long long& accepted) const override { proposed = accepted = 0; }
     // The artificial averagings are not on this backend yet: nothing freezes.
     int getFrozenSet() const override { return (int)SubFlow::FrozenSet::None; }
     int getNumFrozen() const override { return 0; }
@@ -140,6 +142,8 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
     void forgetStepHistory() override;
+    /** This platform has no Metropolis-adjusted step (execute() rejects it): no proposals. */
+    void getProposalCounts(long long& proposed, long long& accepted) const override { proposed = accepted = 0; }
 
 private:
     void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);

@@ -2,6 +2,7 @@
 #define OPENMM_FLAVORS_FLOW_EXECUTORS_H_
 
 #include "ConstraintProjector.h"
+#include "FlowCheckpoint.h"
 #include "ForceCache.h"
 #include "FrozenDistances.h"
 #include "FrozenFlowTask.h"
@@ -125,6 +126,35 @@ private:
     void runOnStiffModes(const FlowPass& pass, StepState& state);
     const StiffModes* preparedFor = nullptr;
     std::unique_ptr<FrozenFlowTask> task;
+};
+
+/**
+ * ProposalStart and ProposalTest: the proposal of a Metropolis-adjusted step.  The start remembers the state and its
+ * energy H = U + K; the test accepts the proposed state with probability min(1, exp(-(H - H_start) / kT)), or puts
+ * back the start with its velocities reversed.  U, the energy of the integrated groups, comes with the forces of
+ * the slots that make it up (energySlots()), which the step reads anyway, and is carried from one test to the next
+ * start; what no slot covers is evaluated on its own.
+ */
+class ProposalExecutor : public FlowExecutor {
+public:
+    explicit ProposalExecutor(EngineParts& parts) : FlowExecutor(parts) {}
+    /** Which of the plan's force slots are evaluated with their energy (none without a proposal). */
+    static std::vector<bool> energySlots(const StepPlan& plan);
+    void prepare(const StepPlan& plan) override;
+    void run(const FlowPass& pass, size_t passIndex, StepState& state) override;
+    /** The state changed from outside (positions, parameters, a checkpoint): the next start evaluates its energy. */
+    void forgetEnergy() { energyKnown = false; }
+    const ProposalCounts& getCounts() const { return counts; }
+    void setCounts(const ProposalCounts& stored) { counts = stored; }
+
+private:
+    double totalEnergy(OpenMM::ContextImpl& context);
+    std::vector<int> slotsWithEnergy;
+    int groupsWithoutSlot = 0;
+    std::vector<OpenMM::Vec3> startPositions, startVelocities;
+    double startPotential = 0.0, startKinetic = 0.0;
+    bool energyKnown = false;
+    ProposalCounts counts;
 };
 
 } // namespace FlavorPlugin

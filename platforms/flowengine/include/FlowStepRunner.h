@@ -61,6 +61,8 @@ public:
      * whether forces cached in an earlier step may be reused; it is true on return.
      */
     void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
+    /** The Metropolis-adjusted steps' proposals so far, and how many were accepted. */
+    const ProposalCounts& getProposalCounts() const { return proposals.getCounts(); }
     /** The kinetic energy of the current velocities (synchronous with positions). */
     double kineticEnergy(OpenMM::ContextImpl& context) const;
     /**
@@ -106,6 +108,7 @@ private:
     ParticlePassExecutor particlePasses;
     StiffFlowExecutor stiffFlows;
     FrozenFlowExecutor frozenFlows;
+    ProposalExecutor proposals;
     Schedule schedule;
     StepPlan plan;
     std::vector<FlowExecutor*> passExecutors;

@@ -18,8 +18,16 @@ namespace FlavorPlugin {
 class ForceCache {
 public:
     explicit ForceCache(bool hasVirtualSites) : hasVirtualSites(hasVirtualSites) {}
-    /** Sets the force-group set of each slot; every slot starts invalid. */
-    void setSlots(const std::vector<int>& slotGroups, int numParticles);
+    /**
+     * Sets the force-group set of each slot and whether its evaluation includes the energy (withEnergy, empty for
+     * none: a Metropolis test reads the energy of these slots); every slot starts invalid.
+     */
+    void setSlots(const std::vector<int>& slotGroups, int numParticles,
+                  const std::vector<bool>& withEnergy = std::vector<bool>());
+    /** The energy of the forces of a slot that is evaluated with its energy, at the current positions. */
+    double getEnergy(OpenMM::ContextImpl& context, int slot);
+    /** The energy of the forces of groups at the current positions, evaluated without keeping forces. */
+    double evaluateEnergy(OpenMM::ContextImpl& context, int groups);
     /**
      * The forces of a slot at the current positions, evaluated (virtual sites placed first) if not valid.  A clocked
      * read (clocked = true, a kick of stiff groups on the stiff clock) needs forces evaluated with the clock parameter
@@ -43,6 +51,8 @@ private:
         // Whether the forces were evaluated with the clock parameter set, and to what.
         bool clocked = false;
         double clock = 0.0;
+        bool withEnergy = false;
+        double energy = 0.0;
         std::vector<OpenMM::Vec3> forces;
     };
     std::string clockParameter;

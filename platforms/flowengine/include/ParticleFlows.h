@@ -103,6 +103,8 @@ struct ParticlePass : public RangeTask {
                 case SubFlow::HarmonicFlow:
                 case SubFlow::FrozenDrift:
                 case SubFlow::FrozenKick:
+                case SubFlow::ProposalStart:
+                case SubFlow::ProposalTest:
                     break; // never in a particle pass (analyzeStep)
                 }
             }

@@ -26,6 +26,10 @@ public:
         runner->saveContextState(context, withParameters);
     }
     void forgetStepHistory() override { runner->forgetStepHistory(); }
+    void getProposalCounts(long long& proposed, long long& accepted) const override {
+        proposed = (long long)runner->getProposalCounts().proposed;
+        accepted = (long long)runner->getProposalCounts().accepted;
+    }
 
 protected:
     std::unique_ptr<FlowStepRunner> runner;

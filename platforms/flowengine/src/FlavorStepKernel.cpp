@@ -36,6 +36,7 @@ void FlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& int
         current.frozen = frozenSet();
         validateFlavorStep(current);
     }
+    validateMetropolis(current, context.getSystem().getNumConstraints() > 0);
     if (!configured || !(current == parameters) || integrator.getStiffClockParameter() != clockParameter) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;

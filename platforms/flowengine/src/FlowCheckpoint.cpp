@@ -8,11 +8,12 @@ namespace {
 
 // The integrator's part of a checkpoint: Tag, the integrator's name (length, then characters), the format version,
 // the seed and the stream counter, (version 2) the step history (StepHistory::write), (version 3) the stiff clock
-// and the time at which it holds, EndTag.  Version 1 checkpoints (no history) still load, with an empty history;
-// versions 1 and 2 with a stiff clock that starts afresh.
+// and the time at which it holds, (version 4) the proposal counts, EndTag.  Version 1 checkpoints (no history) still
+// load, with an empty history; versions 1 and 2 with a stiff clock that starts afresh; versions 1 to 3 with no
+// proposals counted.
 const char CheckpointTag[] = "openmm-flavors integrator state\n";
 const char CheckpointEndTag[] = "end of openmm-flavors integrator state\n";
-const std::uint32_t CheckpointVersion = 3;
+const std::uint32_t CheckpointVersion = 4;
 const std::uint32_t MaxNameLength = 64;
 
 template <class T> bool readValue(std::istream& stream, T& value) {
@@ -32,7 +33,7 @@ bool readBytes(std::istream& stream, std::string& text, size_t length) {
 
 void FlavorPlugin::writeFlowCheckpoint(std::ostream& stream, const std::string& integratorName, std::uint64_t seed,
                                        std::uint64_t nextStream, const StepHistory& history,
-                                       const StiffClockState& clock) {
+                                       const StiffClockState& clock, const ProposalCounts& counts) {
     const std::uint32_t nameLength = (std::uint32_t)integratorName.size();
     stream.write(CheckpointTag, sizeof(CheckpointTag) - 1);
     stream.write((const char*)&nameLength, sizeof(nameLength));
@@ -43,15 +44,18 @@ void FlavorPlugin::writeFlowCheckpoint(std::ostream& stream, const std::string& 
     history.write(stream);
     stream.write((const char*)&clock.clock, sizeof(clock.clock));
     stream.write((const char*)&clock.time, sizeof(clock.time));
+    stream.write((const char*)&counts.proposed, sizeof(counts.proposed));
+    stream.write((const char*)&counts.accepted, sizeof(counts.accepted));
     stream.write(CheckpointEndTag, sizeof(CheckpointEndTag) - 1);
 }
 
 std::string FlavorPlugin::readFlowCheckpoint(std::istream& stream, const std::string& integratorName,
                                              const StepHistory& history, std::uint64_t& storedSeed,
                                              std::uint64_t& storedStream, StepHistory::Stored& storedHistory,
-                                             StiffClockState* clock) {
+                                             StiffClockState* clock, ProposalCounts* counts) {
     std::string problem;
     StiffClockState storedClock;
+    ProposalCounts storedCounts;
     std::string tag, name, endTag;
     std::uint32_t nameLength = 0, version = 0;
     const bool hasTag = readBytes(stream, tag, sizeof(CheckpointTag) - 1);
@@ -77,12 +81,17 @@ std::string FlavorPlugin::readFlowCheckpoint(std::istream& stream, const std::st
                   "incomplete or names particles this System does not have)";
     else if (version >= 3 && (!readValue(stream, storedClock.clock) || !readValue(stream, storedClock.time)))
         problem = "it is truncated (the stiff clock is incomplete)";
+    else if (version >= 4 && (!readValue(stream, storedCounts.proposed) || !readValue(stream, storedCounts.accepted) ||
+                              storedCounts.accepted > storedCounts.proposed))
+        problem = "it is truncated or corrupt (the Metropolis proposal counts are incomplete)";
     else if (!readBytes(stream, endTag, sizeof(CheckpointEndTag) - 1))
         problem = "it is truncated (no end tag)";
     else if (endTag != std::string(CheckpointEndTag, sizeof(CheckpointEndTag) - 1))
         problem = "it is corrupt (no end tag after the random streams)";
     if (problem.empty() && clock != nullptr)
         *clock = storedClock;
+    if (problem.empty() && counts != nullptr)
+        *counts = storedCounts;
     return problem;
 }
 

@@ -18,7 +18,7 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
       constraints(particles.hasConstraints ? std::make_unique<ConstraintProjector>(system, particles) : nullptr),
       history(particles.numParticles), parts{particles, *this->loop, forces,  constraints.get(),
                                              history,   random,      nullptr, nullptr},
-      particlePasses(parts), stiffFlows(parts), frozenFlows(parts) {}
+      particlePasses(parts), stiffFlows(parts), frozenFlows(parts), proposals(parts) {}
 
 FlowStepRunner::~FlowStepRunner() = default;
 
@@ -36,6 +36,9 @@ FlowExecutor& FlowStepRunner::executorFor(SubFlow::Kind kind) {
     case SubFlow::FrozenDrift:
     case SubFlow::FrozenKick:
         return frozenFlows;
+    case SubFlow::ProposalStart:
+    case SubFlow::ProposalTest:
+        return proposals;
     }
     throw OpenMMException("FlowStepRunner: unknown sub-flow kind " + std::to_string((int)kind));
 }
@@ -70,9 +73,9 @@ void FlowStepRunner::prepare() {
     if (plan.slotGroups.size() > (size_t)MaxForceSlots)
         throw OpenMMException("FlowStepRunner: a step may kick with at most " + std::to_string(MaxForceSlots) +
                               " distinct force-group sets");
-    forces.setSlots(plan.slotGroups, particles.numParticles);
-    for (FlowExecutor* executor :
-         {(FlowExecutor*)&particlePasses, (FlowExecutor*)&stiffFlows, (FlowExecutor*)&frozenFlows})
+    forces.setSlots(plan.slotGroups, particles.numParticles, ProposalExecutor::energySlots(plan));
+    for (FlowExecutor* executor : {(FlowExecutor*)&particlePasses, (FlowExecutor*)&stiffFlows,
+                                   (FlowExecutor*)&frozenFlows, (FlowExecutor*)&proposals})
         executor->prepare(plan);
     passExecutors.clear();
     for (const FlowPass& pass : plan.passes)
@@ -97,8 +100,10 @@ void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
 }
 
 void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
-    if (!forcesValid)
+    if (!forcesValid) {
         forces.invalidate();
+        proposals.forgetEnergy();
+    }
     history.stepStarted();
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
     // The stiff clock continues where the last step left it unless the time was set from outside (or it never ran).
@@ -153,15 +158,16 @@ void FlowStepRunner::saveContextState(ContextImpl& context, bool withParameters)
 }
 
 void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& integratorName) const {
-    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history, stiffClock);
+    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history, stiffClock, proposals.getCounts());
 }
 
 void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, const std::string& integratorName) {
     std::uint64_t storedSeed = 0, storedStream = 0;
     StepHistory::Stored storedHistory;
     StiffClockState storedClock;
-    const std::string problem =
-        readFlowCheckpoint(stream, integratorName, history, storedSeed, storedStream, storedHistory, &storedClock);
+    ProposalCounts storedCounts;
+    const std::string problem = readFlowCheckpoint(stream, integratorName, history, storedSeed, storedStream,
+                                                   storedHistory, &storedClock, &storedCounts);
     if (!problem.empty()) {
         rollback.restore(context);
         forces.invalidate();
@@ -170,6 +176,8 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
     setRandomSeed(storedSeed);
     nextStream = storedStream;
     stiffClock = storedClock;
+    proposals.setCounts(storedCounts);
+    proposals.forgetEnergy();
     history.load(storedHistory);
     if (parts.distances)
         parts.distances->forgetFactorizations();

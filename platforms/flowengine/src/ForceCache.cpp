@@ -6,11 +6,12 @@
 using namespace FlavorPlugin;
 using namespace OpenMM;
 
-void ForceCache::setSlots(const std::vector<int>& slotGroups, int numParticles) {
+void ForceCache::setSlots(const std::vector<int>& slotGroups, int numParticles, const std::vector<bool>& withEnergy) {
     slots.resize(slotGroups.size());
     for (size_t i = 0; i < slots.size(); ++i) {
         slots[i].groups = slotGroups[i];
         slots[i].valid = false;
+        slots[i].withEnergy = i < withEnergy.size() && withEnergy[i];
         slots[i].forces.resize(numParticles);
     }
 }
@@ -25,12 +26,22 @@ const std::vector<Vec3>& ForceCache::get(ContextImpl& context, int slotIndex, bo
         context.setParameter(clockParameter, clock);
     slot.clocked = clocked;
     slot.clock = clock;
-    context.calcForcesAndEnergy(true, false, slot.groups);
+    slot.energy = context.calcForcesAndEnergy(true, slot.withEnergy, slot.groups);
     // Take the platform's force buffer instead of copying it; the platform refills whatever buffer it holds.
     auto* data = reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
     std::swap(*data->forces, slot.forces);
     slot.valid = true;
     return slot.forces;
+}
+
+double ForceCache::getEnergy(ContextImpl& context, int slot) {
+    get(context, slot);
+    return slots[slot].energy;
+}
+
+double ForceCache::evaluateEnergy(ContextImpl& context, int groups) {
+    placeVirtualSites(context);
+    return context.calcForcesAndEnergy(false, true, groups);
 }
 
 void ForceCache::invalidate() {

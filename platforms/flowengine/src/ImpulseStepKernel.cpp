@@ -38,6 +38,7 @@ void ImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseInt
                                 bool& stiffModesValid) {
     const ImpulseParameters current = impulseParameters(integrator);
     validateImpulseStep(current);
+    validateMetropolis(current, context.getSystem().getNumConstraints() > 0);
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;

@@ -30,6 +30,7 @@ inline const std::vector<std::string>& suitesNotOnOpenCL() {
         "ImpulseConstraints",    // constraints beside stiff components (carried components)
         "ImpulseExact",          // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
         "ImpulseFiltered",       // Filtered and Warped splittings
+        "ImpulseHardWall",       // the hard wall (setMaxDrudeDistance)
         "ImpulseMiddle",         // Filtered and Warped splittings (Middle placement)
         "ImpulseModeBath",       // Warped splitting
         "IntegratorGuards",      // artificial averagings; single-precision re-measurement after a failed load

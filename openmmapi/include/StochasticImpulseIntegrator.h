@@ -169,6 +169,23 @@ public:
      */
     void setThermostatPlacement(ThermostatPlacement placement);
     /**
+     * Get the hard wall of the stiff pairs (in nm), 0 (the default) for none.  See setMaxDrudeDistance().
+     */
+    double getMaxDrudeDistance() const { return maxDrudeDistance; }
+    /**
+     * Set a hard wall for the stiff pairs, as DrudeLangevinIntegrator::setMaxDrudeDistance: after each step, every
+     * stiff component of two particles (a Drude particle, the lighter, and its parent, with the spring in a stiff
+     * group) that is farther apart than distance is put back inside the wall, and its relative radial velocity is set
+     * to the thermal speed sqrt(kT/m) of the stiff-mode temperature, pointing inward (DrudeLangevinIntegrator reverses
+     * the radial velocity's sign instead), with the pair's centre-of-mass velocity kept.  A constrained or massless
+     * parent keeps its position and velocity, and the Drude particle moves inward relative to it.  The exact flow of
+     * the quadratic stiff potential is untouched: the wall acts only on pairs past it, whose motion it replaces by this
+     * reset (a safeguard against polarization catastrophe, not part of the dynamics).  A pair found farther than twice
+     * the wall makes the step throw, with the Context at the step's end.  It must be finite and non-negative; 0
+     * switches it off.
+     */
+    void setMaxDrudeDistance(double distance);
+    /**
      * Get whether each step is a Metropolis-adjusted proposal (false by default).  See setMetropolis().
      */
     bool getMetropolis() const { return metropolis; }
@@ -266,6 +283,7 @@ private:
     ThermostatPlacement thermostatPlacement;
     int randomNumberSeed;
     bool metropolis = false;
+    double maxDrudeDistance = 0.0;
     // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
     StepKernelBinding binding;
     IntegrateStochasticImpulseStepKernel* stepKernel;

@@ -24,11 +24,16 @@ public:
 bool sameSettings(const SubFlow& a, const SubFlow& b) {
     return a.kind == b.kind && a.groups == b.groups && a.bath == b.bath && a.stiffBath == b.stiffBath &&
            a.frequency == b.frequency && a.zeroModes == b.zeroModes && a.response == b.response &&
-           a.frozen == b.frozen && a.clocked == b.clocked && a.clock == b.clock;
+           a.frozen == b.frozen && a.clocked == b.clocked && a.clock == b.clock && a.distance == b.distance;
+}
+
+/** Sub-flows that never merge with a neighbour of the same settings (their effect is not additive in h). */
+bool composesNever(SubFlow::Kind kind) {
+    return kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick || kind == SubFlow::HardWall;
 }
 
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
-    return sameSettings(a, b) && a.kind != SubFlow::FilteredStiffFlow && a.kind != SubFlow::FilteredKick;
+    return sameSettings(a, b) && !composesNever(a.kind);
 }
 
 bool disjointKicksOverOneStep(const SubFlow& a, const SubFlow& b) {
@@ -162,7 +167,7 @@ bool isProposalMarker(SubFlow::Kind kind) {
 bool FlavorPlugin::isCoupledFlow(SubFlow::Kind kind) {
     return kind == SubFlow::StiffFlow || kind == SubFlow::HarmonicFlow || kind == SubFlow::FrozenDrift ||
            kind == SubFlow::FrozenKick || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick ||
-           isProposalMarker(kind);
+           isProposalMarker(kind) || kind == SubFlow::HardWall;
 }
 
 bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
@@ -269,10 +274,22 @@ ImpulseParameters FlavorPlugin::impulseParameters(const StochasticImpulseIntegra
     p.bath = Bath{BOLTZ * integrator.getTemperature(), integrator.getFriction()};
     p.stiffBath = Bath{BOLTZ * integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()};
     p.metropolis = integrator.getMetropolis();
+    p.maxDrudeDistance = integrator.getMaxDrudeDistance();
     return p;
 }
 
 Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
+    if (p.maxDrudeDistance > 0.0) {
+        ImpulseParameters unwalled = p;
+        unwalled.maxDrudeDistance = 0.0;
+        Schedule s = impulseSchedule(unwalled);
+        SubFlow wall{SubFlow::HardWall, p.stepSize, 0};
+        wall.stiffBath = p.stiffBath;
+        wall.distance = p.maxDrudeDistance;
+        wall.length = StepLength{1.0, 0.0};
+        s.push_back(wall);
+        return s;
+    }
     if (p.metropolis) {
         ImpulseParameters proposal = p;
         proposal.metropolis = false;

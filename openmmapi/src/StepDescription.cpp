@@ -54,7 +54,7 @@ string describeBath(const Bath& bath) {
 string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups, int integrationGroups,
                                       const string& meso, const string& micro, int numFrozen) {
     std::ostringstream out;
-    string baths, frozen, proposal;
+    string baths, frozen, proposal, wall;
     bool opened = false;
     for (const SubFlow& flow : schedule) {
         const string h = "(" + formatLength(flow.length, meso, micro) + ")";
@@ -72,6 +72,10 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
         switch (flow.kind) {
         case SubFlow::ProposalStart:
             out << "[";
+            break;
+        case SubFlow::HardWall:
+            out << "W";
+            wall = "W: hard wall of the stiff pairs at " + formatNumber(flow.distance) + " nm";
             break;
         case SubFlow::ProposalTest:
             out << "]_MH";
@@ -118,6 +122,8 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
     string notes = baths;
     if (!proposal.empty())
         notes += (notes.empty() ? "" : "; ") + proposal;
+    if (!wall.empty())
+        notes += (notes.empty() ? "" : "; ") + wall;
     if (!frozen.empty())
         notes += (notes.empty() ? "" : "; ") + frozen;
     if (!notes.empty())

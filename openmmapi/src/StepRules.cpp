@@ -150,6 +150,9 @@ void FlavorPlugin::validateMetropolis(const ImpulseParameters& p, bool constrain
                          "its step is not reversible: from the reversed end state it misses its start by about 1e-3 "
                          "of a stiff mode's amplitude (the reversibility test); allowed: Strang (1), Yoshida4 (2) "
                          "and Filtered (3)");
+    if (p.maxDrudeDistance > 0.0)
+        rejectMetropolis(owner, "a hard wall (setMaxDrudeDistance)",
+                         "the wall resets velocities, which no Hamiltonian proposal does");
     if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle)
         rejectMetropolis(owner, "thermostatPlacement = Middle (1)",
                          "the adjusted step puts the thermostat outside the proposal, O(H/2) [P] O(H/2); allowed: "

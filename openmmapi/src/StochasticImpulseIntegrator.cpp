@@ -62,6 +62,11 @@ void StochasticImpulseIntegrator::setStiffModeFriction(double coeff) {
     stiffModeFriction = coeff;
 }
 
+void StochasticImpulseIntegrator::setMaxDrudeDistance(double distance) {
+    requireNonNegative(Owner, "maxDrudeDistance", distance, "nm");
+    maxDrudeDistance = distance;
+}
+
 void StochasticImpulseIntegrator::setStiffGroups(int groups) {
     requireGroupMask(Owner, "stiffGroups", groups);
     if (context != nullptr) {

@@ -13,8 +13,9 @@ StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
 
 void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
-    // Version 4 added the Metropolis adjustment: without it the document is the version 3 one, which older builds read.
-    node.setIntProperty("version", integrator.getMetropolis() ? 4 : 3);
+    // Version 4 added the Metropolis adjustment and the hard wall, each written only where it is on: without them the
+    // document is the version 3 one, which older builds read.
+    node.setIntProperty("version", integrator.getMetropolis() || integrator.getMaxDrudeDistance() > 0.0 ? 4 : 3);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
@@ -32,6 +33,8 @@ void StochasticImpulseIntegratorProxy::serialize(const void* object, Serializati
     node.setIntProperty("thermostatPlacement", integrator.getThermostatPlacement());
     if (integrator.getMetropolis())
         node.setBoolProperty("metropolis", true);
+    if (integrator.getMaxDrudeDistance() > 0.0)
+        node.setDoubleProperty("maxDrudeDistance", integrator.getMaxDrudeDistance());
 }
 
 void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
@@ -53,7 +56,9 @@ void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& nod
     integrator->setRandomNumberSeed(node.getIntProperty("randomSeed"));
     integrator->setConstraintTolerance(node.getDoubleProperty("constraintTolerance"));
     integrator->setIntegrationForceGroups(node.getIntProperty("integrationForceGroups"));
-    if (version >= 4)
+    if (version >= 4 && node.hasProperty("metropolis"))
         integrator->setMetropolis(node.getBoolProperty("metropolis"));
+    if (version >= 4 && node.hasProperty("maxDrudeDistance"))
+        integrator->setMaxDrudeDistance(node.getDoubleProperty("maxDrudeDistance"));
     return integrator.release();
 }

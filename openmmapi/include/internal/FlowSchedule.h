@@ -68,7 +68,13 @@ struct SubFlow {
          * Closes the proposal (h = 0): accepts the state with probability min(1, exp(-(H - H_start) / kT)), kT from
          * bath; otherwise puts back the state where the proposal started with its velocities reversed.
          */
-        ProposalTest
+        ProposalTest,
+        /**
+         * The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance): every stiff component of
+         * two particles farther apart than distance is put back inside and its relative radial velocity set to the
+         * thermal speed of stiffBath, pointing inward, as DrudeLangevinIntegrator does; h is the step.
+         */
+        HardWall
     };
     /** The frequency at which the stiff modes of a mode flow turn. */
     enum class StiffFrequency {
@@ -121,12 +127,14 @@ struct SubFlow {
      */
     bool clocked = false;
     double clock = 0.0;
+    /** HardWall: the largest distance (nm) of a stiff pair. */
+    double distance = 0.0;
     /** h in the integrator's time scales, for describeStep(); not part of what the sub-flow does (operator==). */
     StepLength length = {};
     bool operator==(const SubFlow& o) const {
         return kind == o.kind && h == o.h && groups == o.groups && bath == o.bath && stiffBath == o.stiffBath &&
                frequency == o.frequency && zeroModes == o.zeroModes && response == o.response && frozen == o.frozen &&
-               clocked == o.clocked && clock == o.clock;
+               clocked == o.clocked && clock == o.clock && distance == o.distance;
     }
     bool operator!=(const SubFlow& o) const { return !(*this == o); }
 };
@@ -200,10 +208,13 @@ struct ImpulseParameters {
     Bath bath = {}, stiffBath = {};
     /** Whether each step is a Metropolis-adjusted proposal (StochasticImpulseIntegrator::setMetropolis). */
     bool metropolis = false;
+    /** The hard wall of the stiff pairs (nm), 0 for none (StochasticImpulseIntegrator::setMaxDrudeDistance). */
+    double maxDrudeDistance = 0.0;
     bool operator==(const ImpulseParameters& o) const {
         return splitting == o.splitting && stepSize == o.stepSize && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && thermostatPlacement == o.thermostatPlacement &&
-               bath == o.bath && stiffBath == o.stiffBath && metropolis == o.metropolis;
+               bath == o.bath && stiffBath == o.stiffBath && metropolis == o.metropolis &&
+               maxDrudeDistance == o.maxDrudeDistance;
     }
 };
 
@@ -215,7 +226,8 @@ OPENMM_EXPORT_FLAVORS ImpulseParameters impulseParameters(const StochasticImpuls
  * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
  * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered: kicks scaled by kappa; Warped: plain kicks and the
  * warped frequency; Middle placement: zero modes as LangevinMiddleIntegrator; E(H) alone without soft groups).
- * Metropolis-adjusted: O(H/2) [P] O(H/2) as for the FLAVOR, P the splitting without friction.
+ * Metropolis-adjusted: O(H/2) [P] O(H/2) as for the FLAVOR, P the splitting without friction.  With a hard wall the
+ * step ends with HardWall.
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 
@@ -251,7 +263,7 @@ OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
 /**
  * Whether a sub-flow acts through the modes of the quadratic stiff potential or on frozen coordinates (StiffFlow,
  * HarmonicFlow, FrozenDrift, FrozenKick, FilteredStiffFlow, FilteredKick), or on the whole state (ProposalStart,
- * ProposalTest): it couples particles, so it is a pass of its own.
+ * ProposalTest, HardWall): it couples particles, so it is a pass of its own.
  */
 OPENMM_EXPORT_FLAVORS bool isCoupledFlow(SubFlow::Kind kind);
 

@@ -273,6 +273,7 @@ void CommonFlowStepper::prepare() {
             case SubFlow::FrozenKick:
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
+            case SubFlow::HardWall:
                 throw OpenMMException(owner + " on the " + platformName + " platform: " + unsupported(flow.kind) +
                                       " is not supported there yet; use the Reference or CPU platform");
             }
@@ -559,6 +560,10 @@ void CommonImpulseStepKernel::execute(ContextImpl& context, const StochasticImpu
         throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
                               " platform: the Metropolis adjustment (StochasticImpulseIntegrator::setMetropolis(true)) "
                               "is not supported there yet; set it to false, or use the Reference or CPU platform");
+    if (current.maxDrudeDistance > 0.0)
+        throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
+                              " platform: the hard wall (StochasticImpulseIntegrator::setMaxDrudeDistance) is not "
+                              "supported there yet; set it to 0, or use the Reference or CPU platform");
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         const string splitting = splittingName(current.splitting);

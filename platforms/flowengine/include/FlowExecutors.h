@@ -157,6 +157,28 @@ private:
     ProposalCounts counts;
 };
 
+/**
+ * HardWall: the hard wall of the stiff pairs (the stiff components of two particles, a Drude particle, the lighter,
+ * and its parent), as DrudeLangevinIntegrator::setMaxDrudeDistance applies it after a step: a pair farther apart than
+ * the wall is put back inside, and its relative radial velocity set to the thermal speed of the stiff modes, pointing
+ * inward, with the pair's centre-of-mass velocity kept.  A parent that is constrained or massless keeps its position
+ * and velocity, and the Drude particle moves inward relative to it.
+ */
+class HardWallExecutor : public FlowExecutor {
+public:
+    explicit HardWallExecutor(EngineParts& parts) : FlowExecutor(parts) {}
+    void prepare(const StepPlan& plan) override;
+    void run(const FlowPass& pass, size_t passIndex, StepState& state) override;
+
+private:
+    struct Pair {
+        int drude, parent;
+        /** Whether the parent stays where it is (constrained or massless). */
+        bool parentFixed;
+    };
+    std::vector<Pair> pairs;
+};
+
 } // namespace FlavorPlugin
 
 #endif

@@ -109,6 +109,7 @@ private:
     StiffFlowExecutor stiffFlows;
     FrozenFlowExecutor frozenFlows;
     ProposalExecutor proposals;
+    HardWallExecutor hardWall;
     Schedule schedule;
     StepPlan plan;
     std::vector<FlowExecutor*> passExecutors;

@@ -105,6 +105,7 @@ struct ParticlePass : public RangeTask {
                 case SubFlow::FrozenKick:
                 case SubFlow::ProposalStart:
                 case SubFlow::ProposalTest:
+                case SubFlow::HardWall:
                     break; // never in a particle pass (analyzeStep)
                 }
             }

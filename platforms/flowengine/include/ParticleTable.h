@@ -16,6 +16,8 @@ struct ParticleTable {
     std::vector<double> inverseMasses;
     /** Per coordinate (three per particle), for the particle passes: 1/m, and 1 for particles that move, else 0. */
     std::vector<double> coordinateInverseMasses, coordinateMovable;
+    /** 1 for particles that a System constraint names. */
+    std::vector<char> constrained;
 };
 
 } // namespace FlavorPlugin

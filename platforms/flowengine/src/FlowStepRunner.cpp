@@ -18,7 +18,7 @@ FlowStepRunner::FlowStepRunner(const System& system, std::unique_ptr<ParallelLoo
       constraints(particles.hasConstraints ? std::make_unique<ConstraintProjector>(system, particles) : nullptr),
       history(particles.numParticles), parts{particles, *this->loop, forces,  constraints.get(),
                                              history,   random,      nullptr, nullptr},
-      particlePasses(parts), stiffFlows(parts), frozenFlows(parts), proposals(parts) {}
+      particlePasses(parts), stiffFlows(parts), frozenFlows(parts), proposals(parts), hardWall(parts) {}
 
 FlowStepRunner::~FlowStepRunner() = default;
 
@@ -39,6 +39,8 @@ FlowExecutor& FlowStepRunner::executorFor(SubFlow::Kind kind) {
     case SubFlow::ProposalStart:
     case SubFlow::ProposalTest:
         return proposals;
+    case SubFlow::HardWall:
+        return hardWall;
     }
     throw OpenMMException("FlowStepRunner: unknown sub-flow kind " + std::to_string((int)kind));
 }
@@ -75,7 +77,7 @@ void FlowStepRunner::prepare() {
                               " distinct force-group sets");
     forces.setSlots(plan.slotGroups, particles.numParticles, ProposalExecutor::energySlots(plan));
     for (FlowExecutor* executor : {(FlowExecutor*)&particlePasses, (FlowExecutor*)&stiffFlows,
-                                   (FlowExecutor*)&frozenFlows, (FlowExecutor*)&proposals})
+                                   (FlowExecutor*)&frozenFlows, (FlowExecutor*)&proposals, (FlowExecutor*)&hardWall})
         executor->prepare(plan);
     passExecutors.clear();
     for (const FlowPass& pass : plan.passes)

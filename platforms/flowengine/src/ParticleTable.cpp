@@ -17,4 +17,11 @@ ParticleTable::ParticleTable(const OpenMM::System& system)
         }
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     }
+    constrained.assign(numParticles, 0);
+    for (int c = 0; c < system.getNumConstraints(); ++c) {
+        int p1, p2;
+        double distance;
+        system.getConstraintParameters(c, p1, p2, distance);
+        constrained[p1] = constrained[p2] = 1;
+    }
 }

@@ -1,0 +1,178 @@
+// The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance): off by default and inert while
+// no pair reaches it; a pair past it ends inside, moving inward at the stiff modes' thermal speed with its tangential
+// and centre-of-mass motion kept (or only the Drude particle moving when its parent is constrained); a pair past twice
+// the wall stops the step with a clear error; the setting survives serialization and bad values are rejected.
+
+#include "ExpectRejected.h"
+#include "PlatformTest.h"
+#include "StochasticImpulseIntegrator.h"
+#include "openmm/Context.h"
+#include "openmm/CustomExternalForce.h"
+#include "openmm/HarmonicBondForce.h"
+#include "openmm/State.h"
+#include "openmm/System.h"
+#include "openmm/reference/SimTKOpenMMRealType.h"
+#include "openmm/serialization/XmlSerializer.h"
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+using namespace FlavorPlugin;
+using namespace FlavorTests;
+using namespace OpenMM;
+using std::vector;
+
+class ImpulseHardWall : public PlatformTest {};
+INSTANTIATE_ON_ALL_PLATFORMS(ImpulseHardWall);
+
+namespace {
+
+const double CoreMass = 15.6, DrudeMass = 0.4, Spring = 4e5, Step = 0.001, DrudeTemperature = 1.0;
+
+/**
+ * A Drude pair (core 0, Drude 1) on a zero-length spring (group 1), a weak soft well on the core (group 0); with
+ * constrainedCore, a third particle tied to the core by a constraint.
+ */
+System drudePair(bool constrainedCore) {
+    System system;
+    system.addParticle(CoreMass);
+    system.addParticle(DrudeMass);
+    auto* spring = new HarmonicBondForce();
+    spring->addBond(0, 1, 0.0, Spring);
+    spring->setForceGroup(1);
+    system.addForce(spring);
+    auto* well = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
+    well->addParticle(0, {});
+    system.addForce(well);
+    if (constrainedCore) {
+        system.addParticle(1.0);
+        system.addConstraint(0, 2, 0.1);
+    }
+    return system;
+}
+
+std::unique_ptr<StochasticImpulseIntegrator> makeIntegrator(double wall) {
+    auto integrator = std::make_unique<StochasticImpulseIntegrator>(300.0, 0.0, Step, 1 << 1);
+    integrator->setStiffModeTemperature(DrudeTemperature);
+    integrator->setMaxDrudeDistance(wall);
+    return integrator;
+}
+
+/** The Drude 0.005 nm from its core, moving outward at radialSpeed relative to it, plus tangential motion. */
+void start(Context& context, bool constrainedCore, double radialSpeed) {
+    vector<Vec3> positions = {Vec3(0.1, 0.2, 0.3), Vec3(0.105, 0.2, 0.3)};
+    vector<Vec3> velocities = {Vec3(-0.3, 0.2, 0.1), Vec3(-0.3 + radialSpeed, 1.5, -0.7)};
+    if (constrainedCore) {
+        positions.push_back(Vec3(0.1, 0.3, 0.3));
+        velocities.push_back(Vec3(-0.3, 0.2, 0.1));
+        velocities[0] = Vec3(-0.3, 0.2, 0.1);
+    }
+    context.setPositions(positions);
+    context.setVelocities(velocities);
+}
+
+/** One step from the start, without the wall (0) or with it. */
+State stepOnce(Platform& platform, const std::map<std::string, std::string>& properties, bool constrainedCore,
+               double radialSpeed, double wall) {
+    System system = drudePair(constrainedCore);
+    auto integrator = makeIntegrator(wall);
+    Context context(system, *integrator, platform, properties);
+    start(context, constrainedCore, radialSpeed);
+    integrator->step(1);
+    return context.getState(State::Positions | State::Velocities);
+}
+
+} // namespace
+
+TEST_P(ImpulseHardWall, IsOffByDefaultAndInertWhileNoPairReachesIt) {
+    StochasticImpulseIntegrator plain(300.0, 0.0, Step, 1 << 1);
+    EXPECT_EQ(0.0, plain.getMaxDrudeDistance());
+    // 5 nm/ps outward: the pair stays within 0.02 nm, so a wall there changes nothing, bit for bit.
+    const State without = stepOnce(platform(), properties(1), false, 5.0, 0.0);
+    const State with = stepOnce(platform(), properties(1), false, 5.0, 0.02);
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(without.getPositions()[i], with.getPositions()[i]);
+        EXPECT_EQ(without.getVelocities()[i], with.getVelocities()[i]);
+    }
+}
+
+// 30 nm/ps outward carries the pair to about 0.028 nm: past a 0.02 nm wall, within twice it.
+TEST_P(ImpulseHardWall, PutsAPairPastItBackInsideMovingInwardAtTheThermalSpeed) {
+    const double wall = 0.02, thermalSpeed = std::sqrt(BOLTZ * DrudeTemperature / DrudeMass);
+    for (bool constrainedCore : {false, true}) {
+        const State free = stepOnce(platform(), properties(1), constrainedCore, 30.0, 0.0);
+        const State walled = stepOnce(platform(), properties(1), constrainedCore, 30.0, wall);
+        const vector<Vec3>& q = free.getPositions();
+        const vector<Vec3>& v = free.getVelocities();
+        const Vec3 delta = q[1] - q[0];
+        const double r = std::sqrt(delta.dot(delta));
+        ASSERT_GT(r, wall);
+        ASSERT_LT(r, 2 * wall);
+        const Vec3 direction = delta / r;
+        const vector<Vec3>& qw = walled.getPositions();
+        const vector<Vec3>& vw = walled.getVelocities();
+        const Vec3 deltaWalled = qw[1] - qw[0];
+        EXPECT_LT(std::sqrt(deltaWalled.dot(deltaWalled)), wall) << constrainedCore;
+        // Along the pair's old axis: inward at the thermal speed; across it, the motion the step gave each particle.
+        EXPECT_NEAR(-thermalSpeed, (vw[1] - vw[0]).dot(direction), 1e-10) << constrainedCore;
+        for (int i = 0; i < 2; ++i) {
+            const Vec3 across = v[i] - direction * v[i].dot(direction);
+            const Vec3 acrossWalled = vw[i] - direction * vw[i].dot(direction);
+            for (int k = 0; k < 3; ++k)
+                EXPECT_NEAR(across[k], acrossWalled[k], 1e-10) << constrainedCore;
+        }
+        if (constrainedCore) {
+            EXPECT_EQ(q[0], qw[0]);
+            EXPECT_EQ(v[0], vw[0]);
+            EXPECT_EQ(q[2], qw[2]);
+        } else {
+            const Vec3 centre = (q[0] * CoreMass + q[1] * DrudeMass) / (CoreMass + DrudeMass);
+            const Vec3 centreWalled = (qw[0] * CoreMass + qw[1] * DrudeMass) / (CoreMass + DrudeMass);
+            const Vec3 momentum = v[0] * CoreMass + v[1] * DrudeMass;
+            const Vec3 momentumWalled = vw[0] * CoreMass + vw[1] * DrudeMass;
+            for (int k = 0; k < 3; ++k) {
+                EXPECT_NEAR(centre[k], centreWalled[k], 1e-13);
+                EXPECT_NEAR(momentum[k], momentumWalled[k], 1e-10);
+            }
+        }
+    }
+}
+
+TEST_P(ImpulseHardWall, APairPastTwiceTheWallStopsTheStepAndTheContextStaysUsable) {
+    System system = drudePair(false);
+    auto integrator = makeIntegrator(0.01);
+    Context context(system, *integrator, platform(), properties(1));
+    start(context, false, 30.0);
+    expectRejected([&] { integrator->step(1); }, {"particles 1 and 0", "twice the hard wall", "setMaxDrudeDistance"});
+    integrator->setMaxDrudeDistance(0.02);
+    start(context, false, 30.0);
+    integrator->step(3);
+    const vector<Vec3> q = context.getState(State::Positions).getPositions();
+    const Vec3 delta = q[1] - q[0];
+    EXPECT_LT(std::sqrt(delta.dot(delta)), 0.02);
+}
+
+TEST_P(ImpulseHardWall, BadValuesAndTheMetropolisAdjustmentAreRejected) {
+    auto integrator = makeIntegrator(0.02);
+    expectRejected([&] { integrator->setMaxDrudeDistance(-0.1); }, {"maxDrudeDistance", "-0.1"});
+    EXPECT_EQ(0.02, integrator->getMaxDrudeDistance());
+    System system = drudePair(false);
+    integrator->setMetropolis(true);
+    Context context(system, *integrator, platform(), properties(1));
+    start(context, false, 1.0);
+    expectRejected([&] { integrator->step(1); }, {"Metropolis", "hard wall"});
+    integrator->setMetropolis(false);
+    integrator->step(1);
+}
+
+TEST(ImpulseHardWallApi, SurvivesSerializationAndIsDescribed) {
+    StochasticImpulseIntegrator integrator(300.0, 1.0, Step, 1 << 1);
+    integrator.setMaxDrudeDistance(0.02);
+    std::stringstream buffer;
+    XmlSerializer::serialize<Integrator>(&integrator, "Integrator", buffer);
+    std::unique_ptr<Integrator> copy(XmlSerializer::deserialize<Integrator>(buffer));
+    EXPECT_EQ(0.02, dynamic_cast<StochasticImpulseIntegrator&>(*copy).getMaxDrudeDistance());
+    EXPECT_NE(std::string::npos, integrator.describeStep().find("K_S(H/2) W"));
+    EXPECT_NE(std::string::npos, integrator.describeStep().find("hard wall of the stiff pairs at 0.02 nm"));
+}

@@ -13,7 +13,8 @@ each run started from an exact Boltzmann draw, N = 1, 10, 100:
 - FLAVOR Nonintrusive, Verlet, the same model and steps;
 with x = omega_soft * step from 0.1 to 1.5.  A least-squares fit of log(1 - acceptance) against log x and log N
 (where 0.002 < 1 - acceptance < 0.3) gives the rejection's order in the step and in N.  The acceptance's error bar is
-the standard error of 20 block means.  At N = 10 each step also runs unadjusted, and <c^2> of both is compared with kT/2k (20-block standard errors).
+the standard error of 20 block means.  At N = 10 each step also runs unadjusted, and <c^2> of both is compared with
+kT/2k (20-block standard errors).
 
 Part 2, effective sample size (ESS) per wall-clock second against OpenMM's LangevinMiddleIntegrator at the same
 friction, all peers stepped in interleaved chunks (round robin) so that the machine's load falls on all alike; only

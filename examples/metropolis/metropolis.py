@@ -583,15 +583,15 @@ def plot(data, path):
     for key in ("sim_strang", "flavor_artificial", "flavor_artificial_exact"):
         f = fits.get(key)
         if f:
-            text.append(f"{SCHEMES[key]['label']}: 1 − acc ∝ (ω_soft step)^{f['step_power']:.2f}"
-                        f"±{f['step_power_error']:.2f} N^{f['N_power']:.2f}±{f['N_power_error']:.2f}")
-    ax.text(0.02, 0.98, "fit where 0.002 < 1 − acc < 0.3:\n" + "\n".join(text), transform=ax.transAxes, va="top",
-            fontsize=7)
+            text.append(f"{SCHEMES[key]['label']}:\n    order {f['step_power']:.2f} ± {f['step_power_error']:.2f} in "
+                        f"the step, {f['N_power']:.2f} ± {f['N_power_error']:.2f} in N")
+    ax.text(0.02, 0.98, "fit of log(1 − acceptance) where 0.002 < 1 − acceptance < 0.3:\n" + "\n".join(text),
+            transform=ax.transAxes, va="top", fontsize=7)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("ω_soft × step")
     ax.set_ylabel("rejection rate 1 − acceptance")
-    ax.set_ylim(top=30)
+    ax.set_ylim(top=300)
     ax.set_title("rejection: SIM Strang and the artificial FLAVORs\n(styles as in the first panel; "
                  "no rejection: not drawn)", fontsize=10)
     # (c) bias of <c^2> at N = bias_N.
@@ -619,7 +619,10 @@ def plot(data, path):
                 fontsize=7, color="tab:red", zorder=10,
                 bbox=dict(boxstyle="round", facecolor="white", edgecolor="tab:red", alpha=0.9))
     ax.axhline(0, color="k", lw=0.6)
-    ax.set_yscale("symlog", linthresh=2)
+    ax.set_yscale("symlog", linthresh=1)
+    ticks = [-10, -3, -1, 0, 1, 3, 10, 30, 100]
+    ax.set_yticks(ticks)
+    ax.set_yticklabels([f"{t:+g}" if t else "0" for t in ticks])
     ax.set_xlabel("ω_soft × step")
     ax.set_ylabel("⟨c²⟩ / (kT/2k) − 1  (%)")
     ax.set_title(f"bias of a pair centre's ⟨c²⟩, N = {n}\n(exact kT/2k; 20-block standard errors)", fontsize=10)
@@ -676,6 +679,10 @@ def plot(data, path):
                         capsize=2, ls="-" if n == 1 else ("--" if n == 10 else ":"),
                         label=f"{SCHEMES[key]['label']}, N = {n}")
     ax.set_xscale("log")
+    ticks = [1.4, 2, 3, 5, 7, 10, 14, 21]
+    ax.set_xticks(ticks)
+    ax.set_xticklabels([f"{t:g}" for t in ticks])
+    ax.minorticks_off()
     ax.set_xlabel("ω δ  (stiff ω = 1414/ps, τ = 0.5 fs: ωτ = 0.71)")
     ax.set_ylabel("acceptance rate")
     ax.set_title("FLAVOR acceptance against the stiff ωδ: the Nonintrusive\naveraging collapses where ωδ ≫ 1 "

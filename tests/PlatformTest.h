@@ -24,7 +24,6 @@ inline const std::vector<std::string>& suitesNotOnOpenCL() {
         "FlavorMiddle",          // artificial averagings (Middle placement)
         "FlavorPlanarAngles",    // artificial averagings
         "FlavorRigidNeighbours", // artificial averagings beside rigid water
-        "FlavorStiffClock",      // the stiff clock (FlavorIntegrator::setStiffClockParameter)
         "FlavorSystems",         // artificial averagings; bit-for-bit agreement with Reference
         "ImpulseApi",            // constraints beside stiff components; frequencies to 1e-9 (fixed-point forces)
         "ImpulseConstraints",    // constraints beside stiff components (carried components)

@@ -200,14 +200,22 @@ TEST(OpenCLBackend, RejectsWhatItDoesNotHaveByName) {
         expectRejected([&] { sim.step(1); }, "constraints");
     }
     {
-        std::unique_ptr<System> system(fpuSystem(3, 50.0, 2));
-        auto* clocked = new CustomExternalForce("t*x");
-        clocked->addGlobalParameter("t", 0.0);
-        system->addForce(clocked);
         FlavorIntegrator flavor(0.02, 0.004, StiffMask);
-        flavor.setStiffClockParameter("t");
-        Context context(*system, flavor, platform);
+        flavor.setScheme(FlavorIntegrator::Verlet);
+        flavor.setTemperature(300.0);
+        flavor.setMetropolis(true);
+        Context context(*chains.system, flavor, platform);
         context.setPositions(chains.positions);
-        expectRejected([&] { flavor.step(1); }, "setStiffClockParameter(\"t\")");
+        expectRejected([&] { flavor.step(1); }, "setMetropolis(true)");
+    }
+    {
+        StochasticImpulseIntegrator sim(300.0, 5.0, 0.02, StiffMask);
+        sim.setMaxDrudeDistance(0.02);
+        Context context(*chains.system, sim, platform);
+        context.setPositions(chains.positions);
+        expectRejected([&] { sim.step(1); }, "setMaxDrudeDistance");
+        sim.setMaxDrudeDistance(0.0);
+        sim.setMetropolis(true);
+        expectRejected([&] { sim.step(1); }, "setMetropolis(true)");
     }
 }

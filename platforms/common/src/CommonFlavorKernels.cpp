@@ -75,6 +75,8 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
         slotForces[s].initialize(cc, numParticles, doubles ? 4 * sizeof(double) : 4 * sizeof(float),
                                  "flavorSlotForces" + std::to_string(s));
     slotValid.assign(MaxForceSlots, false);
+    slotClocked.assign(MaxForceSlots, false);
+    slotClock.assign(MaxForceSlots, 0.0);
     copyForcesKernel->addArg(cc.getLongForceBuffer());
     copyForcesKernel->addArg(slotForces[0]);
     copyForcesKernel->addArg(cc.getAtomIndexArray());
@@ -300,10 +302,15 @@ void CommonFlowStepper::placeVirtualSites() {
     virtualSitesPlaced = true;
 }
 
-void CommonFlowStepper::ensureForces(ContextImpl& context, int slot) {
-    if (slotValid[slot])
+void CommonFlowStepper::ensureForces(ContextImpl& context, int slot, bool clocked, double clock) {
+    // A slot evaluated at these positions with another clock value holds other forces.
+    if (slotValid[slot] && (!clocked || (slotClocked[slot] && slotClock[slot] == clock)))
         return;
     placeVirtualSites();
+    if (clocked)
+        context.setParameter(stiffClock.getParameter(), clock);
+    slotClocked[slot] = clocked;
+    slotClock[slot] = clock;
     context.calcForcesAndEnergy(true, false, plan.slotGroups[slot]);
     copyForcesKernel->setArg(1, slotForces[slot]);
     copyForcesKernel->execute(cc.getNumAtoms());
@@ -372,12 +379,13 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     if (!forcesValid)
         invalidateForces();
     history.stepStarted();
+    const double clockAtStart = stiffClock.startStep(cc.getTime());
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const FlowPass& pass = plan.passes[p];
         // Every kick of a pass reads forces at the positions where the pass begins.
         for (size_t k = 0; k < pass.flows.size(); ++k)
             if (pass.flows[k].kind == SubFlow::Kick)
-                ensureForces(context, pass.slots[k]);
+                ensureForces(context, pass.slots[k], pass.flows[k].clocked, clockAtStart + pass.flows[k].clock);
         if (pass.fusedIntoNext) {
             fusedSlot = pass.slots[0];
             fusedStep = pass.flows[0].h;
@@ -392,6 +400,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     placeVirtualSites();
     cc.setTime(cc.getTime() + stepSize);
     cc.setStepCount(cc.getStepCount() + 1);
+    stiffClock.endStep(cc.getTime());
     cc.reorderAtoms();
     forcesValid = true;
 }
@@ -421,13 +430,15 @@ double CommonFlowStepper::kineticEnergy() {
 }
 
 void CommonFlowStepper::createCheckpoint(std::ostream& stream) const {
-    writeFlowCheckpoint(stream, owner, seed, nextStream, history);
+    writeFlowCheckpoint(stream, owner, seed, nextStream, history, stiffClock.getState());
 }
 
 void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& stream) {
     std::uint64_t storedSeed = 0, storedStream = 0;
     StepHistory::Stored storedHistory;
-    const string problem = readFlowCheckpoint(stream, owner, history, storedSeed, storedStream, storedHistory);
+    StiffClockState storedClock;
+    const string problem =
+        readFlowCheckpoint(stream, owner, history, storedSeed, storedStream, storedHistory, &storedClock);
     if (!problem.empty()) {
         rollback.restore(context);
         invalidateForces();
@@ -435,6 +446,7 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     }
     setRandomSeed(storedSeed);
     nextStream = storedStream;
+    stiffClock.setState(storedClock);
     history.load(storedHistory);
     invalidateForces();
 }
@@ -485,11 +497,6 @@ void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrato
             (current.averaging == FlavorIntegrator::Artificial ? "Artificial" : "ArtificialProjected") +
             " (FlavorIntegrator::setAveraging) is not supported there yet; use the Nonintrusive "
             "averaging, or the Reference or CPU platform");
-    if (current.stiffClock)
-        throw OpenMMException(string(FlavorName) + " on the " + getPlatform().getName() +
-                              " platform: a stiff clock (FlavorIntegrator::setStiffClockParameter(\"" +
-                              integrator.getStiffClockParameter() +
-                              "\")) is not supported there yet; set it to \"\", or use the Reference or CPU platform");
     if (current.metropolis)
         throw OpenMMException(string(FlavorName) + " on the " + getPlatform().getName() +
                               " platform: the Metropolis adjustment (FlavorIntegrator::setMetropolis(true)) is not "
@@ -502,6 +509,7 @@ void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrato
         });
         configured = true;
     }
+    stepper->setStiffClock(integrator.getStiffClockParameter(), current.microStep, current.mesoStep);
     stepper->setFrictionParticles(integrator.getFrictionParticles());
     stepper->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
 }

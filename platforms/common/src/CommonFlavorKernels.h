@@ -5,6 +5,7 @@
 #include "FlavorKernels.h"
 #include "ParticleFlows.h"
 #include "StepHistory.h"
+#include "StiffClock.h"
 #include "StiffModes.h"
 #include "StiffProbe.h"
 #include "internal/FlowSchedule.h"
@@ -47,6 +48,13 @@ public:
     void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
+    /**
+     * Runs the clocked kicks on the stiff clock: the Context global parameter parameter is set before their forces
+     * are evaluated ("" for none; FlavorIntegrator::setStiffClockParameter).
+     */
+    void setStiffClock(const std::string& parameter, double microStep, double mesoStep) {
+        stiffClock.configure(parameter, microStep, mesoStep);
+    }
     /** Takes one step and advances the Context's time by stepSize and its step count by one. */
     void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
     double kineticEnergy();
@@ -59,7 +67,8 @@ private:
     /** Analyses the schedule, checks that every sub-flow is supported and precomputes the constants of each pass. */
     void prepare();
     /** Evaluates the forces of a slot (virtual sites placed first) unless they are valid. */
-    void ensureForces(OpenMM::ContextImpl& context, int slot);
+    /** The forces of a slot at the current positions; a clocked kick's at the stiff clock value clock. */
+    void ensureForces(OpenMM::ContextImpl& context, int slot, bool clocked = false, double clock = 0.0);
     void placeVirtualSites();
     void invalidateForces();
     void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
@@ -86,6 +95,10 @@ private:
     OpenMM::ComputeKernel copyForcesKernel, findAtomsKernel, driftDisplacementKernel, applyDisplacementKernel;
     std::vector<OpenMM::ComputeArray> slotForces;
     std::vector<bool> slotValid;
+    // Per slot: whether its forces were evaluated with the clock parameter set, and to what.
+    std::vector<bool> slotClocked;
+    std::vector<double> slotClock;
+    StiffClock stiffClock;
     OpenMM::ComputeArray kn, wn, fn, thermalSpeed, thermostated, slotOf;
     // Per pass, per flow: the kernel with its arguments set (the stream of a thermostat is set per step).
     std::vector<std::vector<OpenMM::ComputeKernel>> passKernels;

@@ -10,6 +10,7 @@
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
 #include "StepHistory.h"
+#include "StiffClock.h"
 #include "StiffModes.h"
 #include "internal/CounterRandom.h"
 #include "internal/FlowSchedule.h"
@@ -99,10 +100,7 @@ private:
     StepHistory history;
     ContextRollback rollback;
     std::uint64_t seed = 0, nextStream = 0;
-    // The stiff clock (time NaN while it is off, so that a checkpoint without one starts it afresh).
-    StiffClockState stiffClock;
-    bool clockOn = false;
-    double clockAdvance = 0.0, clockRatio = 1.0;
+    StiffClock stiffClock;
     CounterRandom random;
     EngineParts parts;
     ParticlePassExecutor particlePasses;

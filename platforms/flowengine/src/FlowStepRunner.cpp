@@ -4,7 +4,6 @@
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferencePlatform.h"
 #include <istream>
-#include <limits>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -86,13 +85,7 @@ void FlowStepRunner::prepare() {
 
 void FlowStepRunner::setStiffClock(const std::string& parameter, double microStep, double mesoStep) {
     forces.setClockParameter(parameter);
-    // A clock that ran with other time scales starts afresh; one loaded from a checkpoint before the first step
-    // continues.
-    if (clockOn && (parameter.empty() || microStep != clockAdvance || microStep / mesoStep != clockRatio))
-        stiffClock.time = std::numeric_limits<double>::quiet_NaN();
-    clockOn = !parameter.empty();
-    clockAdvance = microStep;
-    clockRatio = microStep / mesoStep;
+    stiffClock.configure(parameter, microStep, mesoStep);
 }
 
 void FlowStepRunner::setRandomSeed(std::uint64_t newSeed) {
@@ -108,11 +101,8 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     }
     history.stepStarted();
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
-    // The stiff clock continues where the last step left it unless the time was set from outside (or it never ran).
-    if (clockOn && data.time != stiffClock.time)
-        stiffClock.clock = data.time * clockRatio;
     StepState state{context, constraintTolerance, nextStream};
-    state.stiffClock = stiffClock.clock;
+    state.stiffClock = stiffClock.startStep(data.time);
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const FlowPass& pass = plan.passes[p];
         if (pass.fusedIntoNext) {
@@ -131,10 +121,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     forces.placeVirtualSites(context);
     data.time += stepSize;
     data.stepCount++;
-    if (clockOn) {
-        stiffClock.clock += clockAdvance;
-        stiffClock.time = data.time;
-    }
+    stiffClock.endStep(data.time);
     forcesValid = true;
 }
 
@@ -160,7 +147,8 @@ void FlowStepRunner::saveContextState(ContextImpl& context, bool withParameters)
 }
 
 void FlowStepRunner::createCheckpoint(std::ostream& stream, const std::string& integratorName) const {
-    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history, stiffClock, proposals.getCounts());
+    writeFlowCheckpoint(stream, integratorName, seed, nextStream, history, stiffClock.getState(),
+                        proposals.getCounts());
 }
 
 void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, const std::string& integratorName) {
@@ -177,7 +165,7 @@ void FlowStepRunner::loadCheckpoint(ContextImpl& context, std::istream& stream, 
     }
     setRandomSeed(storedSeed);
     nextStream = storedStream;
-    stiffClock = storedClock;
+    stiffClock.setState(storedClock);
     proposals.setCounts(storedCounts);
     proposals.forgetEnergy();
     history.load(storedHistory);

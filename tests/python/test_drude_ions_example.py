@@ -1,5 +1,6 @@
 """Smoke test of examples/drude_ions: the --quick run of NaCl in SWM4-NDP water (Drude-2019 ions) writes its JSON,
-and the SIM on the System split by separateDrudeSprings keeps the induced dipoles self-consistent and the Drudes cold."""
+and the SIM on the System split by separateDrudeSprings keeps the induced dipoles self-consistent and the Drudes
+cold."""
 import json
 import math
 import os

@@ -1,9 +1,10 @@
 """StochasticImpulseIntegrator.separateDrudeSprings from Python, on villin and its two chloride ions in the Drude-2019
 force field (OpenMM's test.pdb without its water, through Modeller.addExtraParticles with charmm_polar_2019.xml: 984
-particles, 291 Drude particles, 51 of them anisotropic, 691 Thole-screened pairs, 109 lone pairs): the isotropic springs move to the stiff group with the force
-constants written here from DrudeForce's formulas, the energy and forces stay the same, the SIM takes the separated
-System (its stiff modes are the springs' sqrt(k/mu)) and rejects the DrudeForce as stiff, a short SIM run stays on
-the original energy surface, and bad input is rejected by name without changing the System."""
+particles, 291 Drude particles, 51 of them anisotropic, 691 Thole-screened pairs, 109 lone pairs): the isotropic
+springs move to the stiff group with the force constants written here from DrudeForce's formulas, the energy and
+forces stay the same, the SIM takes the separated System (its stiff modes are the springs' sqrt(k/mu)) and rejects
+the DrudeForce as stiff, a short SIM run stays on the original energy surface, and bad input is rejected by name
+without changing the System."""
 import os
 
 import numpy as np

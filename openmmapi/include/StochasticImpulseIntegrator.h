@@ -226,8 +226,8 @@ public:
      * pairs, cancels its isotropic springs.  The System's energy and forces are unchanged to rounding.
      *
      * Use stiffGroup as the integrator's stiff group (or one of them) and leave the DrudeForce's group soft.  The
-     * anisotropic terms stay soft; a stiff flow that is quadratic only at fixed axes is not supported.  Call it once,
-     * before the Context is created.
+     * anisotropic terms stay soft: a stiff flow for springs that are quadratic only at fixed axes would be future work
+     * in the engine.  Call it once, before the Context is created.
      *
      * @param system      the System to change; it must contain a DrudeForce and must not have been separated before
      * @param stiffGroup  the force group of the new isotropic springs (0 to 31), not the group of a DrudeForce

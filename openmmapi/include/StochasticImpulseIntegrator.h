@@ -217,7 +217,7 @@ public:
     /**
      * Split the springs of every DrudeForce of a System so that the integrator can take them as stiff: the isotropic
      * spring of each Drude particle, 0.5 k |d|^2 with d the Drude particle's displacement from its parent and
-     * k = q^2/(4 pi eps0 alpha a3) (a3 = 3 - aniso12 - aniso34 for an anisotropic Drude particle, 1 otherwise), is
+     * k = q^2/(4 pi eps0 alpha a3) (a3 = 3 - aniso12 - aniso34, each aniso taken as 1 where its axis is not given), is
      * exactly quadratic and goes into a new HarmonicBondForce of length 0 in force group stiffGroup.  Everything else
      * the DrudeForce computes stays soft in its own force group: the anisotropic terms, which depend on the parent's
      * neighbours (quadratic in d only at fixed axes), and the Thole screening between Drude pairs.  The DrudeForce

@@ -68,7 +68,8 @@ void StochasticImpulseIntegrator::separateDrudeSprings(System& system, int stiff
                 throwInvalidParameter(owner, "system",
                                       "a DrudeForce (force " + std::to_string(f) + ") whose particle " +
                                           std::to_string(i) + " has polarizability " + formatNumber(polarizability) +
-                                          " and 3 - aniso12 - aniso34 = " + formatNumber(a3),
+                                          " and a3 = 3 - aniso12 - aniso34 = " + formatNumber(a3) +
+                                          " (an aniso taken as 1 where its axis is not given)",
                                       "both must be above 0 for its isotropic spring to be a spring");
             springs.push_back(
                 {p, p1, OneOver4PiEps0 * charge * charge / (polarizability * a3), drude->getForceGroup()});

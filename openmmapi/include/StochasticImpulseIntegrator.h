@@ -9,6 +9,10 @@
 #include <string>
 #include <vector>
 
+namespace OpenMM {
+class System;
+}
+
 namespace FlavorPlugin {
 
 class IntegrateStochasticImpulseStepKernel;
@@ -257,6 +261,26 @@ public:
      * about.
      */
     void updateStiffModes();
+    /**
+     * Split the springs of every DrudeForce of a System so that the integrator can take them as stiff: the isotropic
+     * spring of each Drude particle, 0.5 k |d|^2 with d the Drude particle's displacement from its parent and
+     * k = q^2/(4 pi eps0 alpha a3) (a3 = 3 - aniso12 - aniso34, each aniso taken as 1 where its axis is not given), is
+     * exactly quadratic and goes into a new HarmonicBondForce of length 0 in force group stiffGroup.  Everything else
+     * the DrudeForce computes stays soft in its own force group: the anisotropic terms, which depend on the parent's
+     * neighbours (quadratic in d only at fixed axes), and the Thole screening between Drude pairs.  The DrudeForce
+     * itself is left as it is (its charges, polarizabilities and screened pairs are needed by the screening, and tools
+     * find the Drude pairs through it); a new CustomBondForce in its group, with the energy -0.5 k r^2 on the same
+     * pairs, cancels its isotropic springs.  The System's energy and forces are unchanged to rounding.
+     *
+     * Use stiffGroup as the integrator's stiff group (or one of them) and leave the DrudeForce's group soft.  The
+     * anisotropic terms stay soft: a stiff flow for springs that are quadratic only at fixed axes would be future work
+     * in the engine.  Call it once, before the Context is created.
+     *
+     * @param system      the System to change; it must contain a DrudeForce and must not have been separated before
+     * @param stiffGroup  the force group of the new isotropic springs (0 to 31), not the group of a DrudeForce
+     * @throws OpenMMException naming the parameter, its value and what is allowed, leaving the System unchanged
+     */
+    static void separateDrudeSprings(OpenMM::System& system, int stiffGroup);
     /**
      * Advance a simulation through time by taking a series of time steps.
      *

@@ -118,6 +118,9 @@ from openmmflavors import _warnings as _flavorsWarnings
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setRandomNumberSeed %{
     seed = _toInt(seed, "randomNumberSeed")
 %}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::separateDrudeSprings %{
+    stiffGroup = _toInt(stiffGroup, "stiffGroup")
+%}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::step %{
     steps = _toInt(steps, "steps")
     _flavorsWarnings.checkResonance(self)

@@ -1,0 +1,211 @@
+"""NaCl in SWM4-NDP water with Drude-2019's polarizable ions (charmm_polar_2019.xml): StochasticImpulseIntegrator on
+the System split by separateDrudeSprings, against OpenMM's DrudeLangevinIntegrator, every run from the same
+equilibrated state in one process.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py [--quick] [--out DIR] \
+        [--production PS] [--burn-in PS] [--sim-steps 1.5 2] [--seed N]
+
+Writes drude_ions.json to --out.  Observables (block averages; error = standard error of the block means): the induced
+dipoles relative to the self-consistent ones at the same nuclear positions (all Drude particles, and the ions' alone),
+the centre-of-mass and Drude temperatures, the potential energy per Drude pair, and ns/day.
+"""
+import argparse
+import json
+import os
+import time
+
+import numpy as np
+import openmm
+import openmm.app as app
+import openmm.unit as unit
+from flavorbench.runners import KB as BOLTZ
+from flavorbench.timeseries import ProductionFrames, block_error
+from openmmflavors import StochasticImpulseIntegrator
+
+SPRING_GROUP = 1  # the isotropic Drude springs after separateDrudeSprings; everything else in group 0
+
+
+def build(waters, pairs, cutoff):
+    """A cubic box of `waters` SWM4-NDP molecules and `pairs` Na+/Cl- pairs (Drude-2019 SOD and CLA), PME (cutoff in
+    nm), rigid water, X-H bonds constrained."""
+    modeller = app.Modeller(app.Topology(), [])
+    # Modeller adds round(n_water * I / 55.4 M) pairs: ask for exactly `pairs`.
+    modeller.addSolvent(app.ForceField("amber14/tip3p.xml"), model="tip3p", numAdded=waters + 2 * pairs,
+                        positiveIon="Na+", negativeIon="Cl-", ionicStrength=pairs * 55.4 / waters * unit.molar)
+    forcefield = app.ForceField("charmm_polar_2019.xml")
+    modeller.addExtraParticles(forcefield)
+    system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.PME,
+                                     nonbondedCutoff=cutoff * unit.nanometer, constraints=app.HBonds, rigidWater=True)
+    for force in system.getForces():
+        force.setForceGroup(0)
+    return system, modeller.topology, modeller.positions
+
+
+class Analysis:
+    def __init__(self, system, topology):
+        drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
+        n = system.getNumParticles()
+        self.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(n)])
+        pairs = np.array([drude.getParticleParameters(i)[:2] for i in range(drude.getNumParticles())])
+        self.drudes, self.cores = pairs[:, 0], pairs[:, 1]
+        residue = [a.residue.name for a in topology.atoms()]
+        self.ion_pairs = np.array([i for i, core in enumerate(self.cores) if residue[core] in ("NA", "CL")])
+        self.ions = {name: sum(1 for r in topology.residues() if r.name == name) for name in ("NA", "CL")}
+        in_pair = set(self.drudes) | set(self.cores)
+        self.others = np.array([i for i in range(n) if self.masses[i] > 0 and i not in in_pair])
+        # 3 per pair (centre of mass) and per other massive particle, less constraints and the removed momentum.
+        self.com_dof = 3 * (len(self.cores) + len(self.others)) - system.getNumConstraints() - 3
+        self.drude_dof = 3 * len(self.drudes)
+
+    def temperatures(self, v):
+        m = self.masses
+        mc, md = m[self.cores][:, None], m[self.drudes][:, None]
+        com = (mc * v[self.cores] + md * v[self.drudes]) / (mc + md)
+        rel = v[self.drudes] - v[self.cores]
+        ke_com = 0.5 * np.sum((mc + md) * com**2) + 0.5 * np.sum(m[self.others][:, None] * v[self.others]**2)
+        ke_rel = 0.5 * np.sum(mc * md / (mc + md) * rel**2)
+        return 2 * ke_com / (self.com_dof * BOLTZ), 2 * ke_rel / (self.drude_dof * BOLTZ)
+
+    def displacements(self, x):
+        return x[self.drudes] - x[self.cores]
+
+
+class SelfConsistent:
+    """Drude positions that minimize the energy of the original System with every other particle held where it is."""
+
+    def __init__(self, system, analysis):
+        fixed = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
+        drudes = set(analysis.drudes)
+        for i in range(fixed.getNumParticles()):
+            if i not in drudes:
+                fixed.setParticleMass(i, 0.0)
+        for c in reversed(range(fixed.getNumConstraints())):
+            fixed.removeConstraint(c)
+        self.context = openmm.Context(fixed, openmm.VerletIntegrator(0.001), openmm.Platform.getPlatformByName("CPU"),
+                                      {"Threads": "2"})
+
+    def displacements(self, state, analysis):
+        self.context.setPeriodicBoxVectors(*state.getPeriodicBoxVectors())
+        self.context.setPositions(state.getPositions())
+        openmm.LocalEnergyMinimizer.minimize(self.context, 1e-3, 2000)
+        x = self.context.getState(getPositions=True).getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+        return analysis.displacements(x)
+
+
+def make_integrator(kind, step_fs, seed):
+    if kind == "DrudeLangevin":
+        integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
+                                                    20 / unit.picosecond, step_fs * unit.femtosecond)
+    else:  # "WarpedMiddle": the Warped splitting with the zero modes' thermostat placed as LangevinMiddle's
+        integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, step_fs * unit.femtosecond,
+                                                 {SPRING_GROUP})
+        integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+        integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
+        integrator.setStiffModeTemperature(1 * unit.kelvin)
+        integrator.setStiffModeFriction(20 / unit.picosecond)
+    integrator.setRandomNumberSeed(seed)
+    return integrator
+
+
+def run_one(system, state, analysis, scf, kind, step_fs, settings, seed):
+    integrator = make_integrator(kind, step_fs, seed)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+    context.setState(state)
+    integrator.step(int(round(settings["burn_ps"] * 1000 / step_fs)))
+    samples = settings["samples"]
+    steps = int(round(settings["production_ps"] * 1000 / step_fs))
+    series = {"t_com": [], "t_drude": [], "pe_per_pair": [], "induced_ratio": [], "induced_ratio_ions": []}
+    scf_every = max(1, samples // settings["scf_frames"])
+    production = ProductionFrames(context, integrator, steps, samples)
+    for s, frame in enumerate(production):
+        t_com, t_drude = analysis.temperatures(frame.velocities)
+        series["t_com"].append(t_com)
+        series["t_drude"].append(t_drude)
+        series["pe_per_pair"].append(frame.potential_energy / len(analysis.drudes))
+        if s % scf_every == 0:
+            d = analysis.displacements(frame.positions)
+            d_scf = scf.displacements(frame.state, analysis)
+            series["induced_ratio"].append(float(np.sum(d * d_scf) / np.sum(d_scf * d_scf)))
+            ions = analysis.ion_pairs
+            series["induced_ratio_ions"].append(float(np.sum(d[ions] * d_scf[ions]) / np.sum(d_scf[ions]**2)))
+    result = {"integrator": kind, "step_fs": step_fs, "steps": production.steps_done,
+              "ns_per_day": production.ns_per_day(step_fs)}
+    for name, values in series.items():
+        blocks = settings["blocks"] if not name.startswith("induced") else min(settings["blocks"], len(values))
+        result[name] = block_error(values, blocks)
+    result["t_drude_max"] = max(series["t_drude"])  # the hottest frame: a transient the block means would blur
+    return result
+
+
+def main():
+    repo_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
+    parser.add_argument("--out", default=os.path.join(repo_root, "results", "drude_ions"), help="output folder")
+    parser.add_argument("--production", type=float, default=3.0, help="ps sampled per run (default 3)")
+    parser.add_argument("--burn-in", type=float, default=0.5, help="ps per run before sampling (default 0.5)")
+    parser.add_argument("--reference-step", type=float, default=0.5, help="DrudeLangevin's step in fs (default 0.5)")
+    parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.5, 2.0],
+                        help="SIM steps H in fs (default 1.5 2; README: 2.5 fs is not stable here)")
+    parser.add_argument("--seed", type=int, default=1, help="random seed of the run (default 1)")
+    args = parser.parse_args()
+    if args.quick:
+        waters, pairs, cutoff, equilibration_ps = 64, 2, 0.55, 0.1
+        settings = dict(production_ps=0.1, burn_ps=0.02, samples=6, blocks=2, scf_frames=2)
+    else:
+        waters, pairs, cutoff, equilibration_ps = 248, 4, 0.8, 1.0
+        settings = dict(production_ps=args.production, burn_ps=args.burn_in, samples=60, blocks=6, scf_frames=6)
+    begin = time.time()
+    system, topology, positions = build(waters, pairs, cutoff)
+    analysis = Analysis(system, topology)
+    print(f"{analysis.ions['NA']} Na+ and {analysis.ions['CL']} Cl- (SOD, CLA) in {waters} SWM4-NDP molecules: "
+          f"{system.getNumParticles()} particles, {len(analysis.drudes)} Drude particles", flush=True)
+
+    # Equilibrate the original System: minimized, then DrudeLangevin at 1 fs.
+    integrator = make_integrator("DrudeLangevin", 1.0, args.seed)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+    context.setPositions(positions)
+    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
+    context.setVelocitiesToTemperature(300 * unit.kelvin, args.seed + 1)
+    integrator.step(int(round(equilibration_ps * 1000)))
+    state = context.getState(getPositions=True, getVelocities=True)
+    del context
+    scf = SelfConsistent(system, analysis)   # on the original System
+
+    separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
+    StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
+
+    runs = [run_one(system, state, analysis, scf, "DrudeLangevin", args.reference_step, settings, args.seed + 2)]
+    print(f"DrudeLangevin {args.reference_step} fs done", flush=True)
+    for step_fs in args.sim_steps:
+        try:
+            runs.append(run_one(separated, state, analysis, scf, "WarpedMiddle", step_fs, settings, args.seed + 3))
+        except openmm.OpenMMException as e:
+            runs.append({"integrator": "WarpedMiddle", "step_fs": step_fs, "failed": str(e)})
+        print(f"WarpedMiddle {step_fs} fs done", flush=True)
+
+    names = [("induced_ratio", "induced / SCF, all"), ("induced_ratio_ions", "induced / SCF, ions"),
+             ("t_drude", "T Drude (K)"), ("t_drude_max", "hottest frame (K)"), ("t_com", "T centre of mass (K)"),
+             ("pe_per_pair", "PE per Drude pair"), ("ns_per_day", "ns/day")]
+    print(f"\n{'run':24s}" + "".join(f"{label:>24s}" for _, label in names))
+    for run in runs:
+        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs':24s}"
+        if "failed" in run:
+            print(row + "  failed: " + run["failed"][:80])
+            continue
+        for key, _ in names:
+            value = run[key]
+            if isinstance(value, (list, tuple)):
+                row += f"{value[0]:15.4f} ± {value[1]:6.4f}"
+            else:
+                row += f"{value:24.2f}"
+        print(row)
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "drude_ions.json"), "w") as out:
+        json.dump({"waters": waters, "ions": analysis.ions, "settings": settings, "seed": args.seed,
+                   "wall_seconds": time.time() - begin, "runs": runs}, out, indent=1)
+    print(f"\n{time.time() - begin:.0f} s; written to {os.path.join(args.out, 'drude_ions.json')}")
+
+
+if __name__ == "__main__":
+    main()

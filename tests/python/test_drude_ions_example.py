@@ -1,0 +1,32 @@
+"""Smoke test of examples/drude_ions: the --quick run of NaCl in SWM4-NDP water (Drude-2019 ions) writes its JSON,
+and the SIM on the System split by separateDrudeSprings keeps the induced dipoles self-consistent and the Drudes
+cold."""
+import json
+import math
+import os
+
+import conftest
+
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCRIPT = os.path.join(REPO_ROOT, "examples", "drude_ions", "drude_ions.py")
+OBSERVABLES = ["induced_ratio", "induced_ratio_ions", "t_drude", "t_com", "pe_per_pair"]
+
+
+def test_drude_ions_quick(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "drude_ions.json") as f:
+        data = json.load(f)
+    assert data["ions"] == {"NA": 2, "CL": 2}
+    runs = {(run["integrator"], run["step_fs"]): run for run in data["runs"]}
+    assert set(runs) == {("DrudeLangevin", 0.5), ("WarpedMiddle", 1.5), ("WarpedMiddle", 2.0)}
+    for label, run in runs.items():
+        assert "failed" not in run, (label, run.get("failed"))
+        assert run["ns_per_day"] > 0 and run["steps"] > 0
+        for key in OBSERVABLES:
+            value, error = run[key]
+            assert math.isfinite(value) and (error >= 0 or math.isnan(error)), (label, key)
+        # Loose sanity bounds on the short run (not the example's claims).
+        assert abs(run["induced_ratio"][0] - 1) < 0.05, label
+        assert abs(run["induced_ratio_ions"][0] - 1) < 0.1, label
+        assert run["t_drude"][0] < 20, label

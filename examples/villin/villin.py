@@ -36,6 +36,7 @@ threads is measured over the production run; ns/day with 1 thread over a further
 
 Outputs: DIR/villin.json (every number and the RMSD series) and DIR/villin.png.
 """
+import json
 import math
 import os
 import re
@@ -546,6 +547,49 @@ def plot(data, path):
     reporting.save_figure(fig, path, dpi=80)
 
 
+def markdown_table(data):
+    """The README's table of a run: per peer the interleaved ns/day (2 threads) and its ratio to the baseline, the
+    chart's observables with their block errors, and the observables (of all in the JSON) more than 2 combined s.e.
+    from LangevinMiddle 2 fs, with their σ; a failed peer with the step it failed after and where its heat was."""
+    records = data["peers"]
+    reference = records[0]
+    keys = observable_keys(reference) if reference["stable"] else []
+    columns = [("T", "T (K)", "%.1f ± %.1f"), ("T_protein", "T protein (K)", "%.1f ± %.1f"),
+               ("bond_rms all", "bond RMS (nm)", "%.5f ± %.5f"), ("angle_rms with H", "angles with H (°)",
+                                                                   "%.3f ± %.3f"),
+               ("angle_rms heavy atoms", "heavy angles (°)", "%.3f ± %.3f"),
+               ("angle_rms planar centres, with H", "planar centres with H (°)", "%.3f ± %.3f"),
+               ("backbone_rmsd", "backbone RMSD (nm)", "%.4f ± %.4f")]
+    lines = ["| peer | ns/day (2 threads, interleaved) | × %s | " % data.get("interleaved_baseline") +
+             " | ".join(c[1] for c in columns) + " | beyond 2 s.e. of LangevinMiddle 2 fs (σ) |",
+             "|---" * (len(columns) + 4) + "|"]
+    for r in records:
+        name = short_name(r["name"]).replace("FLAVOR bonds+nonplanar angles Middle", "FLAVOR")
+        if not r["stable"]:
+            heat = r["heat_before_failure"]
+            first = heat[0]["T_K"] if heat else {}
+            last = heat[-1]["T_K"] if heat else {}
+            lines.append("| %s | failed after step %d (%g fs): %s; T water / protein H / protein heavy %s → %s K "
+                         "over the last %g fs watched; hottest atoms %s |" % (
+                             name, r["failed_after_step"], r["failed_after_fs"], r["error"],
+                             " / ".join("%.0f" % v for v in first.values()),
+                             " / ".join("%.0f" % v for v in last.values()),
+                             (heat[-1]["time_fs"] - heat[0]["time_fs"]) if heat else 0,
+                             ", ".join("%s %.0f K" % (a, t) for a, t in r.get("hottest_atoms_last_finite_frame", [])[:4])))
+            continue
+        off = [] if r is reference else [
+            "%s %.1f" % (k.replace("_rms", " RMS").replace("_", " "),
+                         abs(r[k] - reference[k]) / math.hypot(r[k + "_error"], reference[k + "_error"]))
+            for k in keys if not within_error(r, reference, k)]
+        lines.append("| %s | %s | %s | " % (
+            name, "%.2f ± %.2f" % (r["ns_per_day_interleaved"], r["ns_per_day_interleaved_error"])
+            if "ns_per_day_interleaved" in r else "—",
+            "%.2f" % r["interleaved_ratio"] if "interleaved_ratio" in r else "—") +
+            " | ".join(fmt % (r[k], r[k + "_error"]) for k, _, fmt in columns) + " | %s |" % (
+                "reference" if r is reference else ", ".join(off) if off else "none of %d" % len(keys)))
+    return "\n".join(lines)
+
+
 def main():
     p = reporting.parser(__doc__, "villin", quick_help="a few femtoseconds per peer (smoke test)")
     p.add_argument("--equilibration", type=float, default=1.0, help="ps per peer before measuring")
@@ -571,7 +615,12 @@ def main():
     p.add_argument("--watch", type=float, default=20.0,
                    help="fs between the watched frames of the equilibration (the failure diagnosis; default 20)")
     p.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    p.add_argument("--table", metavar="JSON", help="only print the markdown table of an earlier run's JSON")
     args = p.parse_args()
+    if args.table:
+        with open(args.table) as f:
+            print(markdown_table(json.load(f)))
+        return
     if args.replot:
         reporting.replot(args.replot, args.out, "villin", plot)
         return

@@ -391,6 +391,11 @@ def short_name(name):
     return label.replace("FLAVOR ArtificialProjected ", "FLAVOR ")
 
 
+def chart_name(name):
+    """short_name without "bonds+nonplanar angles Middle" (the scene's recipe; the footer says so)."""
+    return short_name(name).replace("FLAVOR bonds+nonplanar angles Middle ", "FLAVOR ")
+
+
 def busy_machine(stable):
     """Whether the timings say the machine was busy: 2 threads slower than 1 for some peer."""
     return any(r["ns_per_day_2_threads"] < r["ns_per_day_1_thread"] for r in stable)
@@ -424,7 +429,7 @@ def verdict(stable, reference):
     flavor_best = max((r for r in good if r["name"].startswith("FLAVOR")), key=speed, default=None)
     text = "within 2 s.e. of LangevinMiddle 2 fs on all %d observables, fastest (2 threads, interleaved): " % len(keys)
     text += "OpenMM %s (%.1f ns/day)" % (short_name(openmm_best["name"]), speed(openmm_best)) if openmm_best else \
-        "no other OpenMM setting"
+        "OpenMM none besides the reference"
     if flavor_best:
         text += ", FLAVOR %s (%.1f ns/day%s)" % (
             short_name(flavor_best["name"]).replace("FLAVOR ", ""), speed(flavor_best),
@@ -442,9 +447,9 @@ def plot(data, path):
     records = data["peers"]
     stable = [r for r in records if r["stable"]]
     reference = records[0] if records[0]["stable"] else None
-    labels = [short_name(r["name"]).replace(" δ", "\nδ") for r in stable]
+    labels = [chart_name(r["name"]).replace(" δ", "\nδ") for r in stable]
     y = np.arange(len(stable))
-    fig, axes = plt.subplots(2, 4, figsize=(22, 13))
+    fig, axes = plt.subplots(2, 4, figsize=(24, 13))
     axes = axes.ravel()
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
@@ -507,6 +512,7 @@ def plot(data, path):
     errorbar_panel(axes[2], [("T_protein", "protein")], "kinetic temperature of the protein (K)", False)
     errorbar_panel(axes[3], [("bond_rms all", "all heavy-atom bonds")],
                    "bond length RMS deviation from r0 (nm)", False)
+    axes[3].locator_params(axis="x", nbins=3)
     bond_classes = [k[len("bond_rms "):] for k in stable[0] if k.startswith("bond_rms ") and
                     not k.endswith("_error") and k != "bond_rms all"] if stable else []
     relative = reference is not None
@@ -520,27 +526,30 @@ def plot(data, path):
     ax = axes[7]
     for r in stable:
         ax.plot(r["series"]["t_ps"], r["series"]["backbone_rmsd"],
-                label=short_name(r["name"]))
+                label=chart_name(r["name"]))
     ax.set_xlabel("production time (ps)", fontsize=12)
     ax.set_ylabel("backbone (N, CA, C) RMSD from the start (nm)", fontsize=12)
     ax.tick_params(labelsize=11)
-    ax.legend(fontsize=9, loc="upper right", bbox_to_anchor=(1.0, -0.1), ncol=1)
+    # Right of the panel, so that it hides neither a curve nor the legend of the panel beside it.
+    ax.legend(fontsize=9, loc="upper left", bbox_to_anchor=(1.02, 1.0), ncol=1)
     unstable = [short_name(r["name"]) + (" (failed after step %d, %g fs)" % (r["failed_after_step"],
                                                                               r["failed_after_fs"])
                                          if "failed_after_step" in r else "") for r in records if not r["stable"]]
-    reporting.note_failed(axes[1], unstable)
-    fig.text(0.01, 0.005, "Error bars: standard error of %d block means over %g ps of production per peer "
-             "(after %g ps of equilibration); FLAVOR: ArtificialProjected.  %s\n"
+    footer = ("Error bars: standard error of %d block means over %g ps of production per peer "
+             "(after %g ps of equilibration); FLAVOR: ArtificialProjected, the angles of the planar centres soft and the "
+             "thermostat in the middle (Middle) unless its label says otherwise.  %s\n"
              "ns/day: 2 threads interleaved, the median of %d rounds of %g ps per peer (± s.e. of the rounds); the "
              "other two one timing each%s" % (
                  stable[0]["blocks"] if stable else 0, data["production_ps"], data["equilibration_ps"],
                  "Failed (not drawn): " + ", ".join(unstable) if unstable else "Every peer stayed stable.",
                  data.get("interleaved_rounds", 0), data.get("interleaved_ps_per_round", 0),
                  " (2 threads slower than 1 for some peers: the machine was busy, so the sequential ns/day are not "
-                 "the integrators' speeds)" if busy_machine(stable) else "."), fontsize=11)
+                 "the integrators' speeds)" if busy_machine(stable) else "."))
+    fig.text(0.01, 0.005, "\n".join(textwrap.fill(line, 250) for line in footer.split("\n")), fontsize=11)
     what = ("Villin in TIP3P water (8,867 atoms, amber14, PME, X–H constrained, rigid water, bath 300 K): FLAVOR "
             "ArtificialProjected (mesostep δ, microstep τ) against LangevinMiddle 2 fs (the reference), LangevinMiddle "
-            "with hydrogen mass repartitioning (HMR: H mass in amu) and MTSLangevin")
+            "with hydrogen mass repartitioning (HMR: H mass in amu)" +
+            (" and MTSLangevin" if any(r["name"].startswith("MTSLangevin") for r in records) else ""))
     fig.suptitle(textwrap.fill(verdict(stable, reference) if reference is not None else "the reference failed", 190)
                  + "\n" + textwrap.fill(what, 190), fontsize=13)
     fig.tight_layout(rect=(0, 0.035, 1, 0.94))

@@ -694,7 +694,16 @@ def main():
                         help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
                              "(default Strang Filtered Warped)")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    parser.add_argument("--table", metavar="JSON", nargs="+",
+                        help="only print the markdown table of an earlier run's JSON (and of its interleaved_timing.json)")
     args = parser.parse_args()
+    if args.table:
+        loaded = []
+        for path in args.table:
+            with open(path) as f:
+                loaded.append(json.load(f))
+        print(markdown_table(loaded[0], loaded[1] if len(loaded) > 1 else None))
+        return
     reporting.set_smoke_run(args.quick)
     if args.replot:
         reporting.replot(args.replot, args.out, "drude_water", lambda data, path: plot(split_failed(data), path))
@@ -767,6 +776,40 @@ def main():
     with open(os.path.join(args.out, "drude_water.json"), "w") as f:
         json.dump(data, f, indent=1)
     plot(split_failed(data), os.path.join(args.out, "drude_water.png"))
+
+
+def markdown_table(data, interleaved=None):
+    """The README's table of a run: per peer its ns/day (sequential; with interleaved, the JSON of --interleaved-timing,
+    also the 2-thread interleaved median and ratio to DrudeLangevin 1 fs), the observables with their block errors and
+    σ against the reference; a failed peer with the step it failed at."""
+    runs = data["runs"]
+    reference = runs[data["reference"]]
+    timing = (interleaved or {}).get("threads", {}).get("2", {})
+    lines = ["| integrator | H (fs) | ns/day | interleaved ns/day (× DL 1 fs) | induced / SCF | dipole (D) | "
+             "PE per molecule (kJ/mol) | g_OO first peak | T_COM (K) | T_Drude (K) | σ |", "|---" * 11 + "|"]
+    formats = {"induced_ratio": "%.4f ± %.4f", "dipole": "%.3f ± %.3f", "pe_per_molecule": "%.2f ± %.2f",
+               "g_oo_peak": "%.3f ± %.3f", "t_com": "%.1f ± %.1f", "t_drude": "%.3f ± %.3f"}
+    for label, run in runs.items():
+        name = kind_label(run["integrator"]) + (" %g nm" % WALL_NM if run["integrator"] == "DrudeLangevinWall" else "")
+        timed = f"{run['integrator']} {run['step_fs']:g} fs"
+        fast = timing.get("median_ns_per_day", {}).get(timed)
+        ratio = timing.get("median_ratio_to_DrudeLangevin_1fs", {}).get(timed, 1.0 if timed == "DrudeLangevin 1 fs"
+                                                                       else None)
+        failed_timing = timing.get("failed", {}).get(timed)
+        interleaved_text = ("%.1f (%.2f×)" % (fast, ratio) if fast is not None and ratio is not None else
+                            "failed in steps %d–%d" % tuple(failed_timing["failed_in_steps"]) if failed_timing else "—")
+        if "failed" in run:
+            at = ("fails at step %d (%g fs)" % (run["failed_at_step"], run["failed_at_fs"])
+                  if run.get("failed_at_step") == run.get("failed_by_step") else
+                  "fails in steps %d–%d" % (run["failed_at_step"], run["failed_by_step"]) if "failed_at_step" in run
+                  else "fails")
+            lines.append(f"| {name} | {run['step_fs']:g} | {at}: {run['failed']} | {interleaved_text} |" + " |" * 7)
+            continue
+        sigma = "—" if run is reference else ", ".join(
+            "%.1f" % (abs(run[k][0] - reference[k][0]) / math.hypot(run[k][1], reference[k][1])) for k in formats)
+        lines.append(f"| {name} | {run['step_fs']:g} | {run['ns_per_day']:.1f} | {interleaved_text} | " +
+                     " | ".join((formats[k] % tuple(run[k])).replace("-", "−") for k in formats) + f" | {sigma} |")
+    return "\n".join(lines)
 
 
 def split_failed(data):

@@ -10,6 +10,7 @@ import itertools
 import json
 import math
 import os
+import textwrap
 
 import matplotlib
 
@@ -136,10 +137,17 @@ class SelfConsistent:
         return self.context.getState(getPositions=True).getPositions(asNumpy=True).value_in_unit(unit.nanometer)
 
 
+WALL_NM = 0.02  # DrudeLangevinIntegrator.setMaxDrudeDistance of the "DrudeLangevinWall" peers (the hard wall)
+
+
 def make_integrator(kind, step_fs, seed):
-    if kind == "DrudeLangevin":
+    if kind in ("DrudeLangevin", "DrudeLangevinWall"):
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
                                                     20 / unit.picosecond, step_fs * unit.femtosecond)
+        if kind == "DrudeLangevinWall":
+            # The hard wall: a Drude particle farther than WALL_NM from its core is reflected (OpenMM raises an
+            # exception when one is found far beyond it).
+            integrator.setMaxDrudeDistance(WALL_NM * unit.nanometer)
         integrator.setRandomNumberSeed(seed)
         return integrator
     integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, step_fs * unit.femtosecond,
@@ -167,19 +175,27 @@ def equilibrated_state(system, positions, step_fs, steps, seed, threads=2):
     return context.getState(getPositions=True, getVelocities=True)
 
 
-def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed):
+def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter=None):
+    """One peer from the common state: burn-in, then the production's observables.  counter["steps"] counts the steps
+    done (the burn-in one at a time), so that a run that raises can say at which step it failed."""
+    counter = {} if counter is None else counter
+    counter["steps"], counter["interval"] = 0, 1
     integrator = make_integrator(kind, step_fs, seed)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
     burn = int(round(settings["burn_ps"] * 1000 / step_fs))
-    integrator.step(burn)
+    for _ in range(burn):
+        integrator.step(1)
+        counter["steps"] += 1
     samples = settings["samples"]
     stride = max(1, int(round(settings["production_ps"] * 1000 / step_fs / samples)))
     series = {"pe_per_molecule": [], "dipole": [], "t_com": [], "t_drude": [], "induced_ratio": []}
     histograms = []
     scf_every = max(1, samples // settings["scf_frames"])
     production = ProductionFrames(context, integrator, samples * stride, samples)
+    counter["interval"] = production.interval
     for s, frame in enumerate(production):
+        counter["steps"] = burn + production.steps_done
         x, st = frame.positions, frame.state
         box = st.getPeriodicBoxVectors(asNumpy=True).value_in_unit(unit.nanometer)[0][0]
         series["pe_per_molecule"].append(frame.potential_energy / analysis.molecules)
@@ -234,7 +250,8 @@ def verdict(runs, reference_label):
     def misses(run):
         return [key for key, _ in OBSERVABLES if not run.get("within_error_of_reference", {}).get(key, False)]
 
-    sims = [r for r in runs.values() if r["integrator"] != "DrudeLangevin" and r.get("within_error_of_reference")]
+    sims = [r for r in runs.values() if not r["integrator"].startswith("DrudeLangevin")
+            and r.get("within_error_of_reference")]
     baseline = runs.get("DrudeLangevin_1fs")
 
     def speed(run):
@@ -259,15 +276,20 @@ def verdict(runs, reference_label):
     return text
 
 
+def kind_label(kind):
+    """A peer's kind as the charts name it."""
+    return "DrudeLangevin + wall" if kind == "DrudeLangevinWall" else kind
+
+
 def plot(data, path):
     runs = data["runs"]
     reference = runs[data["reference"]]
     labels = list(runs)
     blown = {lb for lb in labels if blew_up(runs[lb], reference)}
-    ticks = [f"{runs[lb]['integrator']}\nH = {runs[lb]['step_fs']:g} fs" + ("\n(blew up)" if lb in blown else "")
-             for lb in labels]
-    colors = {"DrudeLangevin": "black", "Strang": "tab:blue", "Filtered": "tab:red", "Warped": "tab:green",
-              "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive"}
+    ticks = [f"{kind_label(runs[lb]['integrator'])}\nH = {runs[lb]['step_fs']:g} fs" +
+             ("\n(blew up)" if lb in blown else "") for lb in labels]
+    colors = {"DrudeLangevin": "black", "DrudeLangevinWall": "tab:purple", "Strang": "tab:blue", "Filtered": "tab:red",
+              "Warped": "tab:green", "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive"}
     fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
     for ax, (key, title) in zip(axes.flat, OBSERVABLES):
         band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
@@ -313,26 +335,34 @@ def plot(data, path):
             style = ("-", "--", ":", "-.")[styles.setdefault(run["integrator"], 0) % 4]
             styles[run["integrator"]] += 1
             ax.plot(r, run["g_oo"], color=colors[run["integrator"]], ls=style, lw=1.0, alpha=0.8,
-                    label=f"{run['integrator']} H = {run['step_fs']:g} fs")
+                    label=f"{kind_label(run['integrator'])} H = {run['step_fs']:g} fs")
     ax.set_xlabel("r (nm)")
     ax.set_ylabel("g_OO(r)")
     # Below the panel (its neighbours have their tick labels there), so that it hides no curve.
     ax.legend(fontsize=9, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False)
-    failed = [f"{r['integrator']} H = {r['step_fs']:g} fs (NaN)" for r in data.get("failed_runs", [])]
+    failed = [f"{kind_label(r['integrator'])} H = {r['step_fs']:g} fs (" +
+              (f"fails at step {r['failed_at_step']}" if r.get("failed_at_step") == r.get("failed_by_step") else
+               f"fails in steps {r['failed_at_step']}–{r['failed_by_step']}" if "failed_at_step" in r else "NaN") +
+              (": Drude beyond the wall" if "hard wall" in r["failed"] else "") + ")"
+              for r in data.get("failed_runs", [])]
     failed += [f"{runs[lb]['integrator']} H = {runs[lb]['step_fs']:g} fs (blew up: ▲▼ × hollow bar)"
                for lb in labels if lb in blown]
-    reporting.note_failed(axes.flat[7], failed)  # g_OO is flat near 1 at the top right
-    # One legend for the reference band, below the panels, so that it hides no point.
-    fig.legend(handles=[band], loc="lower center", fontsize=9, frameon=False)
+    # The failed runs below the panels (a box in a panel would hide part of a curve), with the reference band's
+    # legend, so that neither hides a point.
+    if failed:
+        fig.text(0.01, 0.004, textwrap.fill("failed (not drawn) or blew up (drawn as marked): " + "; ".join(failed),
+                                            120), fontsize=9, color="tab:red", va="bottom")
+    fig.legend(handles=[band], loc="lower right", fontsize=9, frameon=False)
     kind_names = {"Strang": "Strang", "Filtered": "Filtered", "Warped": "Warped",
                   "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement"}
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
-    fig.suptitle(f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
-                 "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
-                 ") against DrudeLangevinIntegrator (black), reference DrudeLangevin H = "
-                 f"{reference['step_fs']:g} fs\n{verdict(runs, data['reference'])}\n"
-                 "Drude modes at 1 K, 20/ps; error bars ±1 s.e. of block means", fontsize=11)
-    fig.tight_layout(rect=(0, 0.03, 1, 0.94))
+    what = (f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
+            "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
+            ") against DrudeLangevinIntegrator (black; with the hard wall setMaxDrudeDistance(%g nm): purple), "
+            "reference DrudeLangevin H = %g fs" % (WALL_NM, reference["step_fs"]))
+    fig.suptitle(textwrap.fill(what, 190) + "\n" + textwrap.fill(verdict(runs, data["reference"]), 190) +
+                 "\nDrude modes at 1 K, 20/ps; error bars ±1 s.e. of block means", fontsize=11)
+    fig.tight_layout(rect=(0, 0.05, 1, 0.92))
     reporting.save_figure(fig, path, 110)
 
 
@@ -574,7 +604,7 @@ def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
         json.dump(report, f, indent=1)
 
 
-def interleaved_timing(out, rounds, picoseconds=0.5):
+def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=()):
     """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs and Warped at 2.5 fs (both placements) on the
     scene's system, with 1 and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which
     every Context steps `picoseconds` in turn, so that a change of the machine's load hits them alike.  Writes
@@ -583,30 +613,47 @@ def interleaved_timing(out, rounds, picoseconds=0.5):
     import time
     system, _, positions, _ = build_water(256)
     state = equilibrated_state(system, positions, 1.0, 1000, 1)
-    peers = [("DrudeLangevin", 1.0), ("Filtered", 2.0), ("Warped", 2.5), ("WarpedMiddle", 2.5)]
-    report = {"system": "256 SWM4-NDP molecules, rigid, PME", "ps_per_round": picoseconds, "threads": {}}
+    peers = [("DrudeLangevin", 1.0)] + [("DrudeLangevinWall", h) for h in wall_steps]
+    peers += [("Filtered", 2.0), ("Warped", 2.5), ("WarpedMiddle", 2.5)]
+    names = [f"{kind} {step_fs:g} fs" for kind, step_fs in peers]
+    report = {"system": "256 SWM4-NDP molecules, rigid, PME", "ps_per_round": picoseconds, "threads": {},
+              "wall_nm": WALL_NM}
     for threads in (1, 2):
-        contexts = []
-        for kind, step_fs in peers:
+        contexts, failed = [], {}
+        for name, (kind, step_fs) in zip(names, peers):
             integrator = make_integrator(kind, step_fs, 7)
             context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"),
                                      {"Threads": str(threads)})
             context.setState(state)
-            integrator.step(10)
-            contexts.append((kind, step_fs, integrator, context))
-        speeds = {kind: [] for kind, _ in peers}
-        for round_ in range(rounds):
-            for kind, step_fs, integrator, context in contexts:
-                steps = int(round(picoseconds * 1000 / step_fs))
-                start = time.perf_counter()
-                integrator.step(steps)
-                context.getState(getEnergy=True)
-                speeds[kind].append(steps * step_fs * 1e-6 / ((time.perf_counter() - start) / 86400))
-            print(f"{threads} thread(s), round {round_ + 1}/{rounds}: " +
-                  ", ".join(f"{kind} {speeds[kind][-1]:.1f}" for kind, _ in peers) + " ns/day", flush=True)
-        ratios = {kind: float(np.median(np.array(speeds[kind]) / np.array(speeds["DrudeLangevin"])))
-                  for kind, _ in peers[1:]}
-        report["threads"][threads] = {"ns_per_day": speeds, "median_ratio_to_DrudeLangevin_1fs": ratios}
+            contexts.append([name, step_fs, integrator, context, 0])
+        speeds = {name: [] for name in names}
+        for round_ in range(rounds + 1):  # round 0: 10 steps each, not timed
+            for entry in contexts:
+                name, step_fs, integrator, context, done = entry
+                if name in failed:
+                    continue
+                steps = 10 if round_ == 0 else int(round(picoseconds * 1000 / step_fs))
+                try:
+                    start = time.perf_counter()
+                    integrator.step(steps)
+                    context.getState(getEnergy=True)
+                    entry[4] += steps
+                except openmm.OpenMMException as error:
+                    failed[name] = {"failed_in_steps": [entry[4] + 1, entry[4] + steps], "error": str(error)}
+                    print(f"{name} failed in steps {entry[4] + 1}-{entry[4] + steps}: {error}", flush=True)
+                    continue
+                if round_:
+                    speeds[name].append(steps * step_fs * 1e-6 / ((time.perf_counter() - start) / 86400))
+            if round_:
+                print(f"{threads} thread(s), round {round_}/{rounds}: " +
+                      ", ".join(f"{name} {speeds[name][-1]:.1f}" for name in names if name not in failed) + " ns/day",
+                      flush=True)
+        ratios = {name: float(np.median(np.array(speeds[name]) / np.array(speeds[names[0]])))
+                  for name in names[1:] if name not in failed}
+        report["threads"][threads] = {"ns_per_day": {n: v for n, v in speeds.items() if n not in failed},
+                                      "median_ns_per_day": {n: float(np.median(v)) for n, v in speeds.items()
+                                                            if n not in failed},
+                                      "median_ratio_to_DrudeLangevin_1fs": ratios, "failed": failed}
         print(f"{threads} thread(s): median ratio to DrudeLangevin 1 fs: " +
               ", ".join(f"{kind} {ratio:.2f}" for kind, ratio in ratios.items()), flush=True)
         del contexts
@@ -636,6 +683,9 @@ def main():
                         help="DrudeLangevinIntegrator steps in fs; the first is the reference (default 0.5 1)")
     parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.0, 1.5, 2.0, 2.5, 3.0, 4.0],
                         help="StochasticImpulseIntegrator steps in fs (default 1 1.5 2 2.5 3 4)")
+    parser.add_argument("--wall-steps", type=float, nargs="*", default=[],
+                        help="DrudeLangevinIntegrator peers with setMaxDrudeDistance(%g nm), the hard wall, at these "
+                             "steps in fs (e.g. 1.5 2); with --interleaved-timing, timed beside the others" % WALL_NM)
     parser.add_argument("--seed", type=int, default=0,
                         help="added to every random seed: independent replicas of a run (default 0)")
     parser.add_argument("--splittings", nargs="+",
@@ -644,7 +694,16 @@ def main():
                         help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
                              "(default Strang Filtered Warped)")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
+    parser.add_argument("--table", metavar="JSON", nargs="+",
+                        help="only print the markdown table of an earlier run's JSON (and of its interleaved_timing.json)")
     args = parser.parse_args()
+    if args.table:
+        loaded = []
+        for path in args.table:
+            with open(path) as f:
+                loaded.append(json.load(f))
+        print(markdown_table(loaded[0], loaded[1] if len(loaded) > 1 else None))
+        return
     reporting.set_smoke_run(args.quick)
     if args.replot:
         reporting.replot(args.replot, args.out, "drude_water", lambda data, path: plot(split_failed(data), path))
@@ -663,13 +722,14 @@ def main():
         if args.interleaved_timing < 1:
             parser.error("--interleaved-timing needs at least 1 round (got %d)" % args.interleaved_timing)
         os.makedirs(args.out, exist_ok=True)
-        interleaved_timing(args.out, args.interleaved_timing)
+        interleaved_timing(args.out, args.interleaved_timing, wall_steps=args.wall_steps)
         return
     if args.constraint_cost:
         os.makedirs(args.out, exist_ok=True)
         constraint_cost(args.out)
         return
     if args.quick:
+        args.wall_steps = args.wall_steps[-1:]
         settings = dict(molecules=125, equilibration_ps=0.05, burn_ps=0.01, production_ps=0.02, samples=4, blocks=2,
                         scf_frames=2, sim_steps=[1.0, 2.0, 4.0])
     else:
@@ -686,12 +746,17 @@ def main():
     peers = [("DrudeLangevin", h) for h in ([0.5, 1.0] if args.quick else args.reference_steps)]
     peers += [(kind, h) for kind in (("Strang", "Filtered", "Warped") if args.quick else args.splittings)
               for h in settings["sim_steps"]]
+    peers += [("DrudeLangevinWall", h) for h in args.wall_steps]
     for seed, (kind, step_fs) in enumerate(peers, start=10 + args.seed):
         label = f"{kind}_{step_fs:g}fs"
+        counter = {}
         try:
-            runs[label] = run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed)
+            runs[label] = run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter)
         except (openmm.OpenMMException, FloatingPointError, ValueError) as error:
-            runs[label] = {"integrator": kind, "step_fs": step_fs, "failed": str(error)}
+            # The step it failed at: exact in the burn-in (one step at a time), else within the production frame.
+            first, last = counter.get("steps", 0) + 1, counter.get("steps", 0) + counter.get("interval", 1)
+            runs[label] = {"integrator": kind, "step_fs": step_fs, "failed": str(error), "failed_at_step": first,
+                           "failed_by_step": last, "failed_at_fs": first * step_fs}
         print(label, json.dumps({k: v for k, v in runs[label].items() if not k.startswith("g_oo")}), flush=True)
     completed = {k: v for k, v in runs.items() if "failed" not in v}
     reference_label = "DrudeLangevin_%gfs" % peers[0][1]
@@ -711,6 +776,40 @@ def main():
     with open(os.path.join(args.out, "drude_water.json"), "w") as f:
         json.dump(data, f, indent=1)
     plot(split_failed(data), os.path.join(args.out, "drude_water.png"))
+
+
+def markdown_table(data, interleaved=None):
+    """The README's table of a run: per peer its ns/day (sequential; with interleaved, the JSON of --interleaved-timing,
+    also the 2-thread interleaved median and ratio to DrudeLangevin 1 fs), the observables with their block errors and
+    σ against the reference; a failed peer with the step it failed at."""
+    runs = data["runs"]
+    reference = runs[data["reference"]]
+    timing = (interleaved or {}).get("threads", {}).get("2", {})
+    lines = ["| integrator | H (fs) | ns/day | interleaved ns/day (× DL 1 fs) | induced / SCF | dipole (D) | "
+             "PE per molecule (kJ/mol) | g_OO first peak | T_COM (K) | T_Drude (K) | σ |", "|---" * 11 + "|"]
+    formats = {"induced_ratio": "%.4f ± %.4f", "dipole": "%.3f ± %.3f", "pe_per_molecule": "%.2f ± %.2f",
+               "g_oo_peak": "%.3f ± %.3f", "t_com": "%.1f ± %.1f", "t_drude": "%.3f ± %.3f"}
+    for label, run in runs.items():
+        name = kind_label(run["integrator"]) + (" %g nm" % WALL_NM if run["integrator"] == "DrudeLangevinWall" else "")
+        timed = f"{run['integrator']} {run['step_fs']:g} fs"
+        fast = timing.get("median_ns_per_day", {}).get(timed)
+        ratio = timing.get("median_ratio_to_DrudeLangevin_1fs", {}).get(timed, 1.0 if timed == "DrudeLangevin 1 fs"
+                                                                       else None)
+        failed_timing = timing.get("failed", {}).get(timed)
+        interleaved_text = ("%.1f (%.2f×)" % (fast, ratio) if fast is not None and ratio is not None else
+                            "failed in steps %d–%d" % tuple(failed_timing["failed_in_steps"]) if failed_timing else "—")
+        if "failed" in run:
+            at = ("fails at step %d (%g fs)" % (run["failed_at_step"], run["failed_at_fs"])
+                  if run.get("failed_at_step") == run.get("failed_by_step") else
+                  "fails in steps %d–%d" % (run["failed_at_step"], run["failed_by_step"]) if "failed_at_step" in run
+                  else "fails")
+            lines.append(f"| {name} | {run['step_fs']:g} | {at}: {run['failed']} | {interleaved_text} |" + " |" * 7)
+            continue
+        sigma = "—" if run is reference else ", ".join(
+            "%.1f" % (abs(run[k][0] - reference[k][0]) / math.hypot(run[k][1], reference[k][1])) for k in formats)
+        lines.append(f"| {name} | {run['step_fs']:g} | {run['ns_per_day']:.1f} | {interleaved_text} | " +
+                     " | ".join((formats[k] % tuple(run[k])).replace("-", "−") for k in formats) + f" | {sigma} |")
+    return "\n".join(lines)
 
 
 def split_failed(data):

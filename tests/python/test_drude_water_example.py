@@ -12,16 +12,24 @@ OBSERVABLES = ["induced_ratio", "dipole", "pe_per_molecule", "g_oo_peak", "t_com
 
 
 def test_drude_water_quick(tmp_path):
-    result = conftest.run_quick(SCRIPT, tmp_path)
+    # With a DrudeLangevin peer with the hard wall (setMaxDrudeDistance) at 2 fs, which may fail: then the step it
+    # failed at is recorded and the scene goes on.
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--wall-steps", "2"))
     assert result.returncode == 0, result.stderr[-3000:]
     assert (tmp_path / "drude_water.png").stat().st_size > 10000
     with open(tmp_path / "drude_water.json") as f:
         data = json.load(f)
     runs = data["runs"]
-    expected = {"DrudeLangevin_0.5fs", "DrudeLangevin_1fs"} | {f"{k}_{h}fs" for k in ("Strang", "Filtered", "Warped")
-                                                               for h in ("1", "2", "4")}
+    expected = {"DrudeLangevin_0.5fs", "DrudeLangevin_1fs", "DrudeLangevinWall_2fs"} | {
+        f"{k}_{h}fs" for k in ("Strang", "Filtered", "Warped") for h in ("1", "2", "4")}
     assert set(runs) == expected
+    wall = runs["DrudeLangevinWall_2fs"]
+    if "failed" in wall:
+        assert 1 <= wall["failed_at_step"] <= wall["failed_by_step"], wall
+        assert wall["failed_at_fs"] == 2 * wall["failed_at_step"]
     for label, run in runs.items():
+        if label == "DrudeLangevinWall_2fs" and "failed" in run:
+            continue
         if "failed" in run:
             # Beyond omega H = pi (4 fs) a run may fall apart; it is reported, not hidden.
             assert run["step_fs"] > 3, (label, run["failed"])

@@ -55,11 +55,29 @@ def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path
 
 
 def test_a_small_step_langevin_peer_runs_and_a_step_out_of_range_is_an_error(tmp_path):
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:1", "--langevin-steps", "1"))
+    # With hydrogen mass repartitioning peers too (createSystem's hydrogenMass), all timed interleaved against
+    # LangevinMiddle 4 fs HMR 1.5 amu.
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:1:planar:middle:hmr3", "--langevin-steps",
+                                                         "1", "--hmr-langevin", "4:1.5"))
     assert result.returncode == 0, result.stderr[-3000:]
     with open(tmp_path / "villin.json") as f:
-        names = [peer["name"] for peer in json.load(f)["peers"]]
-    assert names[:3] == ["LangevinMiddle 2 fs", "MTSLangevin 4 fs / 4", "LangevinMiddle 1 fs"]
+        data = json.load(f)
+    names = [peer["name"] for peer in data["peers"]]
+    assert names == ["LangevinMiddle 2 fs", "MTSLangevin 4 fs / 4", "LangevinMiddle 1 fs",
+                     "LangevinMiddle 4 fs HMR 1.5 amu",
+                     "FLAVOR ArtificialProjected bonds+nonplanar angles Middle HMR 3 amu δ=3 fs τ=1 fs"]
+    assert [peer["hydrogen_mass_amu"] for peer in data["peers"]] == [None, None, None, 1.5, 3.0]
+    assert data["interleaved_baseline"] == "LangevinMiddle 4 fs HMR 1.5 amu"
+    for peer in data["peers"]:
+        assert peer["stable"], peer
+        assert peer["ns_per_day_interleaved"] > 0 and peer["interleaved_ratio"] > 0, peer["name"]
+        # The kinetic temperature counts the peer's own masses: a repartitioned system is not 1.5-3x off.
+        assert 100 < peer["T"] < 500, (peer["name"], peer["T"])
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--langevin-steps", "0.5", "0"))
     assert result.returncode != 0
     assert "--langevin-steps: every step must be in (0, 4] fs, got [0.5, 0.0]" in result.stderr
+    for bad in (("--hmr-langevin", "4"), ("--hmr-langevin", "4:1.5:sideways"), ("--flavors", "4:1:water"),
+                ("--flavors", "4:1:hmr3:hmr1.5")):
+        result = conftest.run_quick(SCRIPT, tmp_path, extra=bad)
+        assert result.returncode != 0, bad
+        assert "is not" in result.stderr, (bad, result.stderr[-500:])

@@ -376,19 +376,22 @@ def dihedral(q, idx):
     return math.atan2(float(np.dot(m1, n2)), float(np.dot(n1, n2)))
 
 
-def dipeptide_peers(p):
-    system, pdb, psi = dipeptide_system()
-    platform, properties = dipeptide_platform()
-    # A shared thermal start: minimized, then LangevinMiddle at 0.5 fs.
+def thermal_start(system, pdb, platform, properties, equilibrate_ps, seed):
+    """A thermal state of the dipeptide: minimized, then LangevinMiddle at 0.5 fs for equilibrate_ps."""
     warm = mm.LangevinMiddleIntegrator(TEMPERATURE, 1.0, 0.0005)
-    warm.setRandomNumberSeed(3)
+    warm.setRandomNumberSeed(seed)
     context = mm.Context(system, warm, platform, properties)
     context.setPositions(pdb.positions)
     mm.LocalEnergyMinimizer.minimize(context)
-    context.setVelocitiesToTemperature(TEMPERATURE, 3)
-    warm.step(int(round(p["mol_equilibrate_ps"] / 0.0005)))
-    state = context.getState(getPositions=True, getVelocities=True)
-    del context
+    context.setVelocitiesToTemperature(TEMPERATURE, seed)
+    warm.step(int(round(equilibrate_ps / 0.0005)))
+    return context.getState(getPositions=True, getVelocities=True)
+
+
+def dipeptide_peers(p):
+    system, pdb, psi = dipeptide_system()
+    platform, properties = dipeptide_platform()
+    state = thermal_start(system, pdb, platform, properties, p["mol_equilibrate_ps"], 3)
     sample_ps = p["mol_sample_ps"]
 
     def observe(ctx):
@@ -421,15 +424,7 @@ def dipeptide_acceptance(p):
     standard errors), each from the same equilibrated start."""
     system, pdb, _ = dipeptide_system()
     platform, properties = dipeptide_platform()
-    warm = mm.LangevinMiddleIntegrator(TEMPERATURE, 1.0, 0.0005)
-    warm.setRandomNumberSeed(5)
-    context = mm.Context(system, warm, platform, properties)
-    context.setPositions(pdb.positions)
-    mm.LocalEnergyMinimizer.minimize(context)
-    context.setVelocitiesToTemperature(TEMPERATURE, 5)
-    warm.step(int(round(p["mol_equilibrate_ps"] / 0.0005)))
-    state = context.getState(getPositions=True, getVelocities=True)
-    del context
+    state = thermal_start(system, pdb, platform, properties, p["mol_equilibrate_ps"], 5)
     grid = []
     progress = Progress("dipeptide acceptance grid", len(p["mol_grid_delta_fs"]) * len(p["mol_grid_ratio"]), fmt="4d")
     for delta_fs in p["mol_grid_delta_fs"]:

@@ -37,6 +37,7 @@ Outputs: DIR/flexible_water.json (every number), DIR/flexible_water.png (observa
 DIR/flexible_water_dynamics.png (diffusion and spectra).
 """
 import argparse
+import json
 import math
 import os
 import time
@@ -50,7 +51,7 @@ import openmmflavors
 from flavorbench import reporting
 from flavorbench.runners import KB
 from flavorbench.systems import assign_force_groups
-from flavorbench.timeseries import block_error
+from flavorbench.timeseries import ProductionFrames, add_block_errors, block_error
 
 TEMPERATURE = 300.0  # K
 FRICTION = 1.0  # 1/ps
@@ -77,7 +78,7 @@ def make_system(forcefield, topology, rigid):
     return assign_force_groups(system, {mm.HarmonicBondForce: BOND_GROUP, mm.HarmonicAngleForce: ANGLE_GROUP})
 
 
-def common_start(forcefield, modeller, start_ps, threads, seed, minimizer_iterations=200, friction=FRICTION):
+def common_start(forcefield, modeller, start_ps, threads, minimizer_iterations=200, friction=FRICTION, seed=3):
     """The peers' common start: the box minimized, then start_ps of LangevinMiddle (flexible, 0.5 fs, at `friction`
     in 1/ps, random numbers from `seed`); its positions."""
     system = make_system(forcefield, modeller.topology, False)
@@ -169,6 +170,38 @@ def quick_peers():
             flavor_peer("ArtificialProjected", 2.0, 0.5, True, True, True)]
 
 
+def peers(flavor_settings):
+    """(name, rigid, factory) for every peer of the earlier set with these FLAVOR settings (averaging, delta, tau,
+    angles stiff too, Middle); factory() returns the integrator.  examples/demo uses it with run_peer()."""
+    result = [
+        ("LangevinMiddle flexible 0.25 fs", False, lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 0.25e-3)),
+        ("LangevinMiddle flexible 0.5 fs", False, lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 0.5e-3)),
+        ("LangevinMiddle rigid 2 fs", True, lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, FRICTION, 2e-3)),
+        ("MTSLangevin 2 fs / 4", False,
+         lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 2e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4)])),
+    ]
+    averagings = {"Nonintrusive": openmmflavors.FlavorIntegrator.Nonintrusive,
+                  "Artificial": openmmflavors.FlavorIntegrator.Artificial,
+                  "ArtificialProjected": openmmflavors.FlavorIntegrator.ArtificialProjected}
+    for averaging, delta, tau, angles, middle in flavor_settings:
+        groups = {BOND_GROUP} | ({ANGLE_GROUP} if angles else set())
+
+        def factory(averaging=averaging, delta=delta, tau=tau, groups=groups, middle=middle):
+            integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, tau * unit.femtosecond, groups)
+            integrator.setAveraging(averagings[averaging])
+            integrator.setTemperature(TEMPERATURE * unit.kelvin)
+            integrator.setFriction(FRICTION / unit.picosecond)
+            if middle:
+                integrator.setThermostatPlacement(openmmflavors.FlavorIntegrator.Middle)
+            integrator.setRandomNumberSeed(1234)
+            return integrator
+
+        name = "FLAVOR %s%s%s δ=%g fs τ=%g fs" % (averaging, " +angles" if angles else "", " Middle" if middle else "",
+                                                 delta, tau)
+        result.append((name, False, factory))
+    return result
+
+
 def frame_observables(positions, velocities, box, oxygens, masses, rdf_edges):
     """Per-frame averages: O-H length mean and spread, H-O-H angle mean and spread (degrees), T of O and H, g_OO."""
     o = positions[oxygens]
@@ -235,6 +268,48 @@ def diffusion(unwrapped, dt_ps, fit_from, fit_to, groups=BLOCKS):
     per_group = [slope(msd_per_molecule[:, g::groups].mean(axis=1)) for g in range(groups)]
     return {"D": float(slope(msd)), "D_error": float(np.std(per_group, ddof=1) / math.sqrt(groups)),
             "msd_t": list(map(float, t)), "msd": list(map(float, msd)), "fit_ps": [fit_from, fit_to]}
+
+
+def run_peer(name, rigid, factory, forcefield, topology, start_positions, equilibration_ps, production_ps, frames,
+             threads):
+    """One peer run on its own (not interleaved), as the earlier scene ran them: its record with block-average
+    errors and ns/day over its production.  examples/demo uses it."""
+    system = make_system(forcefield, topology, rigid)
+    integrator = factory()
+    platform = mm.Platform.getPlatformByName("CPU")
+    context = mm.Context(system, integrator, platform, {"Threads": str(threads)})
+    context.setPositions(start_positions)
+    if rigid:
+        context.applyConstraints(1e-6)
+    context.setVelocitiesToTemperature(TEMPERATURE * unit.kelvin, 7)
+    step_fs = integrator.getStepSize().value_in_unit(unit.femtosecond)
+    n_molecules = topology.getNumResidues()
+    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
+    oxygens = np.arange(0, system.getNumParticles(), 3)
+    box = context.getState().getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
+    rdf_edges = np.linspace(0.2, min(0.9, box / 2), 71)
+    record = {"name": name, "step_fs": step_fs, "rigid": rigid, "stable": True}
+    try:
+        integrator.step(int(round(equilibration_ps * 1000 / step_fs)))
+        production = ProductionFrames(context, integrator, int(round(production_ps * 1000 / step_fs)), frames)
+        series = {key: [] for key in ("oh_mean", "oh_sd", "angle_mean", "angle_sd", "T_O", "T_H", "pe_per_molecule")}
+        g_sum = np.zeros(len(rdf_edges) - 1)
+        for frame in production:
+            values = frame_observables(frame.positions, frame.velocities, box, oxygens, masses, rdf_edges)
+            for key, value in zip(("oh_mean", "oh_sd", "angle_mean", "angle_sd", "T_O", "T_H"), values[:6]):
+                series[key].append(value)
+            series["pe_per_molecule"].append(frame.potential_energy / n_molecules)
+            g_sum += values[6]
+        record["ns_per_day"] = production.ns_per_day(step_fs)
+        add_block_errors(record, series, 5 if len(series["oh_mean"]) >= 10 else 2)
+        g = g_sum / len(series["oh_mean"])
+        record["g_OO"] = {"r": list(0.5 * (rdf_edges[1:] + rdf_edges[:-1])), "g": list(g)}
+        record["g_OO_peak"] = float(g.max())
+        record["g_OO_peak_r"] = float(record["g_OO"]["r"][int(np.argmax(g))])
+    except mm.OpenMMException as error:
+        record["stable"] = False
+        record["error"] = str(error)
+    return record
 
 
 class PeerRun:
@@ -364,7 +439,7 @@ class PeerRun:
 def run_seed(selected, forcefield, modeller, seed, args):
     """Every selected peer from one start (seeded by `seed`); their records."""
     begin = time.time()
-    start = common_start(forcefield, modeller, args.start, args.threads, seed, 20 if args.quick else 200)
+    start = common_start(forcefield, modeller, args.start, args.threads, 20 if args.quick else 200, seed=seed)
     print("seed %d: common start done (%.0f s)" % (seed, time.time() - begin), flush=True)
     box = modeller.topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
     rdf_edges = np.linspace(0.2, min(0.9, box / 2), 71)
@@ -500,6 +575,52 @@ def print_summary(summary, baseline):
                 "", e["stretch_peak_cm"], e.get("libration_peak_cm", float("nan")), e["spectra"]["sample_fs"]))
 
 
+def markdown_tables(data):
+    """The run's tables in Markdown (the scene's README quotes them): observables and speed, each seed's values, and
+    the dynamics."""
+    summary, baseline = data["summary"], data.get("faithful_langevin")
+    reference = summary[0]
+    lines = ["| peer | O–H mean (nm) | O–H sd (nm) | H–O–H (°) | H–O–H sd (°) | PE/molecule (kJ/mol) | T_O (K) "
+             "| T_H (K) | g_OO peak | ns/day | × %s | × LM 2 fs | largest σ |" % (short_name(baseline) if baseline else "—"),
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for e in summary:
+        if "oh_mean" not in e:
+            lines.append("| %s | unstable in %d of %d runs |" % (e["name"], e["runs"] - e["stable_runs"], e["runs"]))
+            continue
+        worst = max(e["sigma"].items(), key=lambda item: item[1]) if e is not reference else None
+        lines.append("| %s%s | %.5f ± %.5f | %.6f ± %.6f | %.2f ± %.2f | %.3f ± %.3f | %.2f ± %.2f | %.1f ± %.1f | "
+                     "%.1f ± %.1f | %.2f ± %.2f | %.1f | %.2f | %.2f | %s |" % (
+                         e["name"], "" if e["stable_runs"] == e["runs"] else " (%d of %d runs stable)" % (
+                             e["stable_runs"], e["runs"]),
+                         e["oh_mean"], e["oh_mean_error"], e["oh_sd"], e["oh_sd_error"], e["angle_mean"],
+                         e["angle_mean_error"], e["angle_sd"], e["angle_sd_error"], e["pe_per_molecule"],
+                         e["pe_per_molecule_error"], e["T_O"], e["T_O_error"], e["T_H"], e["T_H_error"],
+                         e["g_OO_peak"], e["g_OO_peak_error"], e["ns_per_day"],
+                         e.get("speed_vs_faithful_langevin", float("nan")), e.get("speed_vs_langevin_2fs",
+                                                                                 float("nan")),
+                         "—" if worst is None else "%.1f (%s)%s" % (worst[1], worst[0],
+                                                                    "" if e.get("within") else " **out**")))
+    lines += ["", "| peer | PE/molecule per seed (kJ/mol) | O–H sd per seed (nm) | H–O–H sd per seed (°) | "
+              "T_H per seed (K) | ns/day per seed |", "|---|---|---|---|---|---|"]
+    for e in summary:
+        if "oh_mean" in e:
+            lines.append("| %s | %s | %s | %s | %s | %s |" % (
+                e["name"], ", ".join("%.2f" % v for v in e["pe_per_molecule_runs"]),
+                ", ".join("%.6f" % v for v in e["oh_sd_runs"]), ", ".join("%.3f" % v for v in e["angle_sd_runs"]),
+                ", ".join("%.1f" % v for v in e["T_H_runs"]), ", ".join("%.1f" % v for v in e["ns_per_day_runs"])))
+    lines += ["", "| peer | D (10⁻⁵ cm²/s) | D per seed | O–H band peak, simulated time (cm⁻¹) | × δ/τ (cm⁻¹) | "
+              "libration peak (cm⁻¹) | spectrum sampled every (fs) |", "|---|---|---|---|---|---|---|"]
+    for e in summary:
+        if "D" in e:
+            delta, tau = flavor_steps(e["name"])
+            peak = e.get("stretch_peak_cm", float("nan"))
+            lines.append("| %s | %.2f ± %.2f | %s | %.0f | %s | %.0f | %s |" % (
+                e["name"], e["D"], e["D_error"], ", ".join("%.2f" % v for v in e["D_runs"]), peak,
+                "%.0f" % (peak * delta / tau) if delta else "—", e.get("libration_peak_cm", float("nan")),
+                "%g" % e["spectra"]["sample_fs"] if "spectra" in e else "—"))
+    return "\n".join(lines)
+
+
 def short_name(name):
     """A peer's name in the charts' notation."""
     return (name.replace("LangevinMiddle flexible", "LangevinMiddle").replace("FLAVOR ArtificialProjected", "FLAVOR AP")
@@ -548,7 +669,8 @@ def plot(data, path):
     fig.text(0.01, 0.005, "Points: mean over %d seed(s) with error bars (the larger of block and run-to-run); gray "
              "crosses: each seed's value; dashed line and band: the reference (%s) ± 2 error bars.  Green: every "
              "observable within 2 combined error bars of the reference; red: not.  FLAVOR AP: ArtificialProjected; "
-             "+angles: the H–O–H angles stiff (frozen) with the O–H bonds; Middle: the thermostat in the microstep.  " % (
+             "+angles: the H–O–H angles stiff (frozen) with the O–H bonds; Middle: the thermostat in the microstep.  "
+             % (
                  reference["runs"], short_name(reference["name"])) +
              ("Unstable (blew up): " + ", ".join(unstable) if unstable else "Every peer stayed stable."), fontsize=9)
     fig.suptitle("Flexible TIP3P water (1,503 atoms, PME, 300 K, friction 1/ps): the artificial FLAVOR (bonds and "
@@ -656,6 +778,8 @@ def main():
     reporting.set_smoke_run(args.quick)
     if args.replot:
         reporting.replot(args.replot, args.out, "flexible_water", lambda data, path: plot_all(data, args.out))
+        with open(args.replot) as f:
+            print(markdown_tables(json.load(f)))
         return
     if args.quick:
         args.equilibration, args.production, args.start, args.rounds = 0.005, 0.02, 0.1, 2
@@ -689,6 +813,7 @@ def main():
     data["peers"] = data["seeds"][0]["peers"]
     reporting.write_json(os.path.join(args.out, "flexible_water.json"), data)
     plot_all(data, args.out)
+    print(markdown_tables(data))
     print("wall time %.0f s" % (time.time() - begin))
 
 

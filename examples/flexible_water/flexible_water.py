@@ -15,9 +15,10 @@ Observables, each with a block-average error bar (the standard error of 5 block 
 spread, mean H-O-H angle and its spread, potential energy per molecule, kinetic temperature of O and of H
 separately, and g_OO(r) (the first-peak height).  With several --seeds every peer is run once per seed (its own start)
 and the run-to-run spread is reported too.  Dynamics, for the reference, LangevinMiddle 2 fs and the FLAVORs with
-tau = 0.5 fs and delta = 4, 6, 8 fs: the oxygens' self-diffusion coefficient from their mean-squared displacement
+tau = 0.5 fs and delta = 4, 6, 8, 10 fs: the oxygens' self-diffusion coefficient from their mean-squared displacement
 (unwrapped), and after the production a segment saved every 2 fs (every mesostep for a FLAVOR) whose O-H
-bond-length velocity and hydrogen velocity give the power spectra (the O-H stretch band and the librations).
+bond-length velocity, the hydrogens' velocity and the molecules' angular velocity give power spectra (the O-H
+stretch band, the librations).
 
 Speed: every peer's Context lives through the whole production, which runs in --rounds interleaved rounds (each peer in
 turn advances production/rounds ps, the order reversed every other round), so machine load falls on all peers alike;
@@ -37,7 +38,6 @@ Outputs: DIR/flexible_water.json (every number), DIR/flexible_water.png (observa
 DIR/flexible_water_dynamics.png (diffusion and spectra).
 """
 import argparse
-import json
 import math
 import os
 import time
@@ -128,7 +128,7 @@ def practitioner_peers():
     (bonds and angles frozen, Middle) at long mesosteps, with the delta = 6 fs variations that locate a bias."""
     result = [langevin_peer(0.25, True), langevin_peer(1.0), langevin_peer(1.5), langevin_peer(2.0, True),
               langevin_peer(2.5)]
-    for delta, dynamics in ((4.0, True), (6.0, True), (8.0, True), (10.0, False)):
+    for delta, dynamics in ((4.0, True), (6.0, True), (8.0, True), (10.0, True)):
         result.append(flavor_peer("ArtificialProjected", delta, 0.5, True, True, dynamics))
     result += [flavor_peer("ArtificialProjected", 6.0, 0.25, True, True), flavor_peer("ArtificialProjected", 6.0, 1.0,
                                                                                       True, True),
@@ -234,6 +234,18 @@ def bond_velocities(positions, velocities, oxygens):
         d = positions[oxygens + k] - o
         result.append(np.sum((velocities[oxygens + k] - vo) * d, axis=1) / np.linalg.norm(d, axis=1))
     return np.concatenate(result)
+
+
+def angular_velocities(positions, velocities, oxygens, masses):
+    """Each molecule's angular velocity about its centre of mass (rad/ps, rows x, y, z): I^-1 L."""
+    index = oxygens[:, None] + np.arange(3)[None, :]
+    m = masses[index][:, :, None]
+    r = positions[index] - np.sum(m * positions[index], axis=1, keepdims=True) / np.sum(m, axis=1, keepdims=True)
+    v = velocities[index] - np.sum(m * velocities[index], axis=1, keepdims=True) / np.sum(m, axis=1, keepdims=True)
+    angular_momentum = np.sum(m * np.cross(r, v), axis=1)
+    inertia = np.sum(m[:, :, :, None] * (np.sum(r * r, axis=2)[:, :, None, None] * np.eye(3)
+                                          - r[:, :, :, None] * r[:, :, None, :]), axis=1)
+    return np.linalg.solve(inertia, angular_momentum[:, :, None])[:, :, 0]
 
 
 def power_spectrum(series, dt_ps, max_wavenumber=5000.0):
@@ -389,11 +401,11 @@ class PeerRun:
             self.round_ns_per_day.append(frames * frame_steps * self.step_fs * 1e-6 / elapsed * 86400)
 
     def spectra(self, picoseconds, sample_fs):
-        """Frames every sample_fs (every step for longer steps): power spectra of the O-H bond-length velocity and of
-        the hydrogens' velocities."""
+        """Frames every sample_fs (every step for longer steps): power spectra of the O-H bond-length velocity, of
+        the hydrogens' velocities and of the molecules' angular velocities (the librations)."""
         every = max(1, int(round(sample_fs / self.step_fs)))
         samples = max(8, int(round(picoseconds * 1000 / (every * self.step_fs))))
-        bond_v, hydrogen_v = [], []
+        bond_v, hydrogen_v, rotation = [], [], []
         hydrogens = np.concatenate([self.oxygens + 1, self.oxygens + 2])
         try:
             for _ in range(samples):
@@ -401,14 +413,16 @@ class PeerRun:
                 q, v, _ = self.state()
                 bond_v.append(bond_velocities(q, v, self.oxygens))
                 hydrogen_v.append(v[hydrogens].ravel())
+                rotation.append(angular_velocities(q, v, self.oxygens, self.masses).ravel())
         except mm.OpenMMException as error:
             return {"error": str(error)}
         dt_ps = every * self.step_fs * 1e-3
         k, stretch = power_spectrum(bond_v, dt_ps)
         k_h, vdos = power_spectrum(hydrogen_v, dt_ps)
+        _, libration = power_spectrum(rotation, dt_ps)
         return {"sample_fs": every * self.step_fs, "samples": samples, "wavenumber": list(map(float, k)),
                 "oh_bond_velocity": list(map(float, stretch)), "wavenumber_h": list(map(float, k_h)),
-                "hydrogen_velocity": list(map(float, vdos))}
+                "hydrogen_velocity": list(map(float, vdos)), "angular_velocity": list(map(float, libration))}
 
     def record(self, production_ps):
         record = {"name": self.name, "step_fs": self.step_fs, "rigid": self.rigid, "stable": self.error is None}
@@ -501,6 +515,7 @@ def combine(seeds):
             spread = float(np.std(values, ddof=1)) if n > 1 else float("nan")
             entry[key + "_run_sd"] = spread
             entry[key + "_error"] = max(block, spread / math.sqrt(n)) if n > 1 else block
+        entry["round_ns_per_day"] = [r["round_ns_per_day"] for r in stable]
         entry["g_OO"] = {"r": stable[0]["g_OO"]["r"], "g": list(np.mean([r["g_OO"]["g"] for r in stable], axis=0))}
         if "diffusion" in stable[0]:
             values = np.array([r["diffusion"]["D"] for r in stable])
@@ -513,14 +528,15 @@ def combine(seeds):
         spectra = [r["spectra"] for r in stable if "spectra" in r and "error" not in r["spectra"]]
         if spectra:
             entry["spectra"] = {key: spectra[0][key] for key in ("sample_fs", "wavenumber", "wavenumber_h")}
-            for key in ("oh_bond_velocity", "hydrogen_velocity"):
-                entry["spectra"][key] = list(np.mean([s[key] for s in spectra], axis=0))
+            for key in ("oh_bond_velocity", "hydrogen_velocity", "angular_velocity"):
+                if all(key in s for s in spectra):
+                    entry["spectra"][key] = list(np.mean([s[key] for s in spectra], axis=0))
             k, s = np.array(entry["spectra"]["wavenumber"]), np.array(entry["spectra"]["oh_bond_velocity"])
             entry["stretch_peak_cm"] = float(k[int(np.argmax(s))])
-            k_h, vdos = np.array(entry["spectra"]["wavenumber_h"]), np.array(entry["spectra"]["hydrogen_velocity"])
-            band = (k_h >= 200) & (k_h <= 1200)
-            if np.any(band):
-                entry["libration_peak_cm"] = float(k_h[band][int(np.argmax(vdos[band]))])
+            if "angular_velocity" in entry["spectra"]:
+                libration = np.array(entry["spectra"]["angular_velocity"])
+                entry["libration_peak_cm"] = float(k[int(np.argmax(libration))])
+                entry["libration_mean_cm"] = float(np.sum(k * libration) / np.sum(libration))
         summary.append(entry)
     return summary
 
@@ -543,12 +559,20 @@ def compare(summary):
                 and e["stable_runs"] == e["runs"]]
     baseline = max(faithful, key=lambda e: e["ns_per_day"]) if faithful else None
     lm2 = next((e for e in summary if e["name"] == "LangevinMiddle flexible 2 fs" and "ns_per_day" in e), None)
+    def median_ratio(entry, peer):
+        """The median over seeds and rounds of entry's ns/day over peer's in the same round (both stable)."""
+        ratios = [a / b for runs_a, runs_b in zip(entry["round_ns_per_day"], peer["round_ns_per_day"])
+                  for a, b in zip(runs_a, runs_b)]
+        return float(np.median(ratios)) if ratios and entry["runs"] == peer["runs"] else float("nan")
+
     for entry in summary:
         if "ns_per_day" in entry:
             if baseline:
                 entry["speed_vs_faithful_langevin"] = entry["ns_per_day"] / baseline["ns_per_day"]
+                entry["speed_vs_faithful_langevin_median_round"] = median_ratio(entry, baseline)
             if lm2:
                 entry["speed_vs_langevin_2fs"] = entry["ns_per_day"] / lm2["ns_per_day"]
+                entry["speed_vs_langevin_2fs_median_round"] = median_ratio(entry, lm2)
     return baseline["name"] if baseline else None
 
 
@@ -580,8 +604,13 @@ def markdown_tables(data):
     the dynamics."""
     summary, baseline = data["summary"], data.get("faithful_langevin")
     reference = summary[0]
+
+    def ratio(entry, key):
+        return "%.2f (%.2f)" % (entry.get(key, float("nan")), entry.get(key + "_median_round", float("nan")))
+
     lines = ["| peer | O–H mean (nm) | O–H sd (nm) | H–O–H (°) | H–O–H sd (°) | PE/molecule (kJ/mol) | T_O (K) "
-             "| T_H (K) | g_OO peak | ns/day | × %s | × LM 2 fs | largest σ |" % (short_name(baseline) if baseline else "—"),
+             "| T_H (K) | g_OO peak | ns/day | × %s (median over rounds) | × LM 2 fs (median over rounds) | largest σ |"
+             % (short_name(baseline) if baseline else "—"),
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for e in summary:
         if "oh_mean" not in e:
@@ -589,15 +618,14 @@ def markdown_tables(data):
             continue
         worst = max(e["sigma"].items(), key=lambda item: item[1]) if e is not reference else None
         lines.append("| %s%s | %.5f ± %.5f | %.6f ± %.6f | %.2f ± %.2f | %.3f ± %.3f | %.2f ± %.2f | %.1f ± %.1f | "
-                     "%.1f ± %.1f | %.2f ± %.2f | %.1f | %.2f | %.2f | %s |" % (
+                     "%.1f ± %.1f | %.2f ± %.2f | %.1f | %s | %s | %s |" % (
                          e["name"], "" if e["stable_runs"] == e["runs"] else " (%d of %d runs stable)" % (
                              e["stable_runs"], e["runs"]),
                          e["oh_mean"], e["oh_mean_error"], e["oh_sd"], e["oh_sd_error"], e["angle_mean"],
                          e["angle_mean_error"], e["angle_sd"], e["angle_sd_error"], e["pe_per_molecule"],
                          e["pe_per_molecule_error"], e["T_O"], e["T_O_error"], e["T_H"], e["T_H_error"],
                          e["g_OO_peak"], e["g_OO_peak_error"], e["ns_per_day"],
-                         e.get("speed_vs_faithful_langevin", float("nan")), e.get("speed_vs_langevin_2fs",
-                                                                                 float("nan")),
+                         ratio(e, "speed_vs_faithful_langevin"), ratio(e, "speed_vs_langevin_2fs"),
                          "—" if worst is None else "%.1f (%s)%s" % (worst[1], worst[0],
                                                                     "" if e.get("within") else " **out**")))
     lines += ["", "| peer | PE/molecule per seed (kJ/mol) | O–H sd per seed (nm) | H–O–H sd per seed (°) | "
@@ -721,15 +749,24 @@ def plot_dynamics(data, path):
     ax.set_title("The same spectra on the stiff clock (the time the bonds actually move)")
     ax.legend(fontsize=7)
     ax = axes[1, 1]
+    rotation = all("angular_velocity" in e["spectra"] for e in dynamics if "spectra" in e)
     for i, e in enumerate(dynamics):
         if "spectra" in e:
             s = e["spectra"]
-            ax.plot(s["wavenumber_h"], s["hydrogen_velocity"], color=cmap(i),
-                    label="%s, libration peak %.0f cm⁻¹" % (short_name(e["name"]), e.get("libration_peak_cm", 0)))
+            if rotation:
+                ax.plot(s["wavenumber"], s["angular_velocity"], color=cmap(i),
+                        label="%s, peak %.0f, mean %.0f cm⁻¹" % (short_name(e["name"]), e["libration_peak_cm"],
+                                                                 e["libration_mean_cm"]))
+            else:
+                ax.plot(s["wavenumber_h"], s["hydrogen_velocity"], color=cmap(i), label=short_name(e["name"]))
     ax.set_xlim(0, 2000)
     ax.set_xlabel("wavenumber in simulated time (cm⁻¹)")
-    ax.set_ylabel("power of the hydrogens' velocity, unit area (cm)")
-    ax.set_title("Hydrogen velocity spectrum: the librations (soft, integrated with step δ)")
+    if rotation:
+        ax.set_ylabel("power of the molecules' angular velocity, unit area (cm)")
+        ax.set_title("Angular velocity spectrum: the librations (soft, integrated with step δ)")
+    else:
+        ax.set_ylabel("power of the hydrogens' velocity, unit area (cm)")
+        ax.set_title("Hydrogen velocity spectrum: librations and, for a FLAVOR, its slowed O–H band")
     ax.legend(fontsize=7)
     fig.suptitle("Flexible TIP3P water, dynamics: LangevinMiddle (%s: the reference) against the artificial FLAVOR "
                  "(bonds and angles frozen, Middle), mean over %d seed(s)" % (short_name(reference["name"]),
@@ -777,9 +814,13 @@ def main():
     args = parser.parse_args()
     reporting.set_smoke_run(args.quick)
     if args.replot:
-        reporting.replot(args.replot, args.out, "flexible_water", lambda data, path: plot_all(data, args.out))
-        with open(args.replot) as f:
-            print(markdown_tables(json.load(f)))
+        # The summary is recomputed from the seeds' records (the same code as at the end of a run).
+        def replot(data, path):
+            data["summary"] = combine(data["seeds"])
+            data["faithful_langevin"] = compare(data["summary"])
+            plot_all(data, args.out)
+            print(markdown_tables(data))
+        reporting.replot(args.replot, args.out, "flexible_water", replot)
         return
     if args.quick:
         args.equilibration, args.production, args.start, args.rounds = 0.005, 0.02, 0.1, 2

@@ -274,7 +274,7 @@ def diffusion(unwrapped, dt_ps, fit_from, fit_to, groups=BLOCKS):
     fit = (t >= fit_from - 1e-9) & (t <= fit_to + 1e-9)
 
     def slope(msd):
-        return np.polyfit(t[fit], msd[fit], 1)[0] / 6 * 100  # nm^2/ps -> 1e-5 cm^2/s
+        return np.polyfit(t[fit], msd[fit], 1)[0] / 6 * 1000  # nm^2/ps = 1e-2 cm^2/s = 1000 x 1e-5 cm^2/s
 
     msd = msd_per_molecule.mean(axis=1)
     per_group = [slope(msd_per_molecule[:, g::groups].mean(axis=1)) for g in range(groups)]

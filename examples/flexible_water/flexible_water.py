@@ -40,6 +40,7 @@ DIR/flexible_water_dynamics.png (diffusion and spectra).
 import argparse
 import math
 import os
+import textwrap
 import time
 
 import numpy as np
@@ -657,6 +658,7 @@ def short_name(name):
 
 def plot(data, path):
     plt = reporting.pyplot()
+    from matplotlib.ticker import MaxNLocator
     summary = [e for e in data["summary"] if "oh_mean" in e]
     unstable = [e["name"] for e in data["summary"] if "oh_mean" not in e]
     reference = data["summary"][0]
@@ -681,6 +683,8 @@ def plot(data, path):
             ax.axvline(reference[key], color="gray", ls="--", lw=1)
         ax.set_yticks(y)
         ax.set_yticklabels(labels if ax in (axes[0], axes[5]) else [], fontsize=8)
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        ax.ticklabel_format(axis="x", useOffset=False, style="plain")
         ax.set_xlabel(label)
         ax.invert_yaxis()
     for yi, e in zip(y, summary):
@@ -694,16 +698,17 @@ def plot(data, path):
     ax.set_xlabel("r (nm)")
     ax.set_ylabel("g_OO(r)")
     ax.legend(fontsize=6)
-    fig.text(0.01, 0.005, "Points: mean over %d seed(s) with error bars (the larger of block and run-to-run); gray "
+    fig.text(0.01, 0.005, textwrap.fill("Points: mean over %d seed(s) with error bars (the larger of block and run-to-run); gray "
              "crosses: each seed's value; dashed line and band: the reference (%s) ± 2 error bars.  Green: every "
              "observable within 2 combined error bars of the reference; red: not.  FLAVOR AP: ArtificialProjected; "
              "+angles: the H–O–H angles stiff (frozen) with the O–H bonds; Middle: the thermostat in the microstep.  "
              % (
                  reference["runs"], short_name(reference["name"])) +
-             ("Unstable (blew up): " + ", ".join(unstable) if unstable else "Every peer stayed stable."), fontsize=9)
+             ("Unstable (blew up): " + ", ".join(unstable) if unstable else "Every peer stayed stable."), 230),
+             fontsize=9)
     fig.suptitle("Flexible TIP3P water (1,503 atoms, PME, 300 K, friction 1/ps): the artificial FLAVOR (bonds and "
                  "angles frozen, mesostep δ, microstep τ) against LangevinMiddle at 0.25–2.5 fs")
-    fig.tight_layout(rect=(0, 0.02, 1, 0.98))
+    fig.tight_layout(rect=(0, 0.035, 1, 0.98))
     reporting.save_figure(fig, path, dpi=80)
 
 

@@ -719,13 +719,19 @@ def plot_dynamics(data, path):
     fig, axes = plt.subplots(2, 2, figsize=(16, 11))
     cmap = plt.get_cmap("tab10")
     ax = axes[0, 0]
+    # Below 5 ps of production the fit range (10-50 % of it) is not yet the diffusive regime: no D is shown.
+    measured = data["production_ps"] >= 5
     for i, e in enumerate(dynamics):
-        ax.plot(e["msd_t"], e["msd"], color=cmap(i), label="%s: D = %.2f ± %.2f" % (short_name(e["name"]), e["D"],
-                                                                                   e["D_error"]))
-    ax.axvspan(*data["msd_fit_ps"], color="gray", alpha=0.15, lw=0, label="fit range")
+        ax.plot(e["msd_t"], e["msd"], color=cmap(i), label="%s: D = %.2f ± %.2f" % (
+            short_name(e["name"]), e["D"], e["D_error"]) if measured else short_name(e["name"]))
+    if measured:
+        ax.axvspan(*data["msd_fit_ps"], color="gray", alpha=0.15, lw=0, label="fit range")
+        ax.set_title("Oxygens' mean-squared displacement (unwrapped); D in 10⁻⁵ cm²/s")
+    else:
+        ax.set_title("Oxygens' MSD over %g ps of production: too short for a diffusion coefficient"
+                     % data["production_ps"])
     ax.set_xlabel("lag t (ps)")
     ax.set_ylabel("oxygen MSD (nm²)")
-    ax.set_title("Oxygens' mean-squared displacement (unwrapped); D in 10⁻⁵ cm²/s")
     ax.legend(fontsize=8)
     ax = axes[0, 1]
     for i, e in enumerate(dynamics):

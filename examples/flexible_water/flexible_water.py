@@ -481,6 +481,59 @@ def run_seed(selected, forcefield, modeller, seed, args):
     return records
 
 
+def interleaved_timing(selected, forcefield, modeller, args):
+    """Speed only: every selected peer's Context from one start (seed args.seeds[0]), --equilibration ps each, then
+    --timing-rounds rounds in which each peer in turn steps --timing-ps ps (no frames; the order reversed every other
+    round).  Per peer: ns/day over all rounds, each round's ns/day, and the median over rounds of its per-round ratio
+    to LangevinMiddle 2 fs."""
+    seed = args.seeds[0]
+    start = common_start(forcefield, modeller, args.start, args.threads, 20 if args.quick else 200, seed=seed)
+    box = modeller.topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
+    runs = []
+    for index, peer in enumerate(selected):
+        run = PeerRun(peer, forcefield, modeller.topology, start, seed * 1000 + index + 1, args.threads,
+                      np.linspace(0.2, min(0.9, box / 2), 71))
+        run.equilibrate(args.equilibration)
+        runs.append(run)
+    rounds = {run.name: [] for run in runs}
+    elapsed = {run.name: 0.0 for run in runs}
+    for round_ in range(args.timing_rounds):
+        for run in (runs if round_ % 2 == 0 else runs[::-1]):
+            if run.error:
+                continue
+            steps = run.steps_for(args.timing_ps)
+            begin = time.perf_counter()
+            run.integrator.step(steps)
+            seconds = time.perf_counter() - begin
+            elapsed[run.name] += seconds
+            rounds[run.name].append(steps * run.step_fs * 1e-6 / seconds * 86400)
+        print("timing round %d/%d" % (round_ + 1, args.timing_rounds), flush=True)
+    lm2 = rounds.get("LangevinMiddle flexible 2 fs")
+    result = []
+    for run in runs:
+        entry = {"name": run.name, "step_fs": run.step_fs, "round_ns_per_day": rounds[run.name]}
+        try:
+            run.state()
+        except mm.OpenMMException as error:
+            run.error = str(error)
+        if run.error or not rounds[run.name]:
+            entry["error"] = run.error
+        else:
+            entry["ns_per_day"] = len(rounds[run.name]) * run.steps_for(args.timing_ps) * run.step_fs * 1e-6 / \
+                elapsed[run.name] * 86400
+            if lm2 and len(lm2) == len(rounds[run.name]):
+                entry["vs_langevin_2fs_median_round"] = float(np.median(np.array(rounds[run.name]) / np.array(lm2)))
+        result.append(entry)
+        print("%-52s %s" % (run.name, "failed: %s" % entry["error"] if "error" in entry else
+                            "%.1f ns/day, x %.2f LangevinMiddle 2 fs (median over rounds)" % (
+                                entry["ns_per_day"], entry.get("vs_langevin_2fs_median_round", float("nan")))))
+    lm2_entry = next((e for e in result if e["name"] == "LangevinMiddle flexible 2 fs" and "ns_per_day" in e), None)
+    for entry in result:
+        if lm2_entry and "ns_per_day" in entry:
+            entry["vs_langevin_2fs"] = entry["ns_per_day"] / lm2_entry["ns_per_day"]
+    return result
+
+
 def summary_line(record):
     if not record["stable"]:
         return "%-52s UNSTABLE (%s)" % (record["name"], record["error"])
@@ -814,6 +867,10 @@ def main():
     parser.add_argument("--sample-fs", type=float, default=2.0, help="fs between the spectra's frames (default 2)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2],
                         help="one run per seed, each from its own start (default: 1 2)")
+    parser.add_argument("--timing-rounds", type=int, metavar="N",
+                        help="measure speed only: N interleaved rounds of --timing-ps ps per peer, no observables "
+                             "(writes DIR/flexible_water_timing.json)")
+    parser.add_argument("--timing-ps", type=float, default=0.2, help="ps per peer and timing round (default 0.2)")
     parser.add_argument("--molecules", type=int, default=501)
     parser.add_argument("--replot", metavar="JSON", help="only redraw the charts of an earlier run's JSON into --out")
     parser.add_argument("--set", choices=("practitioner", "earlier", "all"), default="practitioner",
@@ -849,6 +906,13 @@ def main():
     forcefield, modeller = build_box(args.molecules)
     os.makedirs(args.out, exist_ok=True)
     begin = time.time()
+    if args.timing_rounds:
+        timing = interleaved_timing(selected, forcefield, modeller, args)
+        reporting.write_json(os.path.join(args.out, "flexible_water_timing.json"), {
+            "threads": args.threads, "rounds": args.timing_rounds, "ps_per_round": args.timing_ps,
+            "equilibration_ps": args.equilibration, "seed": args.seeds[0], "peers": timing,
+            "wall_s": time.time() - begin})
+        return
     data = {"atoms": 3 * args.molecules, "temperature_K": TEMPERATURE, "friction_per_ps": FRICTION,
             "start_equilibration_ps": args.start, "equilibration_ps": args.equilibration,
             "production_ps": args.production, "rounds": args.rounds, "frame_ps": args.frame_ps,

@@ -485,7 +485,8 @@ def interleaved_timing(selected, forcefield, modeller, args):
     """Speed only: every selected peer's Context from one start (seed args.seeds[0]), --equilibration ps each, then
     --timing-rounds rounds in which each peer in turn steps --timing-ps ps (no frames; the order reversed every other
     round).  Per peer: ns/day over all rounds, each round's ns/day, and the median over rounds of its per-round ratio
-    to LangevinMiddle 2 fs."""
+    to LangevinMiddle 2 fs; also the process's CPU seconds per simulated ps (all threads) and their ratio to
+    LangevinMiddle 2 fs's, which the machine's load changes less."""
     seed = args.seeds[0]
     start = common_start(forcefield, modeller, args.start, args.threads, 20 if args.quick else 200, seed=seed)
     box = modeller.topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
@@ -497,14 +498,17 @@ def interleaved_timing(selected, forcefield, modeller, args):
         runs.append(run)
     rounds = {run.name: [] for run in runs}
     elapsed = {run.name: 0.0 for run in runs}
+    # CPU seconds of this process (all its threads) while stepping: the work, whatever the machine's load.
+    cpu = {run.name: 0.0 for run in runs}
     for round_ in range(args.timing_rounds):
         for run in (runs if round_ % 2 == 0 else runs[::-1]):
             if run.error:
                 continue
             steps = run.steps_for(args.timing_ps)
-            begin = time.perf_counter()
+            begin, begin_cpu = time.perf_counter(), time.process_time()
             run.integrator.step(steps)
             seconds = time.perf_counter() - begin
+            cpu[run.name] += time.process_time() - begin_cpu
             elapsed[run.name] += seconds
             rounds[run.name].append(steps * run.step_fs * 1e-6 / seconds * 86400)
         print("timing round %d/%d" % (round_ + 1, args.timing_rounds), flush=True)
@@ -519,8 +523,9 @@ def interleaved_timing(selected, forcefield, modeller, args):
         if run.error or not rounds[run.name]:
             entry["error"] = run.error
         else:
-            entry["ns_per_day"] = len(rounds[run.name]) * run.steps_for(args.timing_ps) * run.step_fs * 1e-6 / \
-                elapsed[run.name] * 86400
+            simulated_ns = len(rounds[run.name]) * run.steps_for(args.timing_ps) * run.step_fs * 1e-6
+            entry["ns_per_day"] = simulated_ns / elapsed[run.name] * 86400
+            entry["cpu_s_per_ps"] = cpu[run.name] / (simulated_ns * 1000)
             if lm2 and len(lm2) == len(rounds[run.name]):
                 entry["vs_langevin_2fs_median_round"] = float(np.median(np.array(rounds[run.name]) / np.array(lm2)))
         result.append(entry)
@@ -531,6 +536,9 @@ def interleaved_timing(selected, forcefield, modeller, args):
     for entry in result:
         if lm2_entry and "ns_per_day" in entry:
             entry["vs_langevin_2fs"] = entry["ns_per_day"] / lm2_entry["ns_per_day"]
+            entry["cpu_vs_langevin_2fs"] = lm2_entry["cpu_s_per_ps"] / entry["cpu_s_per_ps"]
+            print("%-52s CPU %.2f s per ps: x %.2f LangevinMiddle 2 fs in CPU time" % (
+                entry["name"], entry["cpu_s_per_ps"], entry["cpu_vs_langevin_2fs"]))
     return result
 
 

@@ -699,14 +699,18 @@ def markdown_tables(data):
                 ", ".join("%.6f" % v for v in e["oh_sd_runs"]), ", ".join("%.3f" % v for v in e["angle_sd_runs"]),
                 ", ".join("%.1f" % v for v in e["T_H_runs"]), ", ".join("%.1f" % v for v in e["ns_per_day_runs"])))
     lines += ["", "| peer | D (10⁻⁵ cm²/s) | D per seed | O–H band peak, simulated time (cm⁻¹) | × δ/τ (cm⁻¹) | "
-              "libration peak (cm⁻¹) | spectrum sampled every (fs) |", "|---|---|---|---|---|---|---|"]
+              "libration peak / mean (cm⁻¹) | spectrum sampled every (fs) |", "|---|---|---|---|---|---|---|"]
+    # Below 5 ps of production the MSD is not yet diffusive: no D (as in the chart).
+    measured = data["production_ps"] >= 5
     for e in summary:
         if "D" in e:
             delta, tau = flavor_steps(e["name"])
             peak = e.get("stretch_peak_cm", float("nan"))
-            lines.append("| %s | %.2f ± %.2f | %s | %.0f | %s | %.0f | %s |" % (
-                e["name"], e["D"], e["D_error"], ", ".join("%.2f" % v for v in e["D_runs"]), peak,
-                "%.0f" % (peak * delta / tau) if delta else "—", e.get("libration_peak_cm", float("nan")),
+            lines.append("| %s | %s | %s | %.0f | %s | %s | %s |" % (
+                e["name"], "%.2f ± %.2f" % (e["D"], e["D_error"]) if measured else "—",
+                ", ".join("%.2f" % v for v in e["D_runs"]) if measured else "—", peak,
+                "%.0f" % (peak * delta / tau) if delta else "—",
+                "%.0f / %.0f" % (e["libration_peak_cm"], e["libration_mean_cm"]) if "libration_mean_cm" in e else "—",
                 "%g" % e["spectra"]["sample_fs"] if "spectra" in e else "—"))
     return "\n".join(lines)
 

@@ -822,7 +822,8 @@ def plot_dynamics(data, path):
     ax.set_xlim(2500, 5000)
     ax.set_xlabel("wavenumber in the stiff coordinates' own time (cm⁻¹): simulated time × δ/τ for a FLAVOR")
     ax.set_ylabel("power of d(r_OH)/dt, unit area (cm)")
-    ax.set_title("The same spectra on the stiff clock (the time the bonds actually move)")
+    ax.set_title("The same spectra on the stiff clock (the time the bonds move; a FLAVOR's resolution δ/τ× coarser)",
+                 fontsize=10)
     ax.legend(fontsize=7)
     ax = axes[1, 1]
     rotation = all("angular_velocity" in e["spectra"] for e in dynamics if "spectra" in e)

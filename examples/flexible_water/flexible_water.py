@@ -674,24 +674,27 @@ def markdown_tables(data):
     def ratio(entry, key):
         return "%.2f (%.2f)" % (entry.get(key, float("nan")), entry.get(key + "_median_round", float("nan")))
 
+    # One speed column when the baseline is LangevinMiddle 2 fs itself.
+    both = baseline != "LangevinMiddle flexible 2 fs"
     lines = ["| peer | O–H mean (nm) | O–H sd (nm) | H–O–H (°) | H–O–H sd (°) | PE/molecule (kJ/mol) | T_O (K) "
-             "| T_H (K) | g_OO peak | ns/day | × %s (median over rounds) | × LM 2 fs (median over rounds) | largest σ |"
-             % (short_name(baseline) if baseline else "—"),
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| T_H (K) | g_OO peak | ns/day | × %s (median over rounds) |%s largest σ |"
+             % (short_name(baseline) if baseline else "—", " × LM 2 fs (median over rounds) |" if both else ""),
+             "|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if both else "")]
     for e in summary:
         if "oh_mean" not in e:
             lines.append("| %s | unstable in %d of %d runs |" % (e["name"], e["runs"] - e["stable_runs"], e["runs"]))
             continue
         worst = max(e["sigma"].items(), key=lambda item: item[1]) if e is not reference else None
         lines.append("| %s%s | %.6f ± %.6f | %.6f ± %.6f | %.2f ± %.2f | %.3f ± %.3f | %.2f ± %.2f | %.1f ± %.1f | "
-                     "%.1f ± %.1f | %.2f ± %.2f | %.1f | %s | %s | %s |" % (
+                     "%.1f ± %.1f | %.2f ± %.2f | %.1f | %s |%s %s |" % (
                          e["name"], "" if e["stable_runs"] == e["runs"] else " (%d of %d runs stable)" % (
                              e["stable_runs"], e["runs"]),
                          e["oh_mean"], e["oh_mean_error"], e["oh_sd"], e["oh_sd_error"], e["angle_mean"],
                          e["angle_mean_error"], e["angle_sd"], e["angle_sd_error"], e["pe_per_molecule"],
                          e["pe_per_molecule_error"], e["T_O"], e["T_O_error"], e["T_H"], e["T_H_error"],
                          e["g_OO_peak"], e["g_OO_peak_error"], e["ns_per_day"],
-                         ratio(e, "speed_vs_faithful_langevin"), ratio(e, "speed_vs_langevin_2fs"),
+                         ratio(e, "speed_vs_faithful_langevin"),
+                         " %s |" % ratio(e, "speed_vs_langevin_2fs") if both else "",
                          "—" if worst is None else "%.1f (%s)%s" % (worst[1], worst[0],
                                                                     "" if e.get("within") else " **out**")))
     lines += ["", "| peer | O–H mean per seed (nm) | PE/molecule per seed (kJ/mol) | O–H sd per seed (nm) | "

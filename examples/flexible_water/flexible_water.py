@@ -780,8 +780,12 @@ def plot(data, path):
                  reference["runs"], short_name(reference["name"])) +
              ("Unstable (blew up): " + ", ".join(unstable) if unstable else "Every peer stayed stable."), 230),
              fontsize=9)
-    fig.suptitle("Flexible TIP3P water (1,503 atoms, PME, 300 K, friction 1/ps): the artificial FLAVOR (bonds and "
-                 "angles frozen, mesostep δ, microstep τ) against LangevinMiddle at 0.25–2.5 fs")
+    steps = [e["step_fs"] for e in data["summary"] if e["name"].startswith("LangevinMiddle flexible")]
+    others = [e for e in data["summary"] if not e["name"].startswith(("LangevinMiddle flexible", "FLAVOR"))]
+    fig.suptitle("Flexible TIP3P water (%s atoms, PME, 300 K, friction 1/ps): FLAVORs (mesostep δ, microstep τ) "
+                 "against LangevinMiddle (flexible) at %s fs%s, mean over %d seed(s)" % (
+                     format(data["atoms"], ","), ", ".join("%g" % h for h in steps),
+                     " and other OpenMM integrators" if others else "", reference["runs"]))
     fig.tight_layout(rect=(0, 0.035, 1, 0.98))
     reporting.save_figure(fig, path, dpi=80)
 

@@ -27,12 +27,20 @@ automatic window (the smallest M >= 5 tau_int(M)), and Sokal's error sqrt(2 (2M 
     bonds of nonzero length are not quadratic in the Cartesian coordinates: the SIM refuses them, and the artificial
     FLAVORs hold them by an iterative solve, which the adjustment refuses (reversible only to its tolerance); the
     Nonintrusive Verlet FLAVOR is the one adjusted.  Observables: U and cos psi (N-CA-C-N); samples every 20 fs.
+(c) 10 copies of the FLAVORS paper's FPU chain (m = 3, omega = 200/ps, unit masses), every force acting per Cartesian
+    component (three independent one-dimensional chains per copy), 300 K, 5/ps, Reference platform; stiff springs
+    zero-length harmonic (quadratic) in group 1.  Peers: LangevinMiddle at 1 fs and 8 fs, the SIM Strang adjusted and
+    unadjusted at H = 40 and 100 fs, the artificial FLAVOR with the exact fast flow (tau = 2.5 fs) adjusted at
+    delta = 100 and 200 fs and unadjusted at 200 fs.  Observables: U and the mean of the slow variables' squares
+    x0^2 = (q_2i-1 + q_2i)^2 / 2, both with exact averages from a transfer-matrix quadrature; samples every 0.1 ps.
 The adjustment's cost per step: adjusted against unadjusted (same integrator, same step) and against LangevinMiddle
 (1 fs), timed in 30 rounds taking turns, without sampling; the median and quartiles of the per-round ratios.  And the
 dipeptide's acceptance over a grid of delta (0.5-3 fs) and tau = delta, delta/2, delta/4.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/metropolis/metropolis.py [--quick] [--out DIR] [--replot JSON]
+        [--fpu-into JSON]   (run only part (c) and write JSON with it added into --out)
 """
+import json
 import math
 import os
 import time
@@ -53,6 +61,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 TEMPERATURE = 300.0
 KT = 0.00831446261815324 * TEMPERATURE  # kJ/mol
 STIFF_GROUP = 1
+FPU_M = 3  # stiff springs per FPU chain, as in the FLAVORS paper
 
 # Part 1's three schemes: model (k, K), friction (1/ps), tau (ps, FLAVOR only).
 SCHEMES = {
@@ -449,6 +458,150 @@ def dipeptide_acceptance(p):
     return grid
 
 
+def fpu_system(chains, omega):
+    """`chains` copies of the FLAVORS paper's FPU chain (m = 3), unit masses, in three dimensions with every force
+    acting per Cartesian component, so each copy is three independent copies of the paper's one-dimensional chain:
+    stiff zero-length springs 0.5 (omega^2/2) |r1 - r2|^2 (HarmonicBondForce, group 1: quadratic), soft quartic springs
+    (dx^4 + dy^4 + dz^4) between neighbouring pairs and quartic walls x^4 + y^4 + z^4 on the end particles (group 0).
+    (examples/fpu uses r^4 and x^4 on the x axis; off the axis that leaves y and z unconfined.)"""
+    system = mm.System()
+    stiff = mm.HarmonicBondForce()
+    stiff.setForceGroup(STIFF_GROUP)
+    soft = mm.CustomCompoundBondForce(2, "(x2-x1)^4+(y2-y1)^4+(z2-z1)^4")
+    walls = mm.CustomExternalForce("x^4+y^4+z^4")
+    for _ in range(chains):
+        first = system.getNumParticles()
+        for _ in range(2 * FPU_M):
+            system.addParticle(1.0)
+        for i in range(FPU_M):
+            stiff.addBond(first + 2 * i, first + 2 * i + 1, 0.0, omega * omega / 2)
+        for i in range(FPU_M - 1):
+            soft.addBond([first + 2 * i + 1, first + 2 * i + 2], [])
+        walls.addParticle(first, [])
+        walls.addParticle(first + 2 * FPU_M - 1, [])
+    for force in (stiff, soft, walls):
+        system.addForce(force)
+    return system
+
+
+def fpu_slow_square(q):
+    """Mean over the chains' stiff pairs and the coordinates of the paper's slow variable squared,
+    x0^2 = (q_2i-1 + q_2i)^2 / 2."""
+    return float(np.mean((q[0::2] + q[1::2]) ** 2) / 2)
+
+
+def fpu_exact(omega, half_width=7.0, spacing=0.05, hermite=4):
+    """Exact Boltzmann averages of one one-dimensional FPU chain (m = 3) at KT: <U> and the mean over the three
+    stiff pairs of <x0^2>.  Each pair is (c, d) = (centre, separation); the chain is a product of transfer kernels
+    exp(-beta (q_2i+1 - q_2i)^4) between pairs, integrated with the trapezoid rule in c on [-half_width, half_width]
+    and Gauss-Hermite in d against exp(-beta omega^2/4 d^2).  (7, 0.05, 4) agrees with (9, 0.0125, 10) to 1e-13."""
+    beta, a = 1.0 / KT, omega * omega / 4
+    c = np.arange(-half_width, half_width + spacing / 2, spacing)
+    nodes, weights = np.polynomial.hermite.hermgauss(hermite)
+    scale = math.sqrt(beta * a)
+    C, D = np.repeat(c, hermite), np.tile(nodes / scale, len(c))
+    phi = spacing * np.tile(weights, len(c)) / scale
+    left, right = C - D / 2, C + D / 2
+    E = (left[None, :] - right[:, None]) ** 4  # soft spring between pair s (row) and the next pair s' (column)
+    K = np.exp(-beta * E)
+    u1, v3 = np.exp(-beta * left ** 4) * phi, np.exp(-beta * right ** 4) * phi
+    A, B = K.T @ u1, K @ v3
+    Z = float(np.sum(A * phi * B))
+    marginals = (u1 * (K @ (phi * B)) / Z, A * phi * B / Z, v3 * (K.T @ (phi * A)) / Z)
+    KE = K * E
+    U = (float(np.sum(marginals[0] * left ** 4) + np.sum(marginals[2] * right ** 4)) + float(u1 @ KE @ (phi * B)) / Z
+         + float((A * phi) @ KE @ v3) / Z + a * sum(float(np.sum(m * D ** 2)) for m in marginals))
+    return U, float(np.mean([np.sum(m * 2 * C ** 2) for m in marginals]))
+
+
+def fpu_peers(p, seed=400):
+    chains, omega, friction = p["fpu_chains"], p["fpu_omega"], p["fpu_friction"]
+    system = fpu_system(chains, omega)
+    platform = reference_platform()
+    # Shared thermal start: the chains stretched along (1, 1, 1), then LangevinMiddle at 1 fs.
+    warm = mm.LangevinMiddleIntegrator(TEMPERATURE, friction, 0.001)
+    warm.setRandomNumberSeed(11)
+    context = mm.Context(system, warm, platform)
+    line = np.repeat((np.arange(2 * FPU_M) - (FPU_M - 0.5)) * 0.3, 3).reshape(-1, 3)
+    context.setPositions(np.tile(line, (chains, 1)))
+    context.setVelocitiesToTemperature(TEMPERATURE, 11)
+    warm.step(int(round(p["fpu_equilibrate_ps"] / 0.001)))
+    state = context.getState(getPositions=True, getVelocities=True)
+    del context
+    sample_ps = p["fpu_sample_ps"]
+
+    def observe(ctx):
+        st = ctx.getState(getPositions=True, getEnergy=True)
+        q = st.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+        return (st.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole), fpu_slow_square(q))
+
+    peers = []
+    for i, (kind, step, adjusted) in enumerate(p["fpu_peers"]):
+        if kind == "langevin":
+            integrator = mm.LangevinMiddleIntegrator(TEMPERATURE, friction, step)
+            integrator.setRandomNumberSeed(seed + i)
+            label = f"LangevinMiddle h = {step * 1000:g} fs (ωh = {omega * step:.2g})"
+            key = f"langevin_{step * 1000:g}fs"
+        elif kind == "sim":
+            integrator = sim(step, friction, adjusted, seed + i)
+            label = f"SIM Strang H = {step * 1000:g} fs, " + ("adjusted" if adjusted else "unadjusted")
+            key = f"sim_{step * 1000:g}fs" + ("_adjusted" if adjusted else "_plain")
+        else:
+            tau = p["fpu_tau"]
+            integrator = flavor(step, tau, FlavorIntegrator.ArtificialProjected, friction, adjusted, seed + i)
+            integrator.setExactFastFlow(True)
+            label = (f"FLAVOR ArtificialProjected exact flow δ = {step * 1000:g} fs, τ = {tau * 1000:g} fs, "
+                     + ("adjusted" if adjusted else "unadjusted"))
+            key = f"flavor_{step * 1000:g}fs" + ("_adjusted" if adjusted else "_plain")
+        ctx = mm.Context(system, integrator, platform)
+        ctx.setPositions(state.getPositions())
+        ctx.setVelocities(state.getVelocities())
+        peers.append(Peer(key, label, ctx, integrator, step, max(1, int(round(sample_ps / step))), observe,
+                          adjusted if kind != "langevin" else None))
+    return peers
+
+
+def fpu_replicas(p, U_exact, x02_exact):
+    """Independent replicas (own seeds, the same thermal start as the peers, fpu_burn_ps discarded) of the adjusted
+    peers with the step fpu_replica_step: <U> and <x0^2> against exact, the error the spread of the replicas' means."""
+    result = {}
+    for kind, step in (("sim", p["fpu_replica_step"]), ("flavor", p["fpu_replica_step"])):
+        p1 = dict(p, fpu_peers=[(kind, step, True)] * p["fpu_replica_runs"])
+        peers = fpu_peers(p1, seed=600 if kind == "sim" else 700)
+        means, accepted = [], []
+        for peer in peers:
+            peer.integrator.step(int(round(p["fpu_burn_ps"] / step)))
+            values = []
+            for _ in range(int(round(p["fpu_replica_ps"] / step))):
+                peer.integrator.step(1)
+                values.append(peer.observe(peer.context))
+            means.append(np.mean(values, axis=0))
+            accepted.append(peer.integrator.getAcceptanceRate())
+        means = np.array(means)
+        runs = len(means)
+        result[peers[0].key] = {
+            "label": peers[0].label, "runs": runs, "ps_per_run": p["fpu_replica_ps"],
+            "acceptance": float(np.mean(accepted)),
+            "U_bias": float(means[:, 0].mean() / U_exact - 1),
+            "U_bias_error": float(means[:, 0].std(ddof=1) / math.sqrt(runs) / U_exact),
+            "X0sq_bias": float(means[:, 1].mean() / x02_exact - 1),
+            "X0sq_bias_error": float(means[:, 1].std(ddof=1) / math.sqrt(runs) / x02_exact)}
+    return result
+
+
+def fpu_part(p):
+    """The FPU chains' ESS per second, interleaved, against the exact <U> and <x0^2>; and replicas of two adjusted
+    peers for a check of their averages that does not rest on one chain's error bar."""
+    peers = fpu_peers(p)
+    run_interleaved(peers, p["fpu_chunk_ps"], p["fpu_total_ps"], p["fpu_burn_ps"], "FPU chains, interleaved")
+    u1, x02 = fpu_exact(p["fpu_omega"])
+    U_exact = 3 * p["fpu_chains"] * u1
+    return {"chains": p["fpu_chains"], "m": FPU_M, "omega": p["fpu_omega"], "friction": p["fpu_friction"],
+            "U_exact": U_exact, "X0sq_exact": x02,
+            "peers": {peer.key: summarize_peer(peer, ("U", "X0sq")) for peer in peers},
+            "replicas": fpu_replicas(p, U_exact, x02)}
+
+
 def step_costs(integrators, steps, rounds):
     """Time per step of each integrator (already bound to a Context), timed in `rounds` rounds of `steps` steps, the
     integrators taking turns (the order reversed every other round).  Returns {name: [us per step, one per round]}."""
@@ -527,6 +680,7 @@ def part2(p):
     run_interleaved(peers, p["mol_chunk_ps"], p["mol_total_ps"], p["mol_burn_ps"], "alanine dipeptide, interleaved")
     result["dipeptide"] = {"peers": {peer.key: summarize_peer(peer, ("U", "cos_psi")) for peer in peers},
                            "acceptance_grid": dipeptide_acceptance(p)}
+    result["fpu"] = fpu_part(p)
     result["step_cost"] = overhead(p)
     return result
 
@@ -542,11 +696,14 @@ COLORS = {"sim_strang": "tab:blue", "flavor_artificial": "tab:orange", "flavor_a
 
 def plot(data, path):
     plt = reporting.pyplot()
-    fig = plt.figure(figsize=(22, 14))
-    outer = fig.add_gridspec(2, 1, hspace=0.5, top=0.9, bottom=0.1, left=0.05, right=0.98)
+    fpu = data["part2"].get("fpu")
+    fig = plt.figure(figsize=(22, 21 if fpu else 14))
+    outer = fig.add_gridspec(3 if fpu else 2, 1, hspace=0.55 if fpu else 0.5, top=0.93 if fpu else 0.9,
+                             bottom=0.06 if fpu else 0.1, left=0.05, right=0.98)
     top = outer[0].subgridspec(1, 4, wspace=0.3)
     # Empty columns leave room for the ESS panels' long tick labels and the last panel's axis label.
     bottom = outer[1].subgridspec(1, 6, wspace=0.05, width_ratios=[0.34, 1, 0.42, 1, 0.14, 0.75])
+    third = outer[2].subgridspec(1, 6, wspace=0.05, width_ratios=[0.34, 1, 0.42, 1, 0.14, 0.75]) if fpu else None
     runs = data["part1"]
     # (a) acceptance against x, each scheme, each N.
     ax = fig.add_subplot(top[0, 0])
@@ -623,11 +780,14 @@ def plot(data, path):
     ax.set_title(f"bias of a pair centre's ⟨c²⟩, N = {n}\n(exact kT/2k; 20-block standard errors)", fontsize=10)
     ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)
     # (d), (e) ESS per second.
-    for col, scene, names, title in ((0, "pairs", ("U", "C2"), f"{data['part2']['pairs']['N']} spring pairs "
-                                      "(SIM model), Reference"),
-                                     (1, "dipeptide", ("U", "cos_psi"), "alanine dipeptide in vacuum, Amber14, "
-                                      "Reference")):
-        ax = fig.add_subplot(bottom[0, 2 * col + 1])
+    panels = [(bottom[0, 1], "pairs", ("U", "C2"), f"{data['part2']['pairs']['N']} spring pairs (SIM model), "
+               "Reference"),
+              (bottom[0, 3], "dipeptide", ("U", "cos_psi"), "alanine dipeptide in vacuum, Amber14, Reference")]
+    if fpu:
+        panels.append((third[0, 1], "fpu", ("U", "X0sq"), f"{fpu['chains']} FPU chains (m = {fpu['m']}, "
+                       f"ω = {fpu['omega']:g}/ps, {fpu['friction']:g}/ps), Reference"))
+    for where, scene, names, title in panels:
+        ax = fig.add_subplot(where)
         peers = data["part2"][scene]["peers"]
         labels = list(peers)
         width = 0.38
@@ -638,12 +798,13 @@ def plot(data, path):
             lower = [min(e, 0.9 * v) for v, e in zip(values, errors)]
             ax.barh(np.arange(len(labels)) + (j - 0.5) * width, values, width, xerr=[lower, errors], capsize=2,
                     color=["tab:gray", "tab:green"][j], label={"U": "potential energy U", "C2": "C2 = mean c²",
-                                                               "cos_psi": "cos ψ"}[name])
+                                                               "cos_psi": "cos ψ", "X0sq": "mean x0²"}[name])
         ticks = []
         for k in labels:
             e = peers[k]
             extra = f"\nacc {e['acceptance']:.2f}, " if e.get("acceptance") is not None else "\n"
-            tick = reporting.greek(e["label"]) + extra + f"{e['us_per_step']:.0f} µs/step"
+            tick = reporting.greek(e["label"].replace(" exact flow δ", ", exact flow\nδ")) + extra + \
+                f"{e['us_per_step']:.0f} µs/step"
             if scene == "pairs":
                 exact = data["part2"]["pairs"]["c2_exact"]
                 tick += (f"\n⟨C2⟩ {100 * (e['C2']['mean'] / exact - 1):+.1f} ± "
@@ -654,6 +815,10 @@ def plot(data, path):
         ax.invert_yaxis()
         ax.set_xscale("log")
         ax.set_xlabel("effective samples per wall second (ESS/s; Sokal error bars)")
+        ax.set_title(f"ESS per wall second, {title}\n(peers interleaved, only step() timed)", fontsize=9.5)
+        ax.legend(fontsize=7, loc="lower right")
+        if scene == "fpu":
+            continue
         cost = data["part2"]["step_cost"][scene]
         a, b = cost["adjusted_over_unadjusted"], cost["adjusted_over_langevin"]
         ax.text(0.5, -0.11, f"cost of a step, {cost['step_fs']:g} fs, median of {a['rounds']} interleaved rounds:\n"
@@ -661,8 +826,35 @@ def plot(data, path):
                 f"adjusted / LangevinMiddle ({cost['langevin_step_fs']:g} fs) {b['median']:.2f} "
                 f"({b['q1']:.2f}–{b['q3']:.2f})", transform=ax.transAxes, ha="center", va="top", fontsize=8,
                 bbox=dict(boxstyle="round", facecolor="white", edgecolor="0.6", alpha=0.9))
-        ax.set_title(f"ESS per wall second, {title}\n(peers interleaved, only step() timed)", fontsize=9.5)
-        ax.legend(fontsize=7, loc="lower right")
+    if fpu:
+        # The FPU peers' deviation from the exact averages (transfer-matrix quadrature).
+        ax = fig.add_subplot(third[0, 3])
+        labels = list(fpu["peers"])
+        width = 0.38
+        for j, (name, exact, text) in enumerate((("U", fpu["U_exact"], "⟨U⟩"), ("X0sq", fpu["X0sq_exact"],
+                                                                                 "⟨x0²⟩"))):
+            e = [fpu["peers"][k][name] for k in labels]
+            ax.barh(np.arange(len(labels)) + (j - 0.5) * width, [100 * (o["mean"] / exact - 1) for o in e], width,
+                    xerr=[100 * o["mean_error"] / exact for o in e], capsize=2, color=["tab:gray", "tab:green"][j],
+                    label=f"{text} (exact {exact:.4g} {'kJ/mol' if name == 'U' else 'nm²'})")
+        replicas = fpu.get("replicas", {})
+        for j, (name, marker) in enumerate((("U", "D"), ("X0sq", "s"))):
+            rows = [(labels.index(k), r) for k, r in replicas.items() if k in labels]
+            if rows:
+                ax.errorbar([100 * r[f"{name}_bias"] for _, r in rows], [i + (j - 0.5) * width for i, _ in rows],
+                            xerr=[100 * r[f"{name}_bias_error"] for _, r in rows], fmt=marker, color="k", ms=4,
+                            capsize=2, zorder=5, label=f"{'⟨U⟩' if name == 'U' else '⟨x0²⟩'}: "
+                            f"{rows[0][1]['runs']} independent replicas × {rows[0][1]['ps_per_run']:g} ps "
+                            "(error: their spread)")
+        ax.axvline(0, color="k", lw=0.6)
+        ax.set_yticks(np.arange(len(labels)))
+        ax.set_yticklabels([reporting.greek(fpu["peers"][k]["label"].replace(" exact flow δ", ", exact flow\nδ"))
+                            for k in labels], fontsize=6.5)
+        ax.invert_yaxis()
+        ax.set_xlabel("deviation from the exact Boltzmann average (%; bars: the ESS runs, 20-block standard errors)")
+        ax.set_title(f"{fpu['chains']} FPU chains: bias against the exact averages\n(x0 = (q₂ᵢ₋₁ + q₂ᵢ)/√2, "
+                     "mean over pairs, coordinates, chains)", fontsize=9.5)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2)
     # (f) acceptance of the nonintrusive FLAVOR against the stiff omega delta.
     ax = fig.add_subplot(top[0, 3])
     for key in ("flavor_artificial", "flavor_artificial_exact", "flavor_nonintrusive"):
@@ -726,7 +918,10 @@ def report(data):
         if f:
             print(f"{SCHEMES[key]['label']}: 1 - acceptance ~ step^{f['step_power']:.2f} ± {f['step_power_error']:.2f}"
                   f" N^{f['N_power']:.2f} ± {f['N_power_error']:.2f} ({f['points']} points)")
-    for scene, names in (("pairs", ("U", "C2")), ("dipeptide", ("U", "cos_psi"))):
+    scenes = [("pairs", ("U", "C2")), ("dipeptide", ("U", "cos_psi"))]
+    if "fpu" in data["part2"]:
+        scenes.append(("fpu", ("U", "X0sq")))
+    for scene, names in scenes:
         rows = []
         for key, e in data["part2"][scene]["peers"].items():
             row = [e["label"], f"{e['us_per_step']:.1f}", "-" if e.get("acceptance") is None else
@@ -741,6 +936,19 @@ def report(data):
         for name in names:
             cols += [(f"<{name}>", 20, "s"), (f"τ_int ps", 14, "s"), ("ESS/s", 14, "s")]
         reporting.table(f"ESS per wall second, {scene} (Sokal window, c = 5)", cols, rows)
+        if scene == "fpu":
+            f = data["part2"]["fpu"]
+            print(f"FPU exact: <U> = {f['U_exact']:.4f} kJ/mol, <x0^2> = {f['X0sq_exact']:.6f} nm^2; deviations:")
+            for e in f["peers"].values():
+                print(f"  {e['label']:72s} U {100 * (e['U']['mean'] / f['U_exact'] - 1):+.2f} ± "
+                      f"{100 * e['U']['mean_error'] / f['U_exact']:.2f} %, x0^2 "
+                      f"{100 * (e['X0sq']['mean'] / f['X0sq_exact'] - 1):+.2f} ± "
+                      f"{100 * e['X0sq']['mean_error'] / f['X0sq_exact']:.2f} %")
+            for e in f.get("replicas", {}).values():
+                print(f"  {e['runs']} replicas of {e['ps_per_run']:g} ps, {e['label']}: acceptance "
+                      f"{e['acceptance']:.3f}, U {100 * e['U_bias']:+.2f} ± {100 * e['U_bias_error']:.2f} %, x0^2 "
+                      f"{100 * e['X0sq_bias']:+.2f} ± {100 * e['X0sq_bias_error']:.2f} % (spread of the replicas)")
+            continue
         o = data["part2"]["step_cost"][scene]
         a, b = o["adjusted_over_unadjusted"], o["adjusted_over_langevin"]
         print(f"step cost, {scene} ({o['step_fs']:g} fs; µs/step medians {o['us_per_step_median']}): adjusted / "
@@ -763,7 +971,12 @@ def parameters(quick):
                 "mol_burn_ps": 0.05,
                 "mol_peers": [("langevin", 0.001, None, None), ("flavor", 0.001, 0.001, True),
                               ("flavor", 0.001, 0.001, False)],
-                "mol_grid_delta_fs": [1.0, 2.0], "mol_grid_ratio": [1], "mol_grid_steps": 100}
+                "mol_grid_delta_fs": [1.0, 2.0], "mol_grid_ratio": [1], "mol_grid_steps": 100,
+                "fpu_chains": 10, "fpu_omega": 200.0, "fpu_friction": 5.0, "fpu_tau": 0.0025,
+                "fpu_equilibrate_ps": 2.0, "fpu_sample_ps": 0.1, "fpu_chunk_ps": 2.0, "fpu_total_ps": 6.0,
+                "fpu_burn_ps": 0.5,
+                "fpu_peers": [("langevin", 0.001, None), ("sim", 0.1, True), ("sim", 0.1, False)],
+                "fpu_replica_step": 0.1, "fpu_replica_runs": 2, "fpu_replica_ps": 5.0}
     return {"quick": False, "N": [1, 10, 100], "x": [0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.5], "bias_N": 10,
             "bias_time": 6000.0, "sample_x": 1.0, "steps_by_N": {"1": 20000, "10": 6000, "100": 4000},
             "ess_pairs": 10, "pair_sample_ps": 0.1, "pair_chunk_ps": 100.0, "pair_total_ps": 2000.0,
@@ -776,12 +989,21 @@ def parameters(quick):
             "mol_peers": [("langevin", 0.001, None, None), ("langevin", 0.002, None, None),
                           ("flavor", 0.001, 0.001, True), ("flavor", 0.002, 0.002, True),
                           ("flavor", 0.001, 0.001, False)],
-            "mol_grid_delta_fs": [0.5, 1.0, 1.5, 2.0, 2.5, 3.0], "mol_grid_ratio": [1, 2, 4], "mol_grid_steps": 2000}
+            "mol_grid_delta_fs": [0.5, 1.0, 1.5, 2.0, 2.5, 3.0], "mol_grid_ratio": [1, 2, 4], "mol_grid_steps": 2000,
+            "fpu_chains": 10, "fpu_omega": 200.0, "fpu_friction": 5.0, "fpu_tau": 0.0025,
+            "fpu_equilibrate_ps": 20.0, "fpu_sample_ps": 0.1, "fpu_chunk_ps": 400.0, "fpu_total_ps": 12000.0,
+            "fpu_burn_ps": 5.0,
+            "fpu_peers": [("langevin", 0.001, None), ("langevin", 0.008, None), ("sim", 0.04, True),
+                          ("sim", 0.04, False), ("sim", 0.1, True), ("sim", 0.1, False), ("flavor", 0.1, True),
+                          ("flavor", 0.2, True), ("flavor", 0.2, False)],
+            "fpu_replica_step": 0.1, "fpu_replica_runs": 20, "fpu_replica_ps": 3000.0}
 
 
 def main():
     parser = reporting.parser(__doc__, NAME, quick_help="smoke run of about 20 s (fewer steps, N, peers)")
     parser.add_argument("--replot", metavar="JSON", help="redraw the chart from an earlier run's JSON into --out")
+    parser.add_argument("--fpu-into", metavar="JSON", help="run only the FPU chains' comparison and write an earlier "
+                        "run's JSON with it added (and the chart) into --out")
     args = parser.parse_args()
     if args.replot:
         reporting.replot(args.replot, args.out, NAME, plot)
@@ -790,6 +1012,18 @@ def main():
     # adjustment keeps the sampling exact there, and the acceptance measures what the resonance costs.
     warnings.filterwarnings("ignore", category=openmmflavors.ResonanceWarning)
     p = parameters(args.quick)
+    if args.fpu_into:
+        with open(args.fpu_into) as f:
+            data = json.load(f)
+        fresh = {k: v for k, v in p.items() if k.startswith("fpu_")}
+        data["parameters"].update(fresh)
+        begin = time.perf_counter()
+        data["part2"]["fpu"] = fpu_part(p)
+        data["fpu_wall_s"] = time.perf_counter() - begin
+        report(data)
+        data = reporting.jsonable(data)
+        reporting.save_outputs(args.out, NAME, data, lambda path: plot(data, path))
+        return
     begin = time.perf_counter()
     runs = part1(p)
     data = {"quick": args.quick, "parameters": p, "kT_kJ_per_mol": KT, "part1": runs,

@@ -1,5 +1,6 @@
-"""examples/metropolis: with --quick it exits 0, writes its JSON and PNG, the acceptance falls with system size, and
-every effective-sample-size entry is a finite positive number."""
+"""examples/metropolis: with --quick it exits 0, writes its JSON and PNG, the acceptance falls with system size,
+every effective-sample-size entry (spring pairs, dipeptide, FPU chains) is a finite positive number, and the FPU
+chains' exact averages are the quadrature's."""
 import json
 import math
 import os
@@ -25,13 +26,17 @@ def test_metropolis_quick(tmp_path):
     # The nonintrusive FLAVOR at omega delta = 14 accepts (almost) nothing; the artificial one a useful fraction.
     assert adjusted[("flavor_nonintrusive", 10, 1.0)]["acceptance"] < 0.05
     assert adjusted[("flavor_artificial", 10, 1.0)]["acceptance"] > 0.2
-    for scene in ("pairs", "dipeptide"):
+    for scene in ("pairs", "dipeptide", "fpu"):
         part = data["part2"][scene]
         for peer in part["peers"].values():
             assert peer["finite"]
             for name, value in peer.items():
                 if isinstance(value, dict):
                     assert value["ess_per_s"] > 0 and math.isfinite(value["ess_per_s"]), (scene, name)
+        if scene == "fpu":
+            # Exact averages of 10 chains x 3 coordinates (transfer-matrix quadrature).
+            assert abs(part["U_exact"] - 168.3649) < 1e-3 and abs(part["X0sq_exact"] - 1.002490) < 1e-5
+            continue
         cost = data["part2"]["step_cost"][scene]
         assert cost["adjusted_over_unadjusted"]["median"] > 0
         assert cost["adjusted_over_langevin"]["median"] > 0

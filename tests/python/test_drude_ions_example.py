@@ -30,3 +30,15 @@ def test_drude_ions_quick(tmp_path):
         assert abs(run["induced_ratio"][0] - 1) < 0.05, label
         assert abs(run["induced_ratio_ions"][0] - 1) < 0.1, label
         assert run["t_drude"][0] < 20, label
+
+
+def test_stability_probe_quick(tmp_path):
+    """The --quick probe runs the SIM with and without the hard wall and writes one record per run."""
+    script = os.path.join(REPO_ROOT, "examples", "drude_ions", "stability_probe.py")
+    result = conftest.run_quick(script, tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "stability_probe.json") as f:
+        runs = json.load(f)["runs"]
+    assert sorted(run["wall_nm"] for run in runs) == [0.0, 0.02]
+    for run in runs:
+        assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run

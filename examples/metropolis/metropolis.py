@@ -337,16 +337,22 @@ def summarize_peer(peer, names):
     return entry
 
 
+def energy_and(of_positions):
+    """An observer of a Context: its potential energy (kJ/mol) and of_positions(positions in nm)."""
+    def observe(context):
+        state = context.getState(getPositions=True, getEnergy=True)
+        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+        return (state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole), of_positions(q))
+    return observe
+
+
 def pair_peers(p):
     s = SCHEMES["sim_strang"]
     n = p["ess_pairs"]
     system = pair_system(n, s["k"], s["K"])
     sample_ps = p["pair_sample_ps"]
 
-    def observe(context):
-        state = context.getState(getPositions=True, getEnergy=True)
-        q = state.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        return (state.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole), centre_square(q))
+    observe = energy_and(centre_square)
 
     peers = []
     for i, (kind, step, adjusted) in enumerate(p["pair_peers"]):
@@ -403,10 +409,7 @@ def dipeptide_peers(p):
     state = thermal_start(system, pdb, platform, properties, p["mol_equilibrate_ps"], 3)
     sample_ps = p["mol_sample_ps"]
 
-    def observe(ctx):
-        st = ctx.getState(getPositions=True, getEnergy=True)
-        q = st.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        return (st.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole), math.cos(dihedral(q, psi)))
+    observe = energy_and(lambda q: math.cos(dihedral(q, psi)))
 
     peers = []
     for i, (kind, step, tau, adjusted) in enumerate(p["mol_peers"]):
@@ -530,10 +533,7 @@ def fpu_peers(p, seed=400):
     del context
     sample_ps = p["fpu_sample_ps"]
 
-    def observe(ctx):
-        st = ctx.getState(getPositions=True, getEnergy=True)
-        q = st.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        return (st.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole), fpu_slow_square(q))
+    observe = energy_and(fpu_slow_square)
 
     peers = []
     for i, (kind, step, adjusted) in enumerate(p["fpu_peers"]):

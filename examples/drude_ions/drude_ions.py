@@ -107,8 +107,10 @@ def make_integrator(kind, step_fs, seed):
     return integrator
 
 
-def run_one(system, state, analysis, scf, kind, step_fs, settings, seed):
+def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm=0.0):
     integrator = make_integrator(kind, step_fs, seed)
+    if wall_nm > 0:
+        integrator.setMaxDrudeDistance(wall_nm)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
     integrator.step(int(round(settings["burn_ps"] * 1000 / step_fs)))
@@ -128,7 +130,7 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, seed):
             series["induced_ratio"].append(float(np.sum(d * d_scf) / np.sum(d_scf * d_scf)))
             ions = analysis.ion_pairs
             series["induced_ratio_ions"].append(float(np.sum(d[ions] * d_scf[ions]) / np.sum(d_scf[ions]**2)))
-    result = {"integrator": kind, "step_fs": step_fs, "steps": production.steps_done,
+    result = {"integrator": kind, "step_fs": step_fs, "wall_nm": wall_nm, "steps": production.steps_done,
               "ns_per_day": production.ns_per_day(step_fs)}
     for name, values in series.items():
         blocks = settings["blocks"] if not name.startswith("induced") else min(settings["blocks"], len(values))
@@ -148,6 +150,8 @@ def main():
     parser.add_argument("--sim-steps", type=float, nargs="+", default=[1.5, 2.0],
                         help="SIM steps H in fs (default 1.5 2; README: 2.5 fs is not stable here)")
     parser.add_argument("--seed", type=int, default=1, help="random seed of the run (default 1)")
+    parser.add_argument("--wall", type=float, default=0.0,
+                        help="the SIM runs' hard wall (setMaxDrudeDistance) in nm; 0 (default) for none")
     args = parser.parse_args()
     if args.quick:
         waters, pairs, cutoff, equilibration_ps = 64, 2, 0.55, 0.1
@@ -179,7 +183,8 @@ def main():
     print(f"DrudeLangevin {args.reference_step} fs done", flush=True)
     for step_fs in args.sim_steps:
         try:
-            runs.append(run_one(separated, state, analysis, scf, "WarpedMiddle", step_fs, settings, args.seed + 3))
+            runs.append(run_one(separated, state, analysis, scf, "WarpedMiddle", step_fs, settings, args.seed + 3,
+                                args.wall))
         except openmm.OpenMMException as e:
             runs.append({"integrator": "WarpedMiddle", "step_fs": step_fs, "failed": str(e)})
         print(f"WarpedMiddle {step_fs} fs done", flush=True)
@@ -189,7 +194,8 @@ def main():
              ("pe_per_pair", "PE per Drude pair"), ("ns_per_day", "ns/day")]
     print(f"\n{'run':24s}" + "".join(f"{label:>24s}" for _, label in names))
     for run in runs:
-        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs':24s}"
+        wall = f" wall {run['wall_nm']:g}" if run.get("wall_nm") else ""
+        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs' + wall:24s}"
         if "failed" in run:
             print(row + "  failed: " + run["failed"][:80])
             continue

@@ -287,3 +287,44 @@ TEST(FlowSchedule, DescribeScheduleWritesTheStepInTheArchitectureNotation) {
     EXPECT_EQ("K_S(H/2) E^ω̃M(H) K_S(H/2)   [E: zero modes 0 K, 0/ps, stiff modes 0 K, 0/ps]",
               describeSchedule(impulseSchedule(sim), Stiff, AllForceGroups, "H", ""));
 }
+
+// The Metropolis-adjusted step is the friction-free step between a ProposalStart and a ProposalTest of the integrated
+// groups, with the thermostat over half the step on each side; the test draws one random stream.
+TEST(FlowSchedule, MetropolisWrapsTheFrictionFreeStepBetweenHalfStepThermostats) {
+    const double delta = 0.01, tau = 0.001;
+    FlavorParameters adjusted = parameters(FlavorIntegrator::Verlet, delta, tau, 1.0);
+    adjusted.metropolis = true;
+    const Schedule core = flavorSchedule(parameters(FlavorIntegrator::Verlet, delta, tau));
+    const Schedule s = flavorSchedule(adjusted);
+    ASSERT_EQ(core.size() + 4, s.size());
+    EXPECT_EQ(thermostat(delta / 2), s.front());
+    EXPECT_EQ(thermostat(delta / 2), s.back());
+    EXPECT_EQ((SubFlow{SubFlow::ProposalStart, 0.0, AllForceGroups, Bath{0.0, 1.0}}), s[1]);
+    EXPECT_EQ((SubFlow{SubFlow::ProposalTest, 0.0, AllForceGroups, Bath{0.0, 1.0}}), s[s.size() - 2]);
+    EXPECT_EQ(core, Schedule(s.begin() + 2, s.end() - 2));
+    // Without friction no thermostat is left; the markers are kept though their length is 0.
+    adjusted.friction = 0.0;
+    const Schedule plain = flavorSchedule(adjusted);
+    ASSERT_EQ(core.size() + 2, plain.size());
+    EXPECT_EQ(SubFlow::ProposalStart, plain.front().kind);
+    EXPECT_EQ(SubFlow::ProposalTest, plain.back().kind);
+    const StepPlan plan = analyzeStep(s, false);
+    EXPECT_EQ(3, plan.noiseStreams); // two thermostats and the test
+    EXPECT_EQ(SubFlow::ProposalTest, plan.passes[plan.passes.size() - 2].flows[0].kind);
+    EXPECT_EQ(1u, plan.passes[plan.passes.size() - 2].flows.size());
+}
+
+// The hard wall closes the SIM step, with the stiff modes' bath for its thermal speed.
+TEST(FlowSchedule, HardWallClosesTheImpulseStep) {
+    ImpulseParameters walled{StochasticImpulseIntegrator::Strang, 0.002, Stiff, AllForceGroups};
+    walled.stiffBath = Bath{0.01, 20.0};
+    const Schedule unwalled = impulseSchedule(walled);
+    walled.maxDrudeDistance = 0.02;
+    const Schedule s = impulseSchedule(walled);
+    ASSERT_EQ(unwalled.size() + 1, s.size());
+    EXPECT_EQ(unwalled, Schedule(s.begin(), s.end() - 1));
+    EXPECT_EQ(SubFlow::HardWall, s.back().kind);
+    EXPECT_EQ(0.02, s.back().distance);
+    EXPECT_EQ(0.002, s.back().h);
+    EXPECT_EQ(0.01, s.back().stiffBath.kT);
+}

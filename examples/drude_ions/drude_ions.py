@@ -107,6 +107,17 @@ def make_integrator(kind, step_fs, seed):
     return integrator
 
 
+def equilibrated(system, positions, seed, ps):
+    """The original System minimized, then run ps with DrudeLangevin at 1 fs: the state every peer starts from."""
+    integrator = make_integrator("DrudeLangevin", 1.0, seed)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+    context.setPositions(positions)
+    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
+    context.setVelocitiesToTemperature(300 * unit.kelvin, seed + 1)
+    integrator.step(int(round(ps * 1000)))
+    return context.getState(getPositions=True, getVelocities=True)
+
+
 def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm=0.0):
     integrator = make_integrator(kind, step_fs, seed)
     if wall_nm > 0:
@@ -165,15 +176,7 @@ def main():
     print(f"{analysis.ions['NA']} Na+ and {analysis.ions['CL']} Cl- (SOD, CLA) in {waters} SWM4-NDP molecules: "
           f"{system.getNumParticles()} particles, {len(analysis.drudes)} Drude particles", flush=True)
 
-    # Equilibrate the original System: minimized, then DrudeLangevin at 1 fs.
-    integrator = make_integrator("DrudeLangevin", 1.0, args.seed)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
-    context.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
-    context.setVelocitiesToTemperature(300 * unit.kelvin, args.seed + 1)
-    integrator.step(int(round(equilibration_ps * 1000)))
-    state = context.getState(getPositions=True, getVelocities=True)
-    del context
+    state = equilibrated(system, positions, args.seed, equilibration_ps)
     scf = SelfConsistent(system, analysis)   # on the original System
 
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))

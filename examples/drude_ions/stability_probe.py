@@ -20,18 +20,8 @@ import openmm
 import openmm.unit as unit
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from drude_ions import SPRING_GROUP, Analysis, build, make_integrator  # noqa: E402
+from drude_ions import SPRING_GROUP, Analysis, build, equilibrated, make_integrator  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
-
-
-def equilibrated(system, positions, seed, ps):
-    integrator = make_integrator("DrudeLangevin", 1.0, seed)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
-    context.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
-    context.setVelocitiesToTemperature(300 * unit.kelvin, seed + 1)
-    integrator.step(int(round(ps * 1000)))
-    return context.getState(getPositions=True, getVelocities=True)
 
 
 def probe(separated, state, analysis, step_fs, wall_nm, seed, ps, frames):

@@ -75,8 +75,7 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
         slotForces[s].initialize(cc, numParticles, doubles ? 4 * sizeof(double) : 4 * sizeof(float),
                                  "flavorSlotForces" + std::to_string(s));
     slotValid.assign(MaxForceSlots, false);
-    slotClocked.assign(MaxForceSlots, false);
-    slotClock.assign(MaxForceSlots, 0.0);
+    slotClock.assign(MaxForceSlots, SlotClock());
     copyForcesKernel->addArg(cc.getLongForceBuffer());
     copyForcesKernel->addArg(slotForces[0]);
     copyForcesKernel->addArg(cc.getAtomIndexArray());
@@ -304,13 +303,12 @@ void CommonFlowStepper::placeVirtualSites() {
 
 void CommonFlowStepper::ensureForces(ContextImpl& context, int slot, bool clocked, double clock) {
     // A slot evaluated at these positions with another clock value holds other forces.
-    if (slotValid[slot] && (!clocked || (slotClocked[slot] && slotClock[slot] == clock)))
+    if (slotValid[slot] && slotClock[slot].serves(clocked, clock))
         return;
     placeVirtualSites();
     if (clocked)
         context.setParameter(stiffClock.getParameter(), clock);
-    slotClocked[slot] = clocked;
-    slotClock[slot] = clock;
+    slotClock[slot] = SlotClock{clocked, clock};
     context.calcForcesAndEnergy(true, false, plan.slotGroups[slot]);
     copyForcesKernel->setArg(1, slotForces[slot]);
     copyForcesKernel->execute(cc.getNumAtoms());

@@ -95,9 +95,8 @@ private:
     OpenMM::ComputeKernel copyForcesKernel, findAtomsKernel, driftDisplacementKernel, applyDisplacementKernel;
     std::vector<OpenMM::ComputeArray> slotForces;
     std::vector<bool> slotValid;
-    // Per slot: whether its forces were evaluated with the clock parameter set, and to what.
-    std::vector<bool> slotClocked;
-    std::vector<double> slotClock;
+    // Per slot: the stiff clock value its forces were evaluated at, if any.
+    std::vector<SlotClock> slotClock;
     StiffClock stiffClock;
     OpenMM::ComputeArray kn, wn, fn, thermalSpeed, thermostated, slotOf;
     // Per pass, per flow: the kernel with its arguments set (the stream of a thermostat is set per step).

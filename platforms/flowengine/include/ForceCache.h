@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_FORCE_CACHE_H_
 #define OPENMM_FLAVORS_FORCE_CACHE_H_
 
+#include "StiffClock.h"
 #include "openmm/Vec3.h"
 #include <string>
 #include <vector>
@@ -48,9 +49,7 @@ private:
     struct Slot {
         int groups;
         bool valid;
-        // Whether the forces were evaluated with the clock parameter set, and to what.
-        bool clocked = false;
-        double clock = 0.0;
+        SlotClock evaluatedAt;
         bool withEnergy = false;
         double energy = 0.0;
         std::vector<OpenMM::Vec3> forces;

@@ -2,6 +2,7 @@
 #define OPENMM_FLAVORS_PARTICLE_TABLE_H_
 
 #include "openmm/System.h"
+#include "openmm/Vec3.h"
 #include <vector>
 
 namespace FlavorPlugin {
@@ -18,6 +19,8 @@ struct ParticleTable {
     std::vector<double> coordinateInverseMasses, coordinateMovable;
     /** 1 for particles that a System constraint names. */
     std::vector<char> constrained;
+    /** The kinetic energy of velocities (kJ/mol), summed in the System's order. */
+    double kineticEnergy(const std::vector<OpenMM::Vec3>& velocities) const;
 };
 
 } // namespace FlavorPlugin

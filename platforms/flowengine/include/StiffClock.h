@@ -7,6 +7,14 @@
 
 namespace FlavorPlugin {
 
+/** The stiff clock value a slot of forces was evaluated at, if any. */
+struct SlotClock {
+    bool clocked = false;
+    double clock = 0.0;
+    /** Whether these forces serve a read: a clocked read needs forces evaluated at its clock value. */
+    bool serves(bool clockedRead, double readClock) const { return !clockedRead || (clocked && clock == readClock); }
+};
+
 /**
  * The stiff clock of a FlavorIntegrator (setStiffClockParameter), the same on every platform: it advances tau per
  * mesostep, and starts at the Context's time times tau/delta at the first step, whenever the time was set from

@@ -127,11 +127,7 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
 
 double FlowStepRunner::kineticEnergy(ContextImpl& context) const {
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
-    const vector<Vec3>& velocities = *data.velocities;
-    double energy = 0.0;
-    for (int i = 0; i < particles.numParticles; ++i)
-        energy += particles.masses[i] * velocities[i].dot(velocities[i]);
-    return 0.5 * energy;
+    return particles.kineticEnergy(*data.velocities);
 }
 
 void FlowStepRunner::forgetStepHistory() {

@@ -19,13 +19,12 @@ void ForceCache::setSlots(const std::vector<int>& slotGroups, int numParticles, 
 const std::vector<Vec3>& ForceCache::get(ContextImpl& context, int slotIndex, bool clocked, double clock) {
     Slot& slot = slots[slotIndex];
     // A slot evaluated at these positions with another clock value holds other forces.
-    if (slot.valid && (!clocked || (slot.clocked && slot.clock == clock)))
+    if (slot.valid && slot.evaluatedAt.serves(clocked, clock))
         return slot.forces;
     placeVirtualSites(context);
     if (clocked)
         context.setParameter(clockParameter, clock);
-    slot.clocked = clocked;
-    slot.clock = clock;
+    slot.evaluatedAt = SlotClock{clocked, clock};
     slot.energy = context.calcForcesAndEnergy(true, slot.withEnergy, slot.groups);
     // Take the platform's force buffer instead of copying it; the platform refills whatever buffer it holds.
     auto* data = reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());

@@ -2,6 +2,13 @@
 
 using namespace FlavorPlugin;
 
+double ParticleTable::kineticEnergy(const std::vector<OpenMM::Vec3>& velocities) const {
+    double twice = 0.0;
+    for (int i = 0; i < numParticles; ++i)
+        twice += masses[i] * velocities[i].dot(velocities[i]);
+    return 0.5 * twice;
+}
+
 ParticleTable::ParticleTable(const OpenMM::System& system)
     : numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0), hasVirtualSites(false) {
     masses.resize(numParticles);

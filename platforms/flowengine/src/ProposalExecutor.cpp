@@ -59,24 +59,17 @@ void ProposalExecutor::run(const FlowPass& pass, size_t /*passIndex*/, StepState
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(state.context.getPlatformData());
     vector<Vec3>& positions = *data.positions;
     vector<Vec3>& velocities = *data.velocities;
-    const vector<double>& masses = parts.particles.masses;
-    auto kineticEnergy = [&] {
-        double twice = 0.0;
-        for (size_t i = 0; i < velocities.size(); ++i)
-            twice += masses[i] * velocities[i].dot(velocities[i]);
-        return 0.5 * twice;
-    };
     const SubFlow& flow = pass.flows[0];
     if (flow.kind == SubFlow::ProposalStart) {
         if (!energyKnown)
             startPotential = totalEnergy(state.context);
-        startKinetic = kineticEnergy();
+        startKinetic = parts.particles.kineticEnergy(velocities);
         startPositions = positions;
         startVelocities = velocities;
         return;
     }
     const double potential = totalEnergy(state.context);
-    const double change = (potential + kineticEnergy()) - (startPotential + startKinetic);
+    const double change = (potential + parts.particles.kineticEnergy(velocities)) - (startPotential + startKinetic);
     const double uniform = parts.random.uniform(state.firstStream + (std::uint64_t)pass.streams[0]);
     // A NaN energy (a proposal that blew up) is rejected.
     const bool accepted = change <= 0.0 || uniform < std::exp(-change / flow.bath.kT);

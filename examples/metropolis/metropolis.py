@@ -623,48 +623,55 @@ def cost_summary(times, numerator, denominator):
             "q3": float(q3), "rounds": len(ratios)}
 
 
+def cost_of(makers, new_context, steps, rounds, adjusted, unadjusted, step_fs, langevin_step_fs):
+    """Interleaved cost per step of the integrators makers[name]() on contexts from new_context(integrator), and the
+    adjusted one against the unadjusted one and against LangevinMiddle ("langevin_middle")."""
+    integrators, contexts = {}, []
+    for name, make in makers:
+        integrator = make()
+        contexts.append(new_context(integrator))
+        integrators[name] = integrator
+    times = step_costs(integrators, steps, rounds)
+    return {"step_fs": step_fs, "langevin_step_fs": langevin_step_fs,
+            "us_per_step_median": {k: float(np.median(v)) for k, v in times.items()},
+            "adjusted_over_unadjusted": cost_summary(times, adjusted, unadjusted),
+            "adjusted_over_langevin": cost_summary(times, adjusted, "langevin_middle")}
+
+
 def overhead(p):
     """The adjustment's cost per step: adjusted against unadjusted, same integrator and step, and against
     LangevinMiddle at the same step, on each scene's system and platform."""
-    result = {}
     s = SCHEMES["sim_strang"]
     n = p["ess_pairs"]
     system = pair_system(n, s["k"], s["K"])
-    integrators, contexts = {}, []
-    for name, make in (("sim_adjusted", lambda: sim(0.1, s["friction"], True, 1)),
-                       ("sim_unadjusted", lambda: sim(0.1, s["friction"], False, 2)),
-                       # LangevinMiddle at its own stable step (a step costs the same at any h).
-                       ("langevin_middle", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, s["friction"], 0.001))):
-        integrator = make()
+
+    def pair_context(integrator):
         context = mm.Context(system, integrator, reference_platform())
         pair_start(context, n, s["k"], s["K"], 3)
-        integrators[name] = integrator
-        contexts.append(context)
-    times = step_costs(integrators, p["cost_steps_pairs"], p["cost_rounds"])
-    result["pairs"] = {"step_fs": 100.0, "langevin_step_fs": 1.0,
-                       "us_per_step_median": {k: float(np.median(v)) for k, v in times.items()},
-                       "adjusted_over_unadjusted": cost_summary(times, "sim_adjusted", "sim_unadjusted"),
-                       "adjusted_over_langevin": cost_summary(times, "sim_adjusted", "langevin_middle")}
-    del contexts
-    system, pdb, _ = dipeptide_system()
+        return context
+
+    result = {"pairs": cost_of(
+        (("sim_adjusted", lambda: sim(0.1, s["friction"], True, 1)),
+         ("sim_unadjusted", lambda: sim(0.1, s["friction"], False, 2)),
+         # LangevinMiddle at its own stable step (a step costs the same at any h).
+         ("langevin_middle", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, s["friction"], 0.001))),
+        pair_context, p["cost_steps_pairs"], p["cost_rounds"], "sim_adjusted", "sim_unadjusted", 100.0, 1.0)}
+    dipeptide, pdb, _ = dipeptide_system()
     platform, properties = dipeptide_platform()
-    integrators, contexts = {}, []
-    for name, make in (("flavor_adjusted", lambda: flavor(0.001, 0.001, FlavorIntegrator.Nonintrusive, 1.0, True, 1)),
-                       ("flavor_unadjusted",
-                        lambda: flavor(0.001, 0.001, FlavorIntegrator.Nonintrusive, 1.0, False, 2)),
-                       ("langevin_middle", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, 1.0, 0.001))):
-        integrator = make()
-        context = mm.Context(system, integrator, platform, properties)
+
+    def dipeptide_context(integrator):
+        context = mm.Context(dipeptide, integrator, platform, properties)
         context.setPositions(pdb.positions)
         mm.LocalEnergyMinimizer.minimize(context)
         context.setVelocitiesToTemperature(TEMPERATURE, 4)
-        integrators[name] = integrator
-        contexts.append(context)
-    times = step_costs(integrators, p["cost_steps_dipeptide"], p["cost_rounds"])
-    result["dipeptide"] = {"step_fs": 1.0, "langevin_step_fs": 1.0,
-                           "us_per_step_median": {k: float(np.median(v)) for k, v in times.items()},
-                           "adjusted_over_unadjusted": cost_summary(times, "flavor_adjusted", "flavor_unadjusted"),
-                           "adjusted_over_langevin": cost_summary(times, "flavor_adjusted", "langevin_middle")}
+        return context
+
+    result["dipeptide"] = cost_of(
+        (("flavor_adjusted", lambda: flavor(0.001, 0.001, FlavorIntegrator.Nonintrusive, 1.0, True, 1)),
+         ("flavor_unadjusted", lambda: flavor(0.001, 0.001, FlavorIntegrator.Nonintrusive, 1.0, False, 2)),
+         ("langevin_middle", lambda: mm.LangevinMiddleIntegrator(TEMPERATURE, 1.0, 0.001))),
+        dipeptide_context, p["cost_steps_dipeptide"], p["cost_rounds"], "flavor_adjusted", "flavor_unadjusted", 1.0,
+        1.0)
     return result
 
 

@@ -517,10 +517,10 @@ def plot(data, path):
                     not k.endswith("_error") and k != "bond_rms all"] if stable else []
     relative = reference is not None
     errorbar_panel(axes[4], [("bond_rms " + c, c) for c in bond_classes],
-                   "bond RMS deviation per element pair (% from the reference)" if relative else
+                   "bond RMS deviation, change from the reference (%)" if relative else
                    "bond length RMS deviation per element pair (nm)", True, relative)
     errorbar_panel(axes[5], [("angle_rms with H", "angles with H"), ("angle_rms heavy atoms", "heavy-atom angles")],
-                   "angle RMS deviation from θ0 (% from the reference)" if relative else
+                   "angle RMS deviation, change from the reference (%)" if relative else
                    "angle RMS deviation from θ0 (°)", False, relative)
     errorbar_panel(axes[6], [("backbone_rmsd", "mean over production")], "backbone RMSD from the start (nm)", False)
     ax = axes[7]
@@ -550,8 +550,9 @@ def plot(data, path):
             "ArtificialProjected (mesostep δ, microstep τ) against LangevinMiddle 2 fs (the reference), LangevinMiddle "
             "with hydrogen mass repartitioning (HMR: H mass in amu)" +
             (" and MTSLangevin" if any(r["name"].startswith("MTSLangevin") for r in records) else ""))
-    fig.suptitle(textwrap.fill(verdict(stable, reference) if reference is not None else "the reference failed", 190)
-                 + "\n" + textwrap.fill(what, 190), fontsize=13)
+    fig.suptitle(textwrap.fill(what, 190) + "\n" + textwrap.fill(
+        "Verdict: " + (verdict(stable, reference) if reference is not None else "the reference failed"), 190),
+                 fontsize=13)
     fig.tight_layout(rect=(0, 0.035, 1, 0.94))
     reporting.save_figure(fig, path, dpi=80)
 

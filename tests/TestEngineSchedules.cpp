@@ -62,11 +62,6 @@ ForceImpl* ContextImplProbe::createImpl() const {
     return new ContextImplProbeImpl(*this);
 }
 
-class SerialLoop : public ParallelLoop {
-public:
-    void run(const RangeTask& task, int count) override { task.apply(0, count); }
-};
-
 /** The flow-first Strang step over H: the stiff flow's settings are those of a frictionless SIM. */
 Schedule flowFirstStrang(double H, int softGroups) {
     SubFlow halfFlow{SubFlow::StiffFlow, H / 2, 0};

@@ -3,8 +3,8 @@
 
 #include "FlavorKernels.h"
 #include "FlowStepRunner.h"
+#include "FrozenCoordinates.h"
 #include "RunnerKernel.h"
-#include "StiffProbe.h"
 #include "internal/windowsExportFlavors.h"
 #include <memory>
 
@@ -25,16 +25,8 @@ public:
     int getNumFrozen() const override;
 
 private:
-    /**
-     * Decides what the artificial averagings freeze: the nonzero modes of a quadratic stiff group, or the distances
-     * of the stiff bonded forces and those added with FlavorIntegrator::addFrozenDistance().
-     */
-    void determineFrozenCoordinates(OpenMM::ContextImpl& context, const FlavorIntegrator& integrator,
-                                    const FlavorParameters& current);
     std::unique_ptr<ParallelLoop> loop;
-    std::unique_ptr<StiffModesMeasurement> measurement;
-    std::shared_ptr<FrozenDistances> frozenDistances;
-    std::vector<std::pair<int, int>> frozenPairs;
+    std::unique_ptr<FrozenCoordinates> frozen;
     bool configured;
     FlavorParameters parameters;
     // The stiff clock parameter the runner was given (FlavorIntegrator::setStiffClockParameter).

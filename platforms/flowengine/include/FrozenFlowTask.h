@@ -3,6 +3,7 @@
 
 #include "ParticleFlows.h"
 #include "StiffModes.h"
+#include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
 #include <cstddef>
 #include <vector>
@@ -21,7 +22,7 @@ namespace FlavorPlugin {
  * modes (P0 = 1); massless particles belong to no component and never move.  The step engine sets the fields before
  * each run.
  */
-class FrozenFlowTask : public RangeTask {
+class OPENMM_EXPORT_FLAVORS FrozenFlowTask : public RangeTask {
 public:
     /** Lists each component's zero modes and sizes the scratch; nothing is allocated later. */
     explicit FrozenFlowTask(const StiffModes& modes);

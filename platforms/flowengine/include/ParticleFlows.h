@@ -50,6 +50,12 @@ public:
     virtual void run(const RangeTask& task, int count) = 0;
 };
 
+/** A ParallelLoop on the calling thread alone. */
+class SerialLoop : public ParallelLoop {
+public:
+    void run(const RangeTask& task, int count) override { task.apply(0, count); }
+};
+
 /**
  * Everything one pass over the particles needs.  apply() is the only place where kicks, drifts and
  * Ornstein-Uhlenbeck flows touch particle data, for every platform.

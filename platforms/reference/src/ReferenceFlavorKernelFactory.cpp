@@ -13,12 +13,6 @@ using namespace OpenMM;
 
 namespace {
 
-/** Plain loops: the obviously correct way to run a task. */
-class SerialLoop : public ParallelLoop {
-public:
-    void run(const RangeTask& task, int count) override { task.apply(0, count); }
-};
-
 class ReferenceFlavorKernelFactory : public KernelFactory {
 public:
     KernelImpl* createKernelImpl(std::string name, const Platform& platform, ContextImpl& /*context*/) const override {

@@ -17,26 +17,20 @@ namespace FlavorTests {
  */
 inline const std::vector<std::string>& suitesNotOnOpenCL() {
     static const std::vector<std::string> suites = {
-        "EngineSchedules",       // runs the CPU-side engine (FlowStepRunner) on Reference and CPU particle data
-        "FlavorAccuracy",        // blow-up past 1e50 (OpenCL's fixed-point forces saturate); a 20 s run on PoCL
-        "FlavorArtificial",      // artificial averagings (frozen stage)
-        "FlavorFrozenMomenta",   // artificial averagings (frozen distances)
-        "FlavorMiddle",          // artificial averagings (Middle placement)
-        "FlavorPlanarAngles",    // artificial averagings
-        "FlavorRigidNeighbours", // artificial averagings beside rigid water
-        "FlavorSystems",         // artificial averagings; bit-for-bit agreement with Reference
-        "ImpulseApi",            // constraints beside stiff components; frequencies to 1e-9 (fixed-point forces)
-        "ImpulseConstraints",    // constraints beside stiff components (carried components)
-        "ImpulseExact",          // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
-        "ImpulseFiltered",       // Filtered and Warped splittings
-        "ImpulseHardWall",       // the hard wall (setMaxDrudeDistance)
-        "ImpulseMiddle",         // Filtered and Warped splittings (Middle placement)
-        "ImpulseModeBath",       // Warped splitting
-        "IntegratorGuards",      // artificial averagings; single-precision re-measurement after a failed load
-        "MetropolisAdjusted",    // the Metropolis adjustment (setMetropolis)
-        "StepAllocations",       // counts the CPU engine's allocations
-        "StoredTrajectories",    // trajectories stored bit for bit on Reference and CPU
-        "ThreadedPaths",         // the CPU platform's thread pool
+        "EngineSchedules",    // runs the CPU-side engine (FlowStepRunner) on Reference and CPU particle data
+        "FlavorAccuracy",     // blow-up past 1e50 (OpenCL's fixed-point forces saturate); a 20 s run on PoCL
+        "ImpulseApi",         // constraints beside stiff components; frequencies to 1e-9 (fixed-point forces)
+        "ImpulseConstraints", // constraints beside stiff components (carried components)
+        "ImpulseExact",       // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
+        "ImpulseFiltered",    // Filtered and Warped splittings
+        "ImpulseHardWall",    // the hard wall (setMaxDrudeDistance)
+        "ImpulseMiddle",      // Filtered and Warped splittings (Middle placement)
+        "ImpulseModeBath",    // Warped splitting
+        "IntegratorGuards",   // SIM in single precision: the stiff modes re-measured after a failed load differ
+        "MetropolisAdjusted", // the Metropolis adjustment (setMetropolis)
+        "StepAllocations",    // counts the CPU engine's allocations
+        "StoredTrajectories", // trajectories stored bit for bit on Reference and CPU
+        "ThreadedPaths",      // the CPU platform's thread pool
     };
     return suites;
 }
@@ -72,6 +66,12 @@ class PlatformTest : public ::testing::TestWithParam<std::string> {
 protected:
     OpenMM::Platform& platform() const { return OpenMM::Platform::getPlatformByName(GetParam()); }
     bool isCpu() const { return GetParam() == "CPU"; }
+    /**
+     * OpenCL computes harmonic bond and angle forces about 1e-6 relative off Reference's even in double precision
+     * (measured on PoCL: 6e-4 kJ/mol/nm of 815), accumulates forces in fixed point and holds System constraints with
+     * its own SETTLE and CCMA to about 1e-9 nm.  Comparisons that hold to double rounding on Reference and CPU hold
+     * there to what that allows: each test states its OpenCL bound beside the one it keeps elsewhere.
+     */
     bool isOpenCL() const { return GetParam() == "OpenCL"; }
     /** Context properties; threads > 0 fixes the CPU platform's thread count.  OpenCL runs in double precision. */
     std::map<std::string, std::string> properties(int threads = 0) const {

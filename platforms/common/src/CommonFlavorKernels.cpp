@@ -49,7 +49,7 @@ void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, con
 CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, string owner, string platformName)
     : cc(cc), system(system), owner(std::move(owner)), platformName(std::move(platformName)),
       numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0), hasVirtualSites(false),
-      history(system.getNumParticles()) {
+      history(system.getNumParticles()), frozenStage(cc, system) {
     for (int i = 0; i < numParticles; ++i)
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     ContextSelector selector(cc);
@@ -153,6 +153,17 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     prepare();
 }
 
+void CommonFlowStepper::setFrozenCoordinates(std::shared_ptr<const StiffModes> frozenModes,
+                                             std::shared_ptr<FrozenDistances> distances) {
+    // The exact fast flow (HarmonicFlow) runs on the device over the same modes.
+    if (frozenModes)
+        setStiffModes(frozenModes);
+    frozenStage.setStiffModes(std::move(frozenModes));
+    frozenStage.setDistances(std::move(distances));
+    if (!plan.passes.empty())
+        prepare();
+}
+
 void CommonFlowStepper::setFrictionParticles(const vector<int>& particles) {
     if (frictionParticlesSet && particles == frictionParticles)
         return;
@@ -232,14 +243,18 @@ void CommonFlowStepper::prepare() {
                 addRandomArgs(kernel);
                 break;
             }
-            case SubFlow::StiffFlow: {
+            case SubFlow::StiffFlow:
+            case SubFlow::HarmonicFlow: {
                 if (!modes)
                     break; // prepared again when the modes are measured
+                // HarmonicFlow: the exact flow over the modes with the flow's own baths, exact frequencies and no
+                // Middle zero-mode flow, as the CPU engine computes it.
+                const bool harmonic = flow.kind == SubFlow::HarmonicFlow;
                 StiffModes::Propagator propagator;
-                const bool middleFlow = flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
+                const bool middleFlow = !harmonic && flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
                 modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
                                          flow.stiffBath.kT, propagator,
-                                         flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
+                                         !harmonic && flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
                 uploadMixed(cc, propagators[p], propagator.data, "flavorPropagator");
                 vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
                 uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
@@ -267,11 +282,18 @@ void CommonFlowStepper::prepare() {
                 addRandomArgs(kernel);
                 break;
             }
-            case SubFlow::FilteredStiffFlow:
-            case SubFlow::FilteredKick:
-            case SubFlow::HarmonicFlow:
             case SubFlow::FrozenDrift:
             case SubFlow::FrozenKick:
+                // The zero-mode projection moves stiff particles along the modes alone; constrained particles would
+                // need the device's constraint algorithms in between (the CPU engine's ConstraintProjector).
+                if (flow.frozen == SubFlow::FrozenSet::StiffModes && hasConstraints)
+                    throw OpenMMException(owner + " on the " + platformName +
+                                          " platform: freezing the modes of a quadratic stiff group in a System "
+                                          "with constraints is not supported there yet; use the Reference or CPU "
+                                          "platform");
+                break; // runs on the host (HostFrozenStage)
+            case SubFlow::FilteredStiffFlow:
+            case SubFlow::FilteredKick:
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
             case SubFlow::HardWall:
@@ -372,6 +394,17 @@ void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
     invalidateForces();
 }
 
+void CommonFlowStepper::runFrozenPass(ContextImpl& context, const FlowPass& pass, double constraintTolerance) {
+    // Frozen passes hold one sub-flow each (analyzeStep).
+    const SubFlow& flow = pass.flows[0];
+    const bool kick = flow.kind == SubFlow::FrozenKick;
+    if (kick)
+        ensureForces(context, pass.slots[0]);
+    frozenStage.run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance, !pass.othersFixedLater);
+    if (!kick)
+        invalidateForces();
+}
+
 void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ContextSelector selector(cc);
     if (!forcesValid)
@@ -389,8 +422,10 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
             fusedStep = pass.flows[0].h;
             continue;
         }
-        if (pass.flows[0].kind == SubFlow::StiffFlow)
+        if (pass.flows[0].kind == SubFlow::StiffFlow || pass.flows[0].kind == SubFlow::HarmonicFlow)
             runStiffFlow(pass, p);
+        else if (pass.flows[0].kind == SubFlow::FrozenDrift || pass.flows[0].kind == SubFlow::FrozenKick)
+            runFrozenPass(context, pass, constraintTolerance);
         else
             runParticlePass(pass, p, constraintTolerance);
     }
@@ -446,6 +481,7 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     nextStream = storedStream;
     stiffClock.setState(storedClock);
     history.load(storedHistory);
+    frozenStage.forgetFactorizations();
     invalidateForces();
 }
 
@@ -477,33 +513,50 @@ string splittingName(StochasticImpulseIntegrator::Splitting splitting) {
 } // namespace
 
 void CommonFlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
+    // Both ends of every added frozen distance stay in one periodic image (HostFrozenStage), declared before the
+    // platform groups the particles into molecules.
+    vector<std::pair<int, int>> extraPairs;
+    for (int i = 0; i < integrator.getNumFrozenDistances(); ++i) {
+        int p1, p2;
+        integrator.getFrozenDistance(i, p1, p2);
+        extraPairs.emplace_back(p1, p2);
+    }
+    if (!extraPairs.empty())
+        cc.addForce(new FrozenPairsInfo(extraPairs));
     // The platform sets up its buffers (forces, atom order) before the kernels use them, as OpenMM's own do.
     cc.initializeContexts();
     ContextSelector selector(cc);
     stepper = std::make_unique<CommonFlowStepper>(cc, system, FlavorName, getPlatform().getName());
     stepper->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
+    frozen = std::make_unique<FrozenCoordinates>(system);
 }
 
 void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
-                                     bool& /*stiffModesValid*/) {
+                                     bool& stiffModesValid) {
     ContextSelector selector(cc);
     FlavorParameters current = flavorParameters(integrator);
+    current.frozen = frozen->getScheduledSet();
     validateFlavorStep(current);
-    if (current.averaging != FlavorIntegrator::Nonintrusive)
-        throw OpenMMException(
-            string(FlavorName) + " on the " + getPlatform().getName() + " platform: the averaging " +
-            (current.averaging == FlavorIntegrator::Artificial ? "Artificial" : "ArtificialProjected") +
-            " (FlavorIntegrator::setAveraging) is not supported there yet; use the Nonintrusive "
-            "averaging, or the Reference or CPU platform");
     if (current.metropolis)
         throw OpenMMException(string(FlavorName) + " on the " + getPlatform().getName() +
                               " platform: the Metropolis adjustment (FlavorIntegrator::setMetropolis(true)) is not "
                               "supported there yet; set it to false, or use the Reference or CPU platform");
+    // What the artificial averagings freeze is decided where the first step starts and after anything that may
+    // change it, as on the other platforms (FrozenCoordinates).
+    if (current.averaging != FlavorIntegrator::Nonintrusive &&
+        (!stiffModesValid || frozen->getFrozenSet() == SubFlow::FrozenSet::None)) {
+        if (frozen->determine(context, integrator, current))
+            stepper->setFrozenCoordinates(frozen->getDistances() ? nullptr : frozen->getModes(),
+                                          frozen->getDistances());
+        stiffModesValid = true;
+        current.frozen = frozen->getScheduledSet();
+        validateFlavorStep(current);
+    }
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         parameters = current;
         stepper->setSchedule(flavorSchedule(parameters), [](SubFlow::Kind) {
-            return string("the artificial averagings' sub-flows (FlavorIntegrator::setAveraging)");
+            return string("the Metropolis adjustment (FlavorIntegrator::setMetropolis)");
         });
         configured = true;
     }

@@ -3,6 +3,8 @@
 
 #include "ContextRollback.h"
 #include "FlavorKernels.h"
+#include "FrozenCoordinates.h"
+#include "HostFrozenStage.h"
 #include "ParticleFlows.h"
 #include "StepHistory.h"
 #include "StiffClock.h"
@@ -44,6 +46,12 @@ public:
     void setSchedule(const Schedule& schedule, const std::function<std::string(SubFlow::Kind)>& unsupported);
     /** Sets the decomposed stiff potential that StiffFlow applies and uploads its constant parts. */
     void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    /**
+     * Sets what FrozenDrift and FrozenKick hold: the nonzero modes of modes, or the distances (one of them null).
+     * Those passes run on the host (HostFrozenStage).
+     */
+    void setFrozenCoordinates(std::shared_ptr<const StiffModes> frozenModes,
+                              std::shared_ptr<FrozenDistances> distances);
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
     void setFrictionParticles(const std::vector<int>& particles);
     /** Sets the seed of the random streams and restarts them. */
@@ -61,7 +69,11 @@ public:
     void createCheckpoint(std::ostream& stream) const;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream);
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
-    void forgetStepHistory() { history.forget(); }
+    /** Forgets what the next step would take from the last one (a state set from outside), as FlowStepRunner does. */
+    void forgetStepHistory() {
+        history.forget();
+        frozenStage.forgetFactorizations();
+    }
 
 private:
     /** Analyses the schedule, checks that every sub-flow is supported and precomputes the constants of each pass. */
@@ -73,6 +85,7 @@ private:
     void invalidateForces();
     void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
     void runStiffFlow(const FlowPass& pass, size_t passIndex);
+    void runFrozenPass(OpenMM::ContextImpl& context, const FlowPass& pass, double constraintTolerance);
     /** Adds the key and ziggurat arguments of the random streams to a kernel. */
     void addRandomArgs(OpenMM::ComputeKernel& kernel);
 
@@ -107,11 +120,15 @@ private:
         scratch, scratchOffset;
     std::vector<OpenMM::ComputeArray> propagators, propagatorOffsets;
     std::vector<int> propagatorNoisy;
+    HostFrozenStage frozenStage;
     int fusedSlot = -1;
     double fusedStep = 0.0;
 };
 
-/** The FlavorIntegrator kernel of the common compute platforms: the nonintrusive averaging. */
+/**
+ * The FlavorIntegrator kernel of the common compute platforms: the nonintrusive averaging on the device, the artificial
+ * ones with their frozen stage on the host (HostFrozenStage).
+ */
 class CommonFlavorStepKernel : public IntegrateFlavorStepKernel {
 public:
     CommonFlavorStepKernel(std::string name, const OpenMM::Platform& platform, OpenMM::ComputeContext& cc)
@@ -126,13 +143,13 @@ public:
     void forgetStepHistory() override;
     /** This platform has no Metropolis-adjusted step (execute() rejects it): no proposals. */
     void getProposalCounts(long long& proposed, long long& accepted) const override { proposed = accepted = 0; }
-    // The artificial averagings are not on this backend yet: nothing freezes.
-    int getFrozenSet() const override { return (int)SubFlow::FrozenSet::None; }
-    int getNumFrozen() const override { return 0; }
+    int getFrozenSet() const override { return frozen ? (int)frozen->getFrozenSet() : 0; }
+    int getNumFrozen() const override { return frozen ? frozen->getNumFrozen() : 0; }
 
 private:
     OpenMM::ComputeContext& cc;
     std::unique_ptr<CommonFlowStepper> stepper;
+    std::unique_ptr<FrozenCoordinates> frozen;
     bool configured = false;
     FlavorParameters parameters;
 };

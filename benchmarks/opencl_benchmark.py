@@ -7,8 +7,8 @@ drained before the clock stops.
 
 Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
   drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs.  The scene's SIM
-                  peer (Warped splitting, Middle placement, 2.5 fs, on rigid water) is NOT available on OpenCL yet: the
-                  Warped splitting, the Middle placement and SIMs on Systems with constraints are rejected there.
+                  peer (Warped splitting, Middle placement, 2.5 fs, on rigid water) is NOT available on OpenCL yet: SIMs
+                  on Systems with constraints are rejected there.
                   The script still tries to create it and records OpenMM's error; nothing is timed for it.
   flexible_water  flexible TIP3P water (PME; examples/flexible_water): LangevinMiddle flexible 0.5, 1 and 2 fs against
                   the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,

@@ -44,6 +44,13 @@ void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, con
     array.upload(values);
 }
 
+/** A per-particle array of mixed4 on the device (system order), zero. */
+void initializeMixed4(ComputeContext& cc, ComputeArray& array, int size, const string& name) {
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    array.initialize(cc, size, doubles ? 4 * sizeof(double) : 4 * sizeof(float), name);
+    cc.clearBuffer(array);
+}
+
 } // namespace
 
 CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, string owner, string platformName)
@@ -75,6 +82,8 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
         slotForces[s].initialize(cc, numParticles, doubles ? 4 * sizeof(double) : 4 * sizeof(float),
                                  "flavorSlotForces" + std::to_string(s));
     slotValid.assign(MaxForceSlots, false);
+    initializeMixed4(cc, forceDifferences, numParticles, "flavorForceDifferences");
+    initializeMixed4(cc, openingForces, numParticles, "flavorOpeningForces");
     slotClock.assign(MaxForceSlots, SlotClock());
     copyForcesKernel->addArg(cc.getLongForceBuffer());
     copyForcesKernel->addArg(slotForces[0]);
@@ -114,9 +123,9 @@ void CommonFlowStepper::setSchedule(const Schedule& newSchedule,
 void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes) {
     modes = newModes;
     ContextSelector selector(cc);
-    vector<int> table, layout, particleList, eigenOffsets, scratchOffsets;
+    vector<int> table, layout, stiff, particleList, eigenOffsets, scratchOffsets, responseOffsets;
     vector<double> vectors, masses(numParticles, 1.0);
-    size_t scratchSize = 0;
+    size_t scratchSize = 0, responseSize = 0;
     for (int c = 0; c < modes->getNumComponents(); ++c) {
         const StiffModes::Component& comp = modes->getComponent(c);
         const int D = comp.rows(), C = comp.columns();
@@ -125,13 +134,17 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
         particleList.insert(particleList.end(), particles, particles + comp.numParticles);
         const bool small = StiffModes::hasParticleSpacePropagator(D, C);
         layout.push_back(small ? 1 : 0);
+        stiff.push_back(comp.stiff ? 1 : 0);
+        // The force responses work in mode space for every component: all eigenvectors.
         eigenOffsets.push_back((int)vectors.size());
+        const double* u = modes->getEigenvectors(c);
+        vectors.insert(vectors.end(), u, u + (size_t)D * D);
         scratchOffsets.push_back((int)scratchSize);
-        if (!small) {
-            const double* u = modes->getEigenvectors(c);
-            vectors.insert(vectors.end(), u, u + (size_t)D * D);
+        if (!small)
             scratchSize += 24 * (size_t)comp.numParticles;
-        }
+        // Two values per mode, as StiffModes::ForceResponse lays them out.
+        responseOffsets.push_back((int)responseSize);
+        responseSize += 2 * (size_t)D;
     }
     for (int i = 0; i < numParticles; ++i)
         if (system.getParticleMass(i) != 0.0)
@@ -150,6 +163,14 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     uploadMixed(cc, eigenvectors, vectors, "flavorEigenvectors");
     uploadMixed(cc, sqrtMass, masses, "flavorSqrtMass");
     uploadMixed(cc, scratch, vector<double>(scratchSize, 0.0), "flavorScratch");
+    uploadInts(cc, componentStiff, stiff, "flavorComponentStiff");
+    uploadInts(cc, responseOffset, responseOffsets, "flavorResponseOffset");
+    uploadMixed(cc, responseScratch, vector<double>(12 * particleList.size(), 0.0), "flavorResponseScratch");
+    // The modes are measured again after parameter changes and checkpoints: the history of particles that are still
+    // stiff stays, as in the CPU engine (no carried components here: no constraints).
+    downloadHistory(history);
+    history.keepOnly(vector<int>(), modes.get());
+    uploadHistory();
     prepare();
 }
 
@@ -203,6 +224,10 @@ void CommonFlowStepper::prepare() {
     propagatorOffsets.clear();
     propagatorOffsets.resize(plan.passes.size());
     propagatorNoisy.assign(plan.passes.size(), 0);
+    responses.clear();
+    responses.resize(plan.passes.size());
+    processings.clear();
+    processings.resize(plan.passes.size());
     bool haveBath = false;
     Bath bath;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
@@ -244,44 +269,21 @@ void CommonFlowStepper::prepare() {
                 break;
             }
             case SubFlow::StiffFlow:
-            case SubFlow::HarmonicFlow: {
-                if (!modes)
-                    break; // prepared again when the modes are measured
-                // HarmonicFlow: the exact flow over the modes with the flow's own baths, exact frequencies and no
-                // Middle zero-mode flow, as the CPU engine computes it.
-                const bool harmonic = flow.kind == SubFlow::HarmonicFlow;
-                StiffModes::Propagator propagator;
-                const bool middleFlow = !harmonic && flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
-                modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
-                                         flow.stiffBath.kT, propagator,
-                                         !harmonic && flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
-                uploadMixed(cc, propagators[p], propagator.data, "flavorPropagator");
-                vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
-                uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
-                propagatorNoisy[p] = propagator.noisy ? 1 : 0;
-                kernel = program->createKernel("stiffFlow");
-                kernel->addArg(modes->getNumComponents());
-                kernel->addArg(components);
-                kernel->addArg(componentLayout);
-                kernel->addArg(componentParticles);
-                kernel->addArg(slotOf);
-                kernel->addArg(propagators[p]);
-                kernel->addArg(propagatorOffsets[p]);
-                kernel->addArg(eigenvectors);
-                kernel->addArg(eigenvectorOffset);
-                kernel->addArg(sqrtMass);
-                kernel->addArg(scratch);
-                kernel->addArg(scratchOffset);
-                kernel->addArg(cc.getPosq());
-                kernel->addArg(correction);
-                kernel->addArg(cc.getVelm());
-                kernel->addArg(slotForces[0]);
-                addReal(kernel, 0.0);
-                kernel->addArg(propagatorNoisy[p]);
-                kernel->addArg((std::uint64_t)0);
-                addRandomArgs(kernel);
+            case SubFlow::HarmonicFlow:
+                if (modes) // else prepared again when the modes are measured
+                    kernel = createStiffFlowKernel(flow, p);
                 break;
-            }
+            case SubFlow::FilteredStiffFlow:
+                // The flow, then the response to the forces where it began.
+                if (modes) {
+                    passKernels[p].push_back(createStiffFlowKernel(flow, p));
+                    kernel = createForceResponseKernel(flow, pass.slots[k], p);
+                }
+                break;
+            case SubFlow::FilteredKick:
+                if (modes)
+                    kernel = createForceResponseKernel(flow, pass.slots[k], p);
+                break;
             case SubFlow::FrozenDrift:
             case SubFlow::FrozenKick:
                 // The zero-mode projection moves stiff particles along the modes alone; constrained particles would
@@ -292,8 +294,6 @@ void CommonFlowStepper::prepare() {
                                           "with constraints is not supported there yet; use the Reference or CPU "
                                           "platform");
                 break; // runs on the host (HostFrozenStage)
-            case SubFlow::FilteredStiffFlow:
-            case SubFlow::FilteredKick:
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
             case SubFlow::HardWall:
@@ -310,6 +310,78 @@ void CommonFlowStepper::prepare() {
     }
     thermalSpeed.upload(speeds, true);
     invalidateForces();
+}
+
+ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size_t p) {
+    // HarmonicFlow (the exact fast flow): exact frequencies and no Middle zero-mode flow, as the CPU engine has it.
+    const bool harmonic = flow.kind == SubFlow::HarmonicFlow;
+    StiffModes::Propagator propagator;
+    const bool middleFlow = !harmonic && flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
+    modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
+                             propagator, !harmonic && flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
+    uploadMixed(cc, propagators[p], propagator.data, "flavorPropagator");
+    vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
+    uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
+    propagatorNoisy[p] = propagator.noisy ? 1 : 0;
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    ComputeKernel kernel = program->createKernel("stiffFlow");
+    kernel->addArg(modes->getNumComponents());
+    kernel->addArg(components);
+    kernel->addArg(componentLayout);
+    kernel->addArg(componentParticles);
+    kernel->addArg(slotOf);
+    kernel->addArg(propagators[p]);
+    kernel->addArg(propagatorOffsets[p]);
+    kernel->addArg(eigenvectors);
+    kernel->addArg(eigenvectorOffset);
+    kernel->addArg(sqrtMass);
+    kernel->addArg(scratch);
+    kernel->addArg(scratchOffset);
+    kernel->addArg(cc.getPosq());
+    kernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+    kernel->addArg(cc.getVelm());
+    kernel->addArg(slotForces[0]);
+    if (doubles)
+        kernel->addArg(0.0);
+    else
+        kernel->addArg(0.0f);
+    kernel->addArg(propagatorNoisy[p]);
+    kernel->addArg((std::uint64_t)0);
+    addRandomArgs(kernel);
+    return kernel;
+}
+
+ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, int slot, size_t p) {
+    // The same responses as the CPU engine's StiffFlowExecutor::prepare.
+    const bool closing = flow.kind == SubFlow::FilteredKick;
+    const bool middle = flow.zeroModes == SubFlow::ZeroModeFlow::Middle;
+    StiffModes::ForceResponse response, processing;
+    modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response, middle,
+                                response);
+    modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, processing);
+    uploadMixed(cc, responses[p], response.data, "flavorResponse");
+    uploadMixed(cc, processings[p], processing.data, "flavorProcessing");
+    ComputeKernel kernel = program->createKernel("forceResponse");
+    kernel->addArg(modes->getNumComponents());
+    kernel->addArg(components);
+    kernel->addArg(componentStiff);
+    kernel->addArg(componentParticles);
+    kernel->addArg(slotOf);
+    kernel->addArg(eigenvectors);
+    kernel->addArg(eigenvectorOffset);
+    kernel->addArg(sqrtMass);
+    kernel->addArg(responses[p]);
+    kernel->addArg(processings[p]);
+    kernel->addArg(responseOffset);
+    kernel->addArg(responseScratch);
+    kernel->addArg(slotForces[slot]);
+    kernel->addArg(openingForces);
+    kernel->addArg(forceDifferences);
+    kernel->addArg(closing ? 1 : 0);
+    kernel->addArg(cc.getPosq());
+    kernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+    kernel->addArg(cc.getVelm());
+    return kernel;
 }
 
 void CommonFlowStepper::invalidateForces() {
@@ -405,6 +477,13 @@ void CommonFlowStepper::runFrozenPass(ContextImpl& context, const FlowPass& pass
         invalidateForces();
 }
 
+void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
+    if (!modes)
+        throw OpenMMException(owner + ": a Filtered step needs the stiff modes");
+    findAtomsKernel->execute(cc.getNumAtoms());
+    passKernels[passIndex][kernelIndex]->execute(modes->getNumComponents());
+}
+
 void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ContextSelector selector(cc);
     if (!forcesValid)
@@ -413,21 +492,37 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     const double clockAtStart = stiffClock.startStep(cc.getTime());
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const FlowPass& pass = plan.passes[p];
-        // Every kick of a pass reads forces at the positions where the pass begins.
+        // Every kick of a pass, and a Filtered flow, reads forces at the positions where the pass begins.
         for (size_t k = 0; k < pass.flows.size(); ++k)
-            if (pass.flows[k].kind == SubFlow::Kick)
+            if (pass.slots[k] >= 0)
                 ensureForces(context, pass.slots[k], pass.flows[k].clocked, clockAtStart + pass.flows[k].clock);
         if (pass.fusedIntoNext) {
             fusedSlot = pass.slots[0];
             fusedStep = pass.flows[0].h;
             continue;
         }
-        if (pass.flows[0].kind == SubFlow::StiffFlow || pass.flows[0].kind == SubFlow::HarmonicFlow)
+        switch (pass.flows[0].kind) {
+        case SubFlow::StiffFlow:
+        case SubFlow::HarmonicFlow:
             runStiffFlow(pass, p);
-        else if (pass.flows[0].kind == SubFlow::FrozenDrift || pass.flows[0].kind == SubFlow::FrozenKick)
+            break;
+        case SubFlow::FrozenDrift:
+        case SubFlow::FrozenKick:
             runFrozenPass(context, pass, constraintTolerance);
-        else
+            break;
+        case SubFlow::FilteredStiffFlow:
+            // The response reads the slot's forces from where the flow began: invalidated, not overwritten.
+            runStiffFlow(pass, p);
+            runForceResponse(p, 1);
+            break;
+        case SubFlow::FilteredKick:
+            // Its position response is zero: the forces stay valid for the next step's opening.
+            runForceResponse(p, 0);
+            break;
+        default:
             runParticlePass(pass, p, constraintTolerance);
+            break;
+        }
     }
     nextStream += (std::uint64_t)plan.noiseStreams;
     placeVirtualSites();
@@ -463,7 +558,49 @@ double CommonFlowStepper::kineticEnergy() {
 }
 
 void CommonFlowStepper::createCheckpoint(std::ostream& stream) const {
-    writeFlowCheckpoint(stream, owner, seed, nextStream, history, stiffClock.getState());
+    ContextSelector selector(cc);
+    StepHistory current = history;
+    downloadHistory(current);
+    writeFlowCheckpoint(stream, owner, seed, nextStream, current, stiffClock.getState());
+}
+
+void CommonFlowStepper::forgetStepHistory() {
+    history.forget();
+    ContextSelector selector(cc);
+    uploadHistory();
+    // A cached factorization from where the Context was before would steer the next solves, as in FlowStepRunner.
+    frozenStage.forgetFactorizations();
+}
+
+void CommonFlowStepper::downloadHistory(StepHistory& target) const {
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    if (doubles) {
+        vector<mm_double4> values;
+        forceDifferences.download(values);
+        for (int i = 0; i < numParticles; ++i)
+            target.forceDifferences[i] = Vec3(values[i].x, values[i].y, values[i].z);
+    } else {
+        vector<mm_float4> values;
+        forceDifferences.download(values);
+        for (int i = 0; i < numParticles; ++i)
+            target.forceDifferences[i] = Vec3(values[i].x, values[i].y, values[i].z);
+    }
+}
+
+void CommonFlowStepper::uploadHistory() {
+    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const vector<Vec3>& values = history.forceDifferences;
+    if (doubles) {
+        vector<mm_double4> device(numParticles);
+        for (int i = 0; i < numParticles; ++i)
+            device[i] = mm_double4(values[i][0], values[i][1], values[i][2], 0.0);
+        forceDifferences.upload(device);
+    } else {
+        vector<mm_float4> device(numParticles);
+        for (int i = 0; i < numParticles; ++i)
+            device[i] = mm_float4((float)values[i][0], (float)values[i][1], (float)values[i][2], 0.0f);
+        forceDifferences.upload(device);
+    }
 }
 
 void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& stream) {
@@ -481,6 +618,7 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     nextStream = storedStream;
     stiffClock.setState(storedClock);
     history.load(storedHistory);
+    uploadHistory();
     frozenStage.forgetFactorizations();
     invalidateForces();
 }

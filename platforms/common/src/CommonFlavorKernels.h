@@ -27,11 +27,14 @@ namespace FlavorPlugin {
 /**
  * The step engine on a platform of OpenMM's common compute API (OpenCL; CUDA would use the same class): executes the
  * passes of a StepPlan with kernels from kernels/flowPasses.cc.  Kick, Drift and Thermostat passes, System
- * constraints and virtual sites through IntegrationUtilities, and the exact stiff flow (StiffFlow, with a fused kick)
- * one component per work-item; the same counter-based normals as CounterRandom, so a double-precision trajectory
- * follows the Reference one to rounding.  Force slots hold copies of the platform's forces in the System's particle
- * order, so they survive the Context's reordering of atoms.  Steps whose sub-flows it does not have yet are rejected
- * by setSchedule(), naming the setting that asks for them.
+ * constraints and virtual sites through IntegrationUtilities, the exact stiff flow (StiffFlow, with a fused kick) and
+ * the Filtered and Warped splittings' flows (FilteredStiffFlow, FilteredKick: the stiff flow and the force responses
+ * with their velocity processing) one component per work-item; the same counter-based normals as CounterRandom, so a
+ * double-precision trajectory follows the Reference one to rounding.  Force slots and the per-particle step history
+ * that Filtered steps carry from one step to the next (StepHistory's force differences) live on the device in the
+ * System's particle order, so they survive the Context's reordering of atoms; the history goes through the host
+ * StepHistory for checkpoints, in the CPU engine's format.  Steps whose sub-flows it does not have yet are rejected by
+ * setSchedule(), naming the setting that asks for them.
  */
 class CommonFlowStepper {
 public:
@@ -69,11 +72,8 @@ public:
     void createCheckpoint(std::ostream& stream) const;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream);
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
-    /** Forgets what the next step would take from the last one (a state set from outside), as FlowStepRunner does. */
-    void forgetStepHistory() {
-        history.forget();
-        frozenStage.forgetFactorizations();
-    }
+    /** Forgets the step history as the CPU engine does (StepHistory::forget), on the device too. */
+    void forgetStepHistory();
 
 private:
     /** Analyses the schedule, checks that every sub-flow is supported and precomputes the constants of each pass. */
@@ -86,6 +86,16 @@ private:
     void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
     void runStiffFlow(const FlowPass& pass, size_t passIndex);
     void runFrozenPass(OpenMM::ContextImpl& context, const FlowPass& pass, double constraintTolerance);
+    /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
+     */
+    void runForceResponse(size_t passIndex, size_t kernelIndex);
+    /** The stiffFlow kernel of pass p with its propagator, for a StiffFlow or FilteredStiffFlow. */
+    OpenMM::ComputeKernel createStiffFlowKernel(const SubFlow& flow, size_t p);
+    /** The forceResponse kernel of pass p with its responses, for a FilteredStiffFlow or FilteredKick. */
+    OpenMM::ComputeKernel createForceResponseKernel(const SubFlow& flow, int slot, size_t p);
+    /** Copies the device's force differences into the host history, or the host's onto the device. */
+    void downloadHistory(StepHistory& target) const;
+    void uploadHistory();
     /** Adds the key and ziggurat arguments of the random streams to a kernel. */
     void addRandomArgs(OpenMM::ComputeKernel& kernel);
 
@@ -120,6 +130,13 @@ private:
         scratch, scratchOffset;
     std::vector<OpenMM::ComputeArray> propagators, propagatorOffsets;
     std::vector<int> propagatorNoisy;
+    // For the force responses: per component 1 if stiff and where its two values per mode start, 12 values per particle
+    // of scratch, and per Filtered pass its response and velocity processing.
+    OpenMM::ComputeArray componentStiff, responseOffset, responseScratch;
+    std::vector<OpenMM::ComputeArray> responses, processings;
+    // The step history on the device (system order): the force differences of the last step and the forces where the
+    // current Filtered step began.  history's forceDifferences is a copy for checkpoints and forget().
+    OpenMM::ComputeArray forceDifferences, openingForces;
     HostFrozenStage frozenStage;
     int fusedSlot = -1;
     double fusedStep = 0.0;
@@ -154,7 +171,9 @@ private:
     FlavorParameters parameters;
 };
 
-/** The StochasticImpulseIntegrator kernel of the common compute platforms: the LieTrotter, Strang and Yoshida4 steps.
+/**
+ * The StochasticImpulseIntegrator kernel of the common compute platforms: the LieTrotter, Strang, Yoshida4, Filtered
+ * and Warped steps.
  */
 class CommonImpulseStepKernel : public IntegrateStochasticImpulseStepKernel {
 public:

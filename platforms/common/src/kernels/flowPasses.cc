@@ -1,8 +1,9 @@
 /**
  * The particle flows of the step engine on OpenMM's common compute platforms, in the common kernel language: kicks,
- * drifts, Ornstein-Uhlenbeck flows and the exact stiff flow of one component per work-item, with the counter-based
- * normals of openmmapi/include/internal/CounterRandom.h (Philox4x32-10 and the same ziggurat), so that a
- * double-precision trajectory follows the Reference platform's to rounding.
+ * drifts, Ornstein-Uhlenbeck flows, and the exact stiff flow and the force responses of the Filtered and Warped
+ * splittings of one component per work-item, with the counter-based normals of
+ * openmmapi/include/internal/CounterRandom.h (Philox4x32-10 and the same ziggurat), so that a double-precision
+ * trajectory follows the Reference platform's to rounding.
  *
  * Arrays indexed by particle in the System's order are marked "system order"; posq, velm and the force buffer are in
  * the Context's atom order, and atomIndex maps an atom to its particle (slotOf the other way).
@@ -407,6 +408,112 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
                 v[d] = inverse * row[C];
             }
             writeStiffParticle(posq, posqCorrection, velm, slotOf[particle], q, v);
+        }
+    }
+}
+
+/**
+ * The displacement and velocity change of element (i, col) of a component's D x C block under a force response:
+ * U diag(r) modeForce, plus U diag(q) modeChange where processed, summed over the modes in the CPU engine's order.
+ */
+DEVICE void responseOfElement(int i, int col, int D, int C, GLOBAL const mixed* RESTRICT u,
+                              GLOBAL const mixed* RESTRICT r, GLOBAL const mixed* RESTRICT q, int processed,
+                              GLOBAL const mixed* RESTRICT modeForce, GLOBAL const mixed* RESTRICT modeChange,
+                              mixed* dx, mixed* dv) {
+    mixed sx = 0, sv = 0;
+    for (int k = 0; k < D; ++k) {
+        const mixed projected = u[k * D + i] * modeForce[k * C + col];
+        sx += r[2 * k] * projected;
+        sv += r[2 * k + 1] * projected;
+        if (processed) {
+            const mixed projectedChange = u[k * D + i] * modeChange[k * C + col];
+            sx += q[2 * k] * projectedChange;
+            sv += q[2 * k + 1] * projectedChange;
+        }
+    }
+    *dx = sx;
+    *dv = sv;
+}
+
+/**
+ * A force response of the Filtered and Warped splittings (StiffModes::ForceResponse), one component per work-item,
+ * as the CPU engine's ForceResponseTask: x += M^-1/2 U diag(rx) U^T M^-1/2 F and likewise v with rv, for the forces
+ * of a slot (system order).  In stiff components (stiff: 1) also the velocity processing, applied to the change of
+ * the force over the step: the opening response (closing 0) reads the changes from forceChanges and records forces
+ * in openingForces, the closing one (closing 1) records forces - openingForces in forceChanges and applies that
+ * (both system order; the step history).  response and processing hold two values per mode from responseOffset;
+ * eigenvectors are column-major D x D from eigenvectorOffset; scratch holds 12 values per particle, from 12 times the
+ * component's first index into particles.
+ */
+KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT components, GLOBAL const int* RESTRICT stiff,
+                          GLOBAL const int* RESTRICT particles, GLOBAL const int* RESTRICT slotOf,
+                          GLOBAL const mixed* RESTRICT eigenvectors, GLOBAL const int* RESTRICT eigenvectorOffset,
+                          GLOBAL const mixed* RESTRICT sqrtMass, GLOBAL const mixed* RESTRICT response,
+                          GLOBAL const mixed* RESTRICT processing, GLOBAL const int* RESTRICT responseOffset,
+                          GLOBAL mixed* RESTRICT scratch, GLOBAL const mixed4* RESTRICT forces,
+                          GLOBAL mixed4* RESTRICT openingForces, GLOBAL mixed4* RESTRICT forceChanges, int closing,
+                          GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
+                          GLOBAL mixed4* RESTRICT velm) {
+    for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
+        const int4 comp = components[c];
+        const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w, size = D * C;
+        const int processed = stiff[c];
+        GLOBAL const mixed* r = response + responseOffset[c];
+        GLOBAL const mixed* q = processing + responseOffset[c];
+        GLOBAL const mixed* u = eigenvectors + eigenvectorOffset[c];
+        GLOBAL mixed* particleForce = scratch + 12 * first;
+        GLOBAL mixed* particleChange = particleForce + size;
+        GLOBAL mixed* modeForce = particleChange + size;
+        GLOBAL mixed* modeChange = modeForce + size;
+        // Element 3 p + d of a D x C block is coordinate d of particle p in both layouts (as in stiffFlow).
+        for (int p = 0; p < numParticles; ++p) {
+            const int particle = particles[first + p];
+            const mixed scale = 1 / sqrtMass[particle];
+            const mixed4 force = forces[particle];
+            mixed4 change = make_mixed4(0, 0, 0, 0);
+            if (processed && closing) {
+                change = force - openingForces[particle];
+                forceChanges[particle] = change;
+            } else if (processed) {
+                change = forceChanges[particle];
+                openingForces[particle] = force;
+            }
+            particleForce[3 * p] = scale * force.x;
+            particleForce[3 * p + 1] = scale * force.y;
+            particleForce[3 * p + 2] = scale * force.z;
+            particleChange[3 * p] = scale * change.x;
+            particleChange[3 * p + 1] = scale * change.y;
+            particleChange[3 * p + 2] = scale * change.z;
+        }
+        // Into mode coordinates: U^T M^-1/2 F and U^T M^-1/2 (change).
+        for (int k = 0; k < D; ++k)
+            for (int col = 0; col < C; ++col) {
+                mixed sum = 0, sumChange = 0;
+                for (int i = 0; i < D; ++i) {
+                    sum += u[k * D + i] * particleForce[i * C + col];
+                    sumChange += u[k * D + i] * particleChange[i * C + col];
+                }
+                modeForce[k * C + col] = sum;
+                modeChange[k * C + col] = sumChange;
+            }
+        for (int p = 0; p < numParticles; ++p) {
+            const int particle = particles[first + p];
+            const int atom = slotOf[particle];
+            const mixed scale = 1 / sqrtMass[particle];
+            mixed dx[3], dv[3];
+            for (int d = 0; d < 3; ++d)
+                responseOfElement((3 * p + d) / C, (3 * p + d) % C, D, C, u, r, q, processed, modeForce, modeChange,
+                                  &dx[d], &dv[d]);
+            mixed4 pos = loadPosition(posq, posqCorrection, atom);
+            pos.x += scale * dx[0];
+            pos.y += scale * dx[1];
+            pos.z += scale * dx[2];
+            storePosition(posq, posqCorrection, atom, pos);
+            mixed4 vel = velm[atom];
+            vel.x += scale * dv[0];
+            vel.y += scale * dv[1];
+            vel.z += scale * dv[2];
+            velm[atom] = vel;
         }
     }
 }

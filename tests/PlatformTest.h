@@ -24,7 +24,6 @@ inline const std::vector<std::string>& suitesNotOnOpenCL() {
         "ImpulseExact",       // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
         "ImpulseFiltered",    // fixed points to 1e-10; OpenCL's force constants are single (k off by 3e-8)
         "ImpulseHardWall",    // the hard wall (setMaxDrudeDistance)
-        "IntegratorGuards",   // SIM in single precision: the stiff modes re-measured after a failed load differ
         "MetropolisAdjusted", // the Metropolis adjustment (setMetropolis)
         "StepAllocations",    // counts the CPU engine's allocations
         "StoredTrajectories", // trajectories stored bit for bit on Reference and CPU

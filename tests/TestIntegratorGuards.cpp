@@ -14,6 +14,7 @@
 #include "openmm/VerletIntegrator.h"
 #include <cmath>
 #include <functional>
+#include <map>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -54,9 +55,9 @@ string checkpointOf(Context& context) {
 }
 
 /** The checkpoint of a Context of the same System with OpenMM's VerletIntegrator, at other positions. */
-string verletCheckpoint(const System& system, Platform& platform) {
+string verletCheckpoint(const System& system, Platform& platform, const std::map<string, string>& properties) {
     VerletIntegrator verlet(0.001);
-    Context context(system, verlet, platform);
+    Context context(system, verlet, platform, properties);
     context.setPositions(fpuPositions({0.7, 0.1, -0.3}, {0.01, 0.02, 0.0}));
     verlet.step(3);
     return checkpointOf(context);
@@ -93,24 +94,25 @@ TEST_P(IntegratorGuards, FlavorRejectsForeignCheckpointsAndKeepsTheContext) {
     FlavorIntegrator integrator(0.01, 0.001, StiffMask), twinIntegrator(0.01, 0.001, StiffMask);
     configure(integrator);
     configure(twinIntegrator);
-    Context context(*system, integrator, platform()), twin(*system, twinIntegrator, platform());
+    Context context(*system, integrator, platform(), properties()),
+        twin(*system, twinIntegrator, platform(), properties());
     setUp(integrator, context);
     setUp(twinIntegrator, twin);
 
     StochasticImpulseIntegrator sim(300, 5, 0.01, StiffMask);
-    Context simContext(*system, sim, platform());
+    Context simContext(*system, sim, platform(), properties());
     simContext.setPositions(fpuPositions({0.5, 0, 0}, {0.01, 0, 0}));
     sim.step(2);
     FlavorIntegrator other(0.01, 0.002, StiffMask);
     other.setFriction(1);
     other.setRandomNumberSeed(99);
-    Context otherContext(*system, other, platform());
+    Context otherContext(*system, other, platform(), properties());
     otherContext.setPositions(fpuPositions({0.2, 0.1, 0}, {0.03, 0, 0}));
     other.step(3);
 
     vector<ForeignCheckpoint> foreign = truncated(checkpointOf(otherContext), "FlavorIntegrator");
     foreign.push_back({"VerletIntegrator's",
-                       verletCheckpoint(*system, platform()),
+                       verletCheckpoint(*system, platform(), properties()),
                        {"FlavorIntegrator", "loadCheckpoint", "no data of this integrator", "VerletIntegrator"}});
     foreign.push_back({"StochasticImpulseIntegrator's",
                        checkpointOf(simContext),
@@ -138,24 +140,25 @@ TEST_P(IntegratorGuards, ImpulseRejectsForeignCheckpointsAndKeepsTheContext) {
     StochasticImpulseIntegrator integrator(300, 5, 0.01, StiffMask), twinIntegrator(300, 5, 0.01, StiffMask);
     integrator.setRandomNumberSeed(23);
     twinIntegrator.setRandomNumberSeed(23);
-    Context context(*system, integrator, platform()), twin(*system, twinIntegrator, platform());
+    Context context(*system, integrator, platform(), properties()),
+        twin(*system, twinIntegrator, platform(), properties());
     setUp(integrator, context);
     setUp(twinIntegrator, twin);
 
     FlavorIntegrator flavor(0.01, 0.001, StiffMask);
-    Context flavorContext(*system, flavor, platform());
+    Context flavorContext(*system, flavor, platform(), properties());
     flavorContext.setPositions(fpuPositions({0.5, 0, 0}, {0.01, 0, 0}));
     flavor.step(2);
     StochasticImpulseIntegrator other(300, 1, 0.02, StiffMask);
     other.setRandomNumberSeed(99);
-    Context otherContext(*system, other, platform());
+    Context otherContext(*system, other, platform(), properties());
     otherContext.setPositions(fpuPositions({0.2, 0.1, 0}, {0.03, 0, 0}));
     other.step(3);
 
     vector<ForeignCheckpoint> foreign = truncated(checkpointOf(otherContext), "StochasticImpulseIntegrator");
     foreign.push_back(
         {"VerletIntegrator's",
-         verletCheckpoint(*system, platform()),
+         verletCheckpoint(*system, platform(), properties()),
          {"StochasticImpulseIntegrator", "loadCheckpoint", "no data of this integrator", "VerletIntegrator"}});
     foreign.push_back({"FlavorIntegrator's",
                        checkpointOf(flavorContext),

@@ -17,7 +17,24 @@ import pytest
 import openmmflavors  # noqa: F401  (loads the plugin kernels and patches XmlSerializer)
 from openmmflavors import FlavorIntegrator
 
-PLATFORMS = ["Reference", "CPU"]
+
+
+def _has_opencl():
+    try:
+        openmm.Platform.getPlatformByName("OpenCL")
+        return True
+    except Exception:
+        return False
+
+
+# OpenCL where OpenMM has an OpenCL platform (an OpenCL driver such as PoCL is installed), in double precision.
+PLATFORMS = ["Reference", "CPU"] + (["OpenCL"] if _has_opencl() else [])
+# For what the OpenCL backend rejects by name (the Metropolis adjustment, the hard wall): Reference and CPU.
+HOST_ENGINE_PLATFORMS = ["Reference", "CPU"]
+# OpenCL's stiff forces are about 1e-6 relative off Reference's even in double precision (its force constants and
+# bonded terms; measured on PoCL): a trajectory that follows an independent double-precision composition to 1e-10 on
+# Reference and CPU follows it to about 4e-9 relative there.
+TRAJECTORY_RTOL = {"OpenCL": 1e-7}
 
 SOFT_GROUP = 0
 STIFF_GROUP = 1
@@ -91,8 +108,8 @@ def assert_close_relative(actual, expected, rtol=1e-10):
 
 
 def platform_properties(platform_name):
-    # A fixed thread count keeps CPU results independent of the machine.
-    return {"Threads": "2"} if platform_name == "CPU" else {}
+    # A fixed thread count keeps CPU results independent of the machine; OpenCL runs in double precision.
+    return {"CPU": {"Threads": "2"}, "OpenCL": {"Precision": "double"}}.get(platform_name, {})
 
 
 def make_context(system, integrator, platform_name, positions=None, velocities=None):

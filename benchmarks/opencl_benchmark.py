@@ -14,6 +14,10 @@ Scenes (each in every precision of --precision: mixed and double by default; Ope
                   the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,
                   tau = 0.5 fs), and the scene's artificial FLAVOR (ArtificialProjected, bonds and angles frozen,
                   Middle, tau = 0.5 fs) at delta = 4 and 6 fs, its frozen stage on the host.
+  villin          villin in water (examples/villin; amber14, PME, HBonds, rigid water): LangevinMiddle 2 fs and 4 fs with
+                  hydrogen mass repartitioning (1.5 amu) against the scene's FLAVOR recipe (ArtificialProjected, bonds
+                  and non-planar angles frozen, Middle, delta = 2.5 fs, tau = 1 fs) and the FLAVOR with HMR 3 amu at
+                  delta = 5 fs; the frozen stage (the protein's coupled distances, the rigid water) on the host.
   fpu             FPU chains (FLAVORS paper eq. 6.7, omega = 50, reduced units read by OpenMM as ps), 200 copies:
                   the SIM (Strang, no thermostat) at H = 0.01 (omega H = 0.5) against OpenMM's VerletIntegrator at
                   h = 0.002 (omega h = 0.1) and the same SIM at h = 0.002.  Timing only: Strang is accurate at
@@ -23,7 +27,7 @@ The start states are made on the CPU platform (minimization and a short equilibr
 them.  With PoCL (a CPU OpenCL driver) the times are a CPU's: only the ratios between peers of one run mean anything.
 
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/opencl_benchmark.py [--quick] [--out DIR]
-        [--precision mixed double] [--scenes drude_water flexible_water fpu] [--target S] [--repeats N]
+        [--precision mixed double] [--scenes drude_water flexible_water villin fpu] [--target S] [--repeats N]
 
 $FLAVORS_BENCH_QUICK=1 acts as --quick; $FLAVORS_OPENCL_PLATFORM_INDEX and $FLAVORS_OPENCL_DEVICE_INDEX pick the OpenCL
 device (OpenMM's OpenCLPlatformIndex and DeviceIndex; by default OpenMM chooses).  Progress goes to stderr; the table
@@ -34,10 +38,11 @@ import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:0] = [os.path.join(HERE, "..", "examples", scene) for scene in ("drude_water", "flexible_water")]
+sys.path[:0] = [os.path.join(HERE, "..", "examples", scene) for scene in ("drude_water", "flexible_water", "villin")]
 
 import numpy as np  # noqa: E402
 import openmm as mm  # noqa: E402
+import openmm.app as app  # noqa: E402
 import openmm.unit as unit  # noqa: E402
 
 import openmmflavors  # noqa: E402
@@ -47,8 +52,9 @@ from flavorbench.systems import chain_positions, fpu_system  # noqa: E402
 
 import drude_water  # noqa: E402
 import flexible_water  # noqa: E402
+import villin  # noqa: E402
 
-SCENES = ("drude_water", "flexible_water", "fpu")
+SCENES = ("drude_water", "flexible_water", "villin", "fpu")
 # OpenMM picks the OpenCL device itself unless these name one (benchmarks/device_check.sh sets them to the GPU's).
 DEVICE_PROPERTIES = {key: os.environ[variable] for key, variable in
                      (("OpenCLPlatformIndex", "FLAVORS_OPENCL_PLATFORM_INDEX"),
@@ -150,6 +156,48 @@ def flexible_scene(quick):
     return description, start, peers
 
 
+def villin_scene(quick):
+    log("villin: minimizing and equilibrating on the CPU platform")
+    forcefield = app.ForceField("amber14-all.xml", "amber14/tip3p.xml")
+    pdb = app.PDBFile(villin.PDB)
+    systems = {}
+
+    def system_for(options):
+        key = (options["hydrogen_mass"], options["water_hydrogen_mass"])
+        if key not in systems:
+            systems[key] = villin.make_system(forcefield, pdb.topology, **options)
+        return systems[key]
+
+    plain = system_for({"hydrogen_mass": None, "water_hydrogen_mass": False})
+    integrator = mm.LangevinMiddleIntegrator(villin.TEMPERATURE, villin.FRICTION, 0.002)
+    context = mm.Context(plain, integrator, mm.Platform.getPlatformByName("CPU"))
+    context.setPositions(pdb.positions)
+    mm.LocalEnergyMinimizer.minimize(context, 10, 50 if quick else 200)
+    context.setVelocitiesToTemperature(villin.TEMPERATURE * unit.kelvin, 7)
+    integrator.step(10 if quick else 500)
+    positions = context.getState(getPositions=True).getPositions()
+    del context, integrator
+    # The scene's recipe without HMR, and with HMR 3 amu at delta = 5 fs beside OpenMM's HMR peer.
+    entries = villin.peers([(2.5, 1.0, "bonds+nonplanar angles", True),
+                            (5.0, 1.0, "bonds+nonplanar angles", True, 3.0)],
+                           hmr_langevin=[(4.0, 1.5)], mts=False, seed=7)
+    steps = {"LangevinMiddle 2 fs": 2.0, "LangevinMiddle 4 fs": 4.0}
+    peers = []
+    for name, factory in entries:
+        step_fs = next((v for k, v in steps.items() if name.startswith(k)), None)
+        if step_fs is None:
+            step_fs = float(name.split("δ=")[1].split(" ")[0])
+        peers.append((name, step_fs, system_for(factory.system_options), factory,
+                      "frozen stage on the host" if name.startswith("FLAVOR") else ""))
+
+    def start(context):
+        context.setPositions(positions)
+        context.setVelocitiesToTemperature(villin.TEMPERATURE * unit.kelvin, 7)
+
+    description = f"villin in TIP3P water ({plain.getNumParticles()} atoms), amber14, PME, HBonds, rigid water"
+    return description, start, peers
+
+
 def fpu_scene(quick):
     # The SIM measures its stiff modes on the host through the Context (a few force evaluations per particle): on PoCL
     # that took about 5 minutes for 2000 chains, so the scene stays small.
@@ -227,7 +275,8 @@ def print_tables(data):
                     rows.append([peer, record["step_fs"], "-", "-", "-", record["reason"]])
             reporting.table(f"{name}: {scene['system']}, OpenCL {precision} "
                             f"({(run['device'] or {}).get('DeviceName', '?')})",
-                            [("peer", 58, "s"), ("step fs", 8, ".3g"), ("us/step", 10, ".4g"),
+                            [("peer", max(len(peer) for peer in peers), "s"), ("step fs", 8, ".3g"),
+                             ("us/step", 10, ".4g"),
                              ("ns/day", 10, ".4g"), ("ratio", 7, ".3g"),
                              ("", 1, "s")], rows)
 
@@ -280,7 +329,8 @@ def main():
     target = args.target or (0.5 if args.quick else 3.0)
     repeats = args.repeats or (2 if args.quick else 5)
     platform = opencl_platform()
-    builders = {"drude_water": drude_scene, "flexible_water": flexible_scene, "fpu": fpu_scene}
+    builders = {"drude_water": drude_scene, "flexible_water": flexible_scene, "villin": villin_scene,
+                "fpu": fpu_scene}
     data = {"command": " ".join(sys.argv), "quick": args.quick, "batch_target_s": target, "repeats": repeats,
             "openmm_version": mm.Platform.getOpenMMVersion(), "scenes": {}}
     for name in args.scenes:

@@ -5,7 +5,7 @@ integrator a practitioner would pick, LangevinMiddleIntegrator on flexible water
 Peers (Langevin, 300 K, friction 1/ps), the default ("practitioner") set:
   - LangevinMiddleIntegrator, flexible water, 0.25 fs (the reference), 1, 1.5, 2 and 2.5 fs;
   - FlavorIntegrator, ArtificialProjected, O-H bonds and H-O-H angles stiff (frozen between microsteps), thermostat
-    in the middle of the microstep (Middle), tau = 0.5 fs, delta = 4, 6, 8 and 10 fs; at delta = 6 fs also
+    in the middle of the microstep (Middle), tau = 0.5 fs, delta = 4, 6, 7, 8 and 10 fs; at delta = 6 fs also
     tau = 0.25 and 1 fs, and the thermostat at the edges of the mesostep (the paper's placement, no "Middle").
 --set earlier runs the scene's earlier peers instead (the reference, LangevinMiddle 0.5 fs, rigid water at 2 fs,
 MTSLangevin 2 fs / 4, the Nonintrusive, Artificial and ArtificialProjected averagings at delta = 2-4 fs), --set all
@@ -15,7 +15,7 @@ Observables, each with a block-average error bar (the standard error of 5 block 
 spread, mean H-O-H angle and its spread, potential energy per molecule, kinetic temperature of O and of H
 separately, and g_OO(r) (the first-peak height).  With several --seeds every peer is run once per seed (its own start)
 and the run-to-run spread is reported too.  Dynamics, for the reference, LangevinMiddle 2 fs and the FLAVORs with
-tau = 0.5 fs and delta = 4, 6, 8, 10 fs: the oxygens' self-diffusion coefficient from their mean-squared displacement
+tau = 0.5 fs and delta = 4, 6, 7, 8, 10 fs: the oxygens' self-diffusion coefficient from their mean-squared displacement
 (unwrapped), and after the production a segment saved every 2 fs (every mesostep for a FLAVOR) whose O-H
 bond-length velocity, the hydrogens' velocity and the molecules' angular velocity give power spectra (the O-H
 stretch band, the librations).
@@ -130,10 +130,11 @@ def flavor_peer(averaging, delta, tau, angles, middle, dynamics=False):
 
 def practitioner_peers():
     """The default set: LangevinMiddle (flexible) at the steps a practitioner would try, and the artificial FLAVOR
-    (bonds and angles frozen, Middle) at long mesosteps, with the delta = 6 fs variations that locate a bias."""
+    (bonds and angles frozen, Middle) at long mesosteps (4, 6, 7, 8, 10 fs), with the delta = 6 fs variations that
+    locate a bias."""
     result = [langevin_peer(0.25, True), langevin_peer(1.0), langevin_peer(1.5), langevin_peer(2.0, True),
               langevin_peer(2.5)]
-    for delta, dynamics in ((4.0, True), (6.0, True), (8.0, True), (10.0, True)):
+    for delta, dynamics in ((4.0, True), (6.0, True), (7.0, True), (8.0, True), (10.0, True)):
         result.append(flavor_peer("ArtificialProjected", delta, 0.5, True, True, dynamics))
     result += [flavor_peer("ArtificialProjected", 6.0, 0.25, True, True), flavor_peer("ArtificialProjected", 6.0, 1.0,
                                                                                       True, True),

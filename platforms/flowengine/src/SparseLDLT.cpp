@@ -7,8 +7,25 @@ using namespace FlavorPlugin;
 using std::pair;
 using std::vector;
 
-SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool reorder)
-    : n(n), diagonalSlot(n), offDiagonalSlot(offDiagonal.size()) {
+namespace {
+
+/** b = G b for the dense path's G (N x N, row by row). */
+template <int N> void applyDense(const double* g, double* b) {
+    double x[N];
+    for (int i = 0; i < N; ++i) {
+        double sum = 0.0;
+        for (int j = 0; j < N; ++j)
+            sum += g[i * N + j] * b[j];
+        x[i] = sum;
+    }
+    for (int i = 0; i < N; ++i)
+        b[i] = x[i];
+}
+
+} // namespace
+
+SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool reorder, bool allowDense)
+    : n(n), dense(allowDense && n <= MaxDense), diagonalSlot(n), offDiagonalSlot(offDiagonal.size()) {
     // Fill-reducing order from the symmetric pattern.
     order.resize(n);
     position.resize(n);
@@ -80,6 +97,8 @@ SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool re
 }
 
 int SparseLDLT::factorize(double dropTolerance) {
+    if (dense)
+        return factorizeDense(dropTolerance);
     int numDependent = 0;
     smallestRatio = 1.0;
     for (int k = 0; k < n; ++k) {
@@ -127,7 +146,99 @@ int SparseLDLT::factorize(double dropTolerance) {
     return numDependent;
 }
 
+int SparseLDLT::factorizeDense(double dropTolerance) {
+    switch (n) {
+    case 1:
+        return eliminateDense<1>(dropTolerance);
+    case 2:
+        return eliminateDense<2>(dropTolerance);
+    case 3:
+        return eliminateDense<3>(dropTolerance);
+    case 4:
+        return eliminateDense<4>(dropTolerance);
+    default:
+        smallestRatio = 1.0;
+        return 0;
+    }
+}
+
+template <int N> int SparseLDLT::eliminateDense(double dropTolerance) {
+    // The elimination of factorize() on dense arrays, in the same order: a is the permuted matrix's lower triangle,
+    // l the strict lower triangle of L, d the pivots.
+    double a[N][N] = {}, l[N][N] = {}, d[N];
+    bool drop[N];
+    for (int j = 0; j < N; ++j)
+        for (int p = columnStart[j]; p < columnStart[j + 1]; ++p)
+            a[j][rowIndex[p]] += values[p];
+    int numDependent = 0;
+    double ratio = 1.0;
+    for (int k = 0; k < N; ++k) {
+        // Row k of L from L D y = a_k (the triangular solve of factorize(), every entry present).
+        double y[N];
+        for (int i = 0; i < k; ++i)
+            y[i] = a[k][i];
+        d[k] = a[k][k];
+        for (int i = 0; i < k; ++i) {
+            for (int r = i + 1; r < k; ++r)
+                y[r] -= l[r][i] * y[i];
+            const double entry = drop[i] ? 0.0 : y[i] / d[i];
+            d[k] -= entry * y[i];
+            l[k][i] = entry;
+        }
+        drop[k] = d[k] <= dropTolerance * a[k][k];
+        numDependent += drop[k] ? 1 : 0;
+        if (!drop[k])
+            ratio = std::min(ratio, d[k] / a[k][k]);
+    }
+    // G = L^-T D^+ L^-1 with m = L^-1 (unit lower triangular), stored in the caller's numbering.
+    double m[N][N] = {}, inversePivot[N];
+    for (int i = 0; i < N; ++i) {
+        m[i][i] = 1.0;
+        for (int j = 0; j < i; ++j) {
+            double sum = 0.0;
+            for (int q = j; q < i; ++q)
+                sum -= l[i][q] * m[q][j];
+            m[i][j] = sum;
+        }
+        inversePivot[i] = drop[i] ? 0.0 : 1.0 / d[i];
+    }
+    int original[N];
+    for (int i = 0; i < N; ++i) {
+        original[i] = order[i];
+        pivot[i] = d[i];
+        dependent[i] = drop[i] ? 1 : 0;
+    }
+    for (int i = 0; i < N; ++i)
+        for (int j = 0; j <= i; ++j) {
+            double sum = 0.0;
+            for (int k = i; k < N; ++k)
+                sum += m[k][i] * inversePivot[k] * m[k][j];
+            inverse[original[i] * N + original[j]] = sum;
+            inverse[original[j] * N + original[i]] = sum;
+        }
+    smallestRatio = ratio;
+    return numDependent;
+}
+
 void SparseLDLT::solve(double* b) const {
+    if (dense) {
+        switch (n) {
+        case 1:
+            applyDense<1>(inverse.data(), b);
+            return;
+        case 2:
+            applyDense<2>(inverse.data(), b);
+            return;
+        case 3:
+            applyDense<3>(inverse.data(), b);
+            return;
+        case 4:
+            applyDense<4>(inverse.data(), b);
+            return;
+        default:
+            return;
+        }
+    }
     for (int k = 0; k < n; ++k)
         permuted[k] = b[order[k]];
     for (int j = 0; j < n; ++j)

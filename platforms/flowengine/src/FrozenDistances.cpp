@@ -119,6 +119,26 @@ vector<ConstraintCoupling> couplingsOf(const vector<pair<int, int>>& pairs, int 
     return result;
 }
 
+/** r / |r|, or 0 where r = 0. */
+Vec3 unitDirection(const Vec3& r) {
+    const double length = std::sqrt(r.dot(r));
+    return length > 0 ? r / length : Vec3();
+}
+
+/**
+ * |error| <= tolerance (|a| + |b|), the convergence test of a constraint's rate (error) whose particles move with
+ * velocities a and b.  (|a| + |b|)^2 lies between s = |a|^2 + |b|^2 and 2 s, so the square roots are taken only
+ * where those bounds leave the answer open.  Written so that a NaN counts as not converged.
+ */
+bool rateConverged(double error, const Vec3& a, const Vec3& b, double tolerance) {
+    const double squares = a.dot(a), squareBound = tolerance * tolerance * (squares + b.dot(b));
+    if (error * error <= squareBound)
+        return true;
+    if (error * error > 2 * squareBound)
+        return false;
+    return std::abs(error) <= tolerance * (std::sqrt(squares) + std::sqrt(b.dot(b)));
+}
+
 /**
  * Sets b to B = J M^-1 J^T of constraints [first, last) of pairs (rows numbered from first) with the unit directions
  * at positions, stored in directions[first, last); couplings are B's off-diagonal entries in the order b was built
@@ -129,9 +149,7 @@ void assembleB(SparseLDLT& b, const vector<pair<int, int>>& pairs, int first, in
                const double* inverseMasses, Vec3* directions) {
     for (int c = first; c < last; ++c) {
         const int i = pairs[c].first, j = pairs[c].second;
-        const Vec3 r = positions[i] - positions[j];
-        const double length = std::sqrt(r.dot(r));
-        directions[c] = length > 0 ? r / length : Vec3();
+        directions[c] = unitDirection(positions[i] - positions[j]);
         b.setDiagonal(c - first, inverseMasses[i] + inverseMasses[j]);
     }
     for (int e = 0; e < numCouplings; ++e) {
@@ -330,6 +348,11 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     normalVelocities.resize(n);
     failed.assign(numClusters, 0);
     factorized.assign(numClusters, 0);
+    rigid.assign(numClusters, 0);
+    for (int k = 0; k < numClusters; ++k) {
+        const int numParticles = particleStart[k + 1] - particleStart[k];
+        rigidRank.push_back(numParticles == 2 ? 1 : 3 * numParticles - 6);
+    }
     factorizedPositions.resize(n);
     // Which clusters hold normal momenta: those whose B is well conditioned where the set was chosen.
     holdsMomenta.assign(numClusters, 1);
@@ -444,6 +467,8 @@ void FrozenDistances::driftCluster(int k) const {
             positions[i] = startPositions[i];
             velocities[i] = startVelocities[i];
         }
+        // The directions stored where the failed flight went (rigid clusters keep B) are those of the start again.
+        factorized[k] = 0;
     }
     failed[k] = 1;
 }
@@ -454,9 +479,14 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
         factorize(k);
     storeNormalMomenta(k);
     const double startEnergy = normalKineticEnergy(k);
-    if (!constrainVelocities(k, velocities, MaxIterations))
+    if (!constrainVelocities(k, velocities, MaxIterations, true))
         return false;
-    const bool turning = holdsMomenta[k] && hasNormalMomenta(k);
+    // A rigid cluster keeps the angles between its constraints, and so B and (1/2) mu^T B mu, everywhere on the
+    // manifold: the force of the normal momenta is normal to it, and what its kicks add the projections that follow
+    // take away again (along the directions there).  Its B need not be factorized again either, only the directions
+    // follow the flight.
+    const bool keepB = keepsShape(k);
+    const bool turning = holdsMomenta[k] && hasNormalMomenta(k) && !keepB;
     for (int s = 0; s < substeps; ++s) {
         // RATTLE on the constraint manifold with the potential (1/2) mu^T B(q) mu of the frozen normal momenta.
         if (turning)
@@ -472,13 +502,17 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
             const int i = particles[n];
             velocities[i] = (positions[i] - previousPositions[i]) * (1.0 / step);
         }
-        // The factorization here serves the next step, the normal momenta and the kicks that follow the drift.
-        factorize(k);
+        // The factorization (a rigid cluster: the directions) here serves the next step, the normal momenta and the
+        // kicks that follow the drift.
+        if (keepB)
+            storeDirections(k);
+        else
+            factorize(k);
         if (turning) {
             updateSystemMomenta(k);
             kickByNormalMomenta(k, 0.5 * step);
         }
-        if (!constrainVelocities(k, velocities, MaxIterations))
+        if (!constrainVelocities(k, velocities, MaxIterations, true))
             return false;
     }
     // The normal part comes back along the new directions: with the held momenta, or, where the momenta are ill
@@ -586,11 +620,30 @@ void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Ve
 }
 
 void FrozenDistances::factorize(int k) const {
-    factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k], positions,
-               inverseMasses);
+    const int numDependent = factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k],
+                                        positions, inverseMasses);
+    rigid[k] = rigidShortcut && constraintStart[k + 1] - constraintStart[k] - numDependent == rigidRank[k] ? 1 : 0;
     factorized[k] = 1;
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
         factorizedPositions[particles[n]] = positions[particles[n]];
+}
+
+void FrozenDistances::storeDirections(int k) const {
+    for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
+        directions[c] = unitDirection(positions[pairs[c].first] - positions[pairs[c].second]);
+}
+
+bool FrozenDistances::keepsShape(int k) const {
+    if (!rigid[k])
+        return false;
+    // The test of constrainPositions(): where a System constraint is off its length, the drift changes the shape.
+    for (int c = constraintStart[k]; c < constraintStart[k] + systemCount[k]; ++c) {
+        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
+        const double target = lengths[c] * lengths[c];
+        if (!(std::abs(target - r.dot(r)) <= 2 * tolerance * target))
+            return false;
+    }
+    return true;
 }
 
 void FrozenDistances::forgetFactorizations() {
@@ -607,11 +660,11 @@ bool FrozenDistances::factorizedHere(int k) const {
     return true;
 }
 
-void FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
-                                 const double* w) const {
+int FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
+                                const double* w) const {
     assembleB(solver, pairs, constraintStart[k], last, couplings.data() + couplingStart[k], numCouplings, q, w,
               directions.data());
-    solver.factorize(DependentPivot);
+    return solver.factorize(DependentPivot);
 }
 
 bool FrozenDistances::constrainPositions(int k) const {
@@ -652,32 +705,35 @@ bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v) const {
     return constrainVelocities(k, v, MaxIterations);
 }
 
-bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations) const {
+bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations, bool directionsHere) const {
     // RATTLE's velocity step: (J M^-1 J^T) mu = -J v along the current unit directions J, by iterative refinement
     // with the factorized B (exact in one iteration where B was factorized).
     const int first = constraintStart[k], last = constraintStart[k + 1];
     double* mu = &residuals[first];
-    for (int c = first; c < last; ++c) {
-        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
-        currentDirections[c] = r / std::sqrt(r.dot(r));
-    }
+    const Vec3* u = directionsHere ? directions.data() : currentDirections.data();
+    if (!directionsHere)
+        for (int c = first; c < last; ++c) {
+            const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
+            currentDirections[c] = r / std::sqrt(r.dot(r));
+        }
+    const pair<int, int>* ends = pairs.data();
+    const SparseLDLT& solver = solvers[k];
+    const double tol = tolerance;
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
         bool converged = true;
         for (int c = first; c < last; ++c) {
-            const Vec3 relative = v[pairs[c].first] - v[pairs[c].second];
-            const double error = -currentDirections[c].dot(relative);
+            const Vec3 vi = v[ends[c].first], vj = v[ends[c].second];
+            const double error = -u[c].dot(vi - vj);
             // Relative to the two speeds, not to their difference: where the pair moves as one (a rigid molecule
             // translating), its relative velocity is rounding of the speeds and cannot be resolved below them.
-            const double scale = std::sqrt(v[pairs[c].first].dot(v[pairs[c].first])) +
-                                 std::sqrt(v[pairs[c].second].dot(v[pairs[c].second]));
-            if (!(std::abs(error) <= tolerance * scale) && !solvers[k].isDependent(c - first))
+            if (!rateConverged(error, vi, vj, tol) && !solver.isDependent(c - first))
                 converged = false;
             mu[c - first] = error;
         }
         if (converged)
             return true;
-        solvers[k].solve(mu);
-        addAlongConstraints(k, v, currentDirections.data(), mu);
+        solver.solve(mu);
+        addAlongConstraints(k, v, u, mu);
     }
     return false;
 }

@@ -19,10 +19,10 @@ namespace FlavorPlugin {
  * whose targets agree) that is a solution of A x = b; the other unknowns solve the system without the dependent rows.
  *
  * Small matrices (n <= MaxDense: a frozen water molecule's 3 x 3) are factorized by the same elimination in the same
- * order and with the same test for dependent rows, on a dense array: the walks along the elimination tree cost more
- * than the arithmetic there.  factorize() then also forms the matrix G = P^T L^-T D^+ L^-1 P that solve() applies
- * (D^+: the inverse pivots, 0 for the dependent rows), so a solve is one n x n product, the same x as the
- * substitutions up to rounding.
+ * order and with the same test for dependent rows, on a dense array (values then holds the permuted lower triangle):
+ * the walks along the elimination tree cost more than the arithmetic there.  factorize() then also forms the matrix G =
+ * P^T L^-T D^+ L^-1 P that solve() applies (D^+: the inverse pivots, 0 for the dependent rows), so a solve is one n x n
+ * product, the same x as the substitutions up to rounding.
  */
 class OPENMM_EXPORT_FLAVORS SparseLDLT {
 public:
@@ -44,7 +44,24 @@ public:
     /** Factorizes the values set; returns how many rows were found dependent. */
     int factorize(double dropTolerance);
     /** Overwrites b (in the constructor's numbering) with the solution of A x = b. */
-    void solve(double* b) const;
+    void solve(double* b) const {
+        switch (dense ? n : 0) {
+        case 1:
+            b[0] *= inverse[0];
+            return;
+        case 2:
+            applyDense<2>(b);
+            return;
+        case 3:
+            applyDense<3>(b);
+            return;
+        case 4:
+            applyDense<4>(b);
+            return;
+        default:
+            solveSparse(b);
+        }
+    }
     /**
      * The smallest ratio of a pivot to its row's diagonal entry among the rows not found dependent by the last
      * factorize() (1 for an empty matrix): how close the rows come to being dependent, in the elimination order.
@@ -56,6 +73,19 @@ public:
     bool isDense() const { return dense; }
 
 private:
+    void solveSparse(double* b) const;
+    /** b = G b on the dense path. */
+    template <int N> void applyDense(double* b) const {
+        double x[N];
+        for (int i = 0; i < N; ++i) {
+            double sum = 0.0;
+            for (int j = 0; j < N; ++j)
+                sum += inverse[i * N + j] * b[j];
+            x[i] = sum;
+        }
+        for (int i = 0; i < N; ++i)
+            b[i] = x[i];
+    }
     int factorizeDense(double dropTolerance);
     template <int N> int eliminateDense(double dropTolerance);
     int n;

@@ -7,23 +7,6 @@ using namespace FlavorPlugin;
 using std::pair;
 using std::vector;
 
-namespace {
-
-/** b = G b for the dense path's G (N x N, row by row). */
-template <int N> void applyDense(const double* g, double* b) {
-    double x[N];
-    for (int i = 0; i < N; ++i) {
-        double sum = 0.0;
-        for (int j = 0; j < N; ++j)
-            sum += g[i * N + j] * b[j];
-        x[i] = sum;
-    }
-    for (int i = 0; i < N; ++i)
-        b[i] = x[i];
-}
-
-} // namespace
-
 SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool reorder, bool allowDense)
     : n(n), dense(allowDense && n <= MaxDense), diagonalSlot(n), offDiagonalSlot(offDiagonal.size()) {
     // Fill-reducing order from the symmetric pattern.
@@ -94,6 +77,26 @@ SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool re
     pattern.resize(n);
     accumulator.assign(n, 0.0);
     permuted.resize(n);
+    if (dense) {
+        // The dense path keeps the permuted matrix's lower triangle in values, row by row (entry (j, i), i <= j, at
+        // j n + i; those outside the pattern stay 0).  An entry given twice (summed by the sparse path) keeps the
+        // sparse path.
+        vector<int> denseSlot(rowIndex.size());
+        vector<char> taken(n * n, 0);
+        for (int j = 0; j < n; ++j)
+            for (int p = columnStart[j]; p < columnStart[j + 1]; ++p) {
+                denseSlot[p] = j * n + rowIndex[p];
+                dense = dense && !taken[denseSlot[p]];
+                taken[denseSlot[p]] = 1;
+            }
+        if (dense) {
+            for (int& slot : diagonalSlot)
+                slot = denseSlot[slot];
+            for (int& slot : offDiagonalSlot)
+                slot = denseSlot[slot];
+            values.assign(n * n, 0.0);
+        }
+    }
 }
 
 int SparseLDLT::factorize(double dropTolerance) {
@@ -163,54 +166,63 @@ int SparseLDLT::factorizeDense(double dropTolerance) {
 }
 
 template <int N> int SparseLDLT::eliminateDense(double dropTolerance) {
-    // The elimination of factorize() on dense arrays, in the same order: a is the permuted matrix's lower triangle,
-    // l the strict lower triangle of L, d the pivots.
-    double a[N][N] = {}, l[N][N] = {}, d[N];
-    bool drop[N];
-    for (int j = 0; j < N; ++j)
-        for (int p = columnStart[j]; p < columnStart[j + 1]; ++p)
-            a[j][rowIndex[p]] += values[p];
+    // The elimination of factorize() on dense arrays, in the same order: a is the permuted matrix's lower triangle
+    // (values), l the strict lower triangle of L, d the pivots, keep 1 for the rows not found dependent.
+    const double* a = values.data();
+    double l[N][N], d[N], keep[N];
     int numDependent = 0;
     double ratio = 1.0;
+#pragma GCC unroll 4
     for (int k = 0; k < N; ++k) {
         // Row k of L from L D y = a_k (the triangular solve of factorize(), every entry present).
         double y[N];
+#pragma GCC unroll 4
         for (int i = 0; i < k; ++i)
-            y[i] = a[k][i];
-        d[k] = a[k][k];
+            y[i] = a[k * N + i];
+        d[k] = a[k * N + k];
+#pragma GCC unroll 4
         for (int i = 0; i < k; ++i) {
+#pragma GCC unroll 4
             for (int r = i + 1; r < k; ++r)
                 y[r] -= l[r][i] * y[i];
-            const double entry = drop[i] ? 0.0 : y[i] / d[i];
+            const double entry = keep[i] != 0.0 ? y[i] / d[i] : 0.0;
             d[k] -= entry * y[i];
             l[k][i] = entry;
         }
-        drop[k] = d[k] <= dropTolerance * a[k][k];
-        numDependent += drop[k] ? 1 : 0;
-        if (!drop[k])
-            ratio = std::min(ratio, d[k] / a[k][k]);
+        const bool dropped = d[k] <= dropTolerance * a[k * N + k];
+        keep[k] = dropped ? 0.0 : 1.0;
+        numDependent += dropped ? 1 : 0;
+        if (!dropped)
+            ratio = std::min(ratio, d[k] / a[k * N + k]);
     }
     // G = L^-T D^+ L^-1 with m = L^-1 (unit lower triangular), stored in the caller's numbering.
-    double m[N][N] = {}, inversePivot[N];
+    double m[N][N], inversePivot[N];
+#pragma GCC unroll 4
     for (int i = 0; i < N; ++i) {
         m[i][i] = 1.0;
+#pragma GCC unroll 4
         for (int j = 0; j < i; ++j) {
             double sum = 0.0;
+#pragma GCC unroll 4
             for (int q = j; q < i; ++q)
                 sum -= l[i][q] * m[q][j];
             m[i][j] = sum;
         }
-        inversePivot[i] = drop[i] ? 0.0 : 1.0 / d[i];
+        inversePivot[i] = keep[i] != 0.0 ? 1.0 / d[i] : 0.0;
     }
     int original[N];
+#pragma GCC unroll 4
     for (int i = 0; i < N; ++i) {
         original[i] = order[i];
         pivot[i] = d[i];
-        dependent[i] = drop[i] ? 1 : 0;
+        dependent[i] = keep[i] == 0.0 ? 1 : 0;
     }
+#pragma GCC unroll 4
     for (int i = 0; i < N; ++i)
+#pragma GCC unroll 4
         for (int j = 0; j <= i; ++j) {
             double sum = 0.0;
+#pragma GCC unroll 4
             for (int k = i; k < N; ++k)
                 sum += m[k][i] * inversePivot[k] * m[k][j];
             inverse[original[i] * N + original[j]] = sum;
@@ -220,25 +232,7 @@ template <int N> int SparseLDLT::eliminateDense(double dropTolerance) {
     return numDependent;
 }
 
-void SparseLDLT::solve(double* b) const {
-    if (dense) {
-        switch (n) {
-        case 1:
-            applyDense<1>(inverse.data(), b);
-            return;
-        case 2:
-            applyDense<2>(inverse.data(), b);
-            return;
-        case 3:
-            applyDense<3>(inverse.data(), b);
-            return;
-        case 4:
-            applyDense<4>(inverse.data(), b);
-            return;
-        default:
-            return;
-        }
-    }
+void SparseLDLT::solveSparse(double* b) const {
     for (int k = 0; k < n; ++k)
         permuted[k] = b[order[k]];
     for (int j = 0; j < n; ++j)

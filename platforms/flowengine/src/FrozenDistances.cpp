@@ -180,6 +180,21 @@ vector<char> FlavorPlugin::independentConstraints(const vector<pair<int, int>>& 
     return keep;
 }
 
+// The small helpers of the drift are defined inline: a shared library's exported functions are not inlined otherwise.
+inline void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Vec3* u, const double* a,
+                                                 double factor) const {
+    for (int c = first; c < last; ++c) {
+        const int i = pairs[c].first, j = pairs[c].second;
+        const double amount = factor * a[c - first];
+        x[i] += u[c] * (inverseMasses[i] * amount);
+        x[j] -= u[c] * (inverseMasses[j] * amount);
+    }
+}
+
+inline void FrozenDistances::addAlongConstraints(int k, Vec3* x, const Vec3* u, const double* a) const {
+    addAlongConstraints(constraintStart[k], constraintStart[k + 1], x, u, a);
+}
+
 FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs,
                                  const vector<Vec3>& positionsToCheck)
     : minItems(1), positionVector(nullptr), velocityVector(nullptr), positions(nullptr), velocities(nullptr),
@@ -478,7 +493,12 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     if (!factorizedHere(k))
         factorize(k);
     storeNormalMomenta(k);
-    const double startEnergy = normalKineticEnergy(k);
+    // The kinetic energy of the rates is given back below where the momenta are not held.
+    const double startEnergy = holdsMomenta[k] ? 0.0 : normalKineticEnergy(k);
+    // The normal part of the velocities is M^-1 J^T mu (with the System's constraints at rest): taken off here, the
+    // projection only checks it, and refines where the System's constraints were not quite at rest.
+    addAlongConstraints(constraintStart[k], constraintStart[k + 1], velocities, directions.data(),
+                        &normalMomenta[constraintStart[k]], -1.0);
     if (!constrainVelocities(k, velocities, MaxIterations, true))
         return false;
     // A rigid cluster keeps the angles between its constraints, and so B and (1/2) mu^T B mu, everywhere on the
@@ -486,7 +506,7 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     // take away again (along the directions there).  Its B need not be factorized again either, only the directions
     // follow the flight.
     const bool keepB = keepsShape(k);
-    const bool turning = holdsMomenta[k] && hasNormalMomenta(k) && !keepB;
+    const bool turning = !keepB && holdsMomenta[k] && hasNormalMomenta(k);
     for (int s = 0; s < substeps; ++s) {
         // RATTLE on the constraint manifold with the potential (1/2) mu^T B(q) mu of the frozen normal momenta.
         if (turning)
@@ -529,14 +549,14 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     return true;
 }
 
-double FrozenDistances::normalKineticEnergy(int k) const {
+inline double FrozenDistances::normalKineticEnergy(int k) const {
     double energy = 0.0;
     for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
         energy += 0.5 * (frozen[c] ? targetRates[c] : 0.0) * normalMomenta[c];
     return energy;
 }
 
-void FrozenDistances::storeNormalMomenta(int k) const {
+inline void FrozenDistances::storeNormalMomenta(int k) const {
     // mu = B^-1 (0, rdot): the frozen distances' rates with the System's constraints at rest (B as just factorized).
     const int first = constraintStart[k], last = constraintStart[k + 1];
     double* mu = &normalMomenta[first];
@@ -545,7 +565,7 @@ void FrozenDistances::storeNormalMomenta(int k) const {
     solvers[k].solve(mu);
 }
 
-bool FrozenDistances::hasNormalMomenta(int k) const {
+inline bool FrozenDistances::hasNormalMomenta(int k) const {
     for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
         if (frozen[c] && normalMomenta[c] != 0.0)
             return true;
@@ -594,8 +614,10 @@ void FrozenDistances::kickCluster(int k) const {
         const int i = particles[n];
         scratch[i] = forces[i] * (h * inverseMasses[i]);
     }
-    // The factorization of the last drift is close to B here; a new one only when none exists yet.
-    if (!factorized[k])
+    // The factorization of the last drift is close to B here; a new one only when none exists yet.  A rigid
+    // cluster's drift kept B from where it started: its kick factorizes where it is, so that what it does does not
+    // depend on where the drift started (a Context whose state is set anew, a checkpoint rewound, forgets it).
+    if (!factorized[k] || (rigid[k] && !factorizedHere(k)))
         factorize(k);
     if (!constrainVelocitiesRefactorizing(k, scratch.data()))
         failed[k] = 1;
@@ -605,21 +627,7 @@ void FrozenDistances::kickCluster(int k) const {
     }
 }
 
-void FrozenDistances::addAlongConstraints(int k, Vec3* x, const Vec3* u, const double* a) const {
-    addAlongConstraints(constraintStart[k], constraintStart[k + 1], x, u, a);
-}
-
-void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Vec3* u, const double* a,
-                                          double factor) const {
-    for (int c = first; c < last; ++c) {
-        const int i = pairs[c].first, j = pairs[c].second;
-        const double amount = factor * a[c - first];
-        x[i] += u[c] * (inverseMasses[i] * amount);
-        x[j] -= u[c] * (inverseMasses[j] * amount);
-    }
-}
-
-void FrozenDistances::factorize(int k) const {
+inline void FrozenDistances::factorize(int k) const {
     const int numDependent = factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k],
                                         positions, inverseMasses);
     rigid[k] = rigidShortcut && constraintStart[k + 1] - constraintStart[k] - numDependent == rigidRank[k] ? 1 : 0;
@@ -628,12 +636,12 @@ void FrozenDistances::factorize(int k) const {
         factorizedPositions[particles[n]] = positions[particles[n]];
 }
 
-void FrozenDistances::storeDirections(int k) const {
+inline void FrozenDistances::storeDirections(int k) const {
     for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
         directions[c] = unitDirection(positions[pairs[c].first] - positions[pairs[c].second]);
 }
 
-bool FrozenDistances::keepsShape(int k) const {
+inline bool FrozenDistances::keepsShape(int k) const {
     if (!rigid[k])
         return false;
     // The test of constrainPositions(): where a System constraint is off its length, the drift changes the shape.
@@ -650,7 +658,7 @@ void FrozenDistances::forgetFactorizations() {
     std::fill(factorized.begin(), factorized.end(), 0);
 }
 
-bool FrozenDistances::factorizedHere(int k) const {
+inline bool FrozenDistances::factorizedHere(int k) const {
     // Kicks and thermostats between two drifts leave the positions, and so B and its directions, as they were.
     if (!factorized[k])
         return false;
@@ -660,8 +668,8 @@ bool FrozenDistances::factorizedHere(int k) const {
     return true;
 }
 
-int FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
-                                const double* w) const {
+inline int FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
+                                       const double* w) const {
     assembleB(solver, pairs, constraintStart[k], last, couplings.data() + couplingStart[k], numCouplings, q, w,
               directions.data());
     return solver.factorize(DependentPivot);

@@ -224,8 +224,11 @@ private:
      * they need not be computed again.
      */
     bool constrainVelocities(int k, OpenMM::Vec3* v, int maxIterations, bool directionsHere = false) const;
-    /** constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here. */
-    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v) const;
+    /**
+     * constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here.
+     * directionsHere: the factorization at hand is at the current positions (its directions are those here).
+     */
+    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v, bool directionsHere) const;
     void checkConvergence();
     int numFrozen;
     // Cluster k owns particles[particleStart[k] .. particleStart[k+1]) and constraints

@@ -617,9 +617,12 @@ void FrozenDistances::kickCluster(int k) const {
     // The factorization of the last drift is close to B here; a new one only when none exists yet.  A rigid
     // cluster's drift kept B from where it started: its kick factorizes where it is, so that what it does does not
     // depend on where the drift started (a Context whose state is set anew, a checkpoint rewound, forgets it).
-    if (!factorized[k] || (rigid[k] && !factorizedHere(k)))
+    bool here = factorizedHere(k);
+    if (!factorized[k] || (rigid[k] && !here)) {
         factorize(k);
-    if (!constrainVelocitiesRefactorizing(k, scratch.data()))
+        here = true;
+    }
+    if (!constrainVelocitiesRefactorizing(k, scratch.data(), here))
         failed[k] = 1;
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
         const int i = particles[n];
@@ -705,12 +708,12 @@ bool FrozenDistances::constrainPositions(int k) const {
     return false;
 }
 
-bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v) const {
+bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v, bool directionsHere) const {
     // Refinement with B from elsewhere converges while the directions are close; if not, B from here.
-    if (constrainVelocities(k, v, MaxIterations / 10))
+    if (constrainVelocities(k, v, MaxIterations / 10, directionsHere))
         return true;
     factorize(k);
-    return constrainVelocities(k, v, MaxIterations);
+    return constrainVelocities(k, v, MaxIterations, true);
 }
 
 bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations, bool directionsHere) const {

@@ -98,11 +98,12 @@ OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector
  * between the constraint directions, is the same everywhere on their manifold: it is factorized where the drift
  * starts (the microsteps between drifts change the shape) and kept through the RATTLE steps, where only the unit
  * directions follow the positions; and the force of mu^T B(q) mu / 2, being normal to the manifold, is left out, as
- * the position and velocity projections that follow each of its kicks would take away what it adds.  The results
- * agree with the general path to the constraint tolerance.  The shortcut is taken where the last factorization found
- * that many independent rows and the System's constraints of the cluster hold where the drift starts (else the drift
- * changes the shape).  Small clusters (up to SparseLDLT::MaxDense constraints) are factorized and solved on dense
- * arrays by SparseLDLT, with the same elimination and the same test for dependent rows.
+ * the position and velocity projections that follow each of its kicks would take away what it adds; its kick
+ * factorizes where it is (the drift's B is from the drift's start), so that the steps do not depend on where a
+ * factorization was made.  The results agree with the general path to the constraint tolerance.  The shortcut is taken
+ * where the last factorization found that many independent rows and the System's constraints of the cluster hold where
+ * the drift starts (else the drift changes the shape).  Small clusters (up to SparseLDLT::MaxDense constraints) are
+ * factorized and solved on dense arrays by SparseLDLT, with the same elimination and the same test for dependent rows.
  *
  * Clusters without a frozen distance (rigid water, molecules with only their own constraints, free particles) need
  * none of this: their drift is OpenMM's constrained drift and their kick OpenMM's projected kick, so they go through

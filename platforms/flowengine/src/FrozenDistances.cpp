@@ -496,9 +496,11 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     // The kinetic energy of the rates is given back below where the momenta are not held.
     const double startEnergy = holdsMomenta[k] ? 0.0 : normalKineticEnergy(k);
     // The normal part of the velocities is M^-1 J^T mu (with the System's constraints at rest): taken off here, the
-    // projection only checks it, and refines where the System's constraints were not quite at rest.
-    addAlongConstraints(constraintStart[k], constraintStart[k + 1], velocities, directions.data(),
-                        &normalMomenta[constraintStart[k]], -1.0);
+    // projection only checks it, and refines where the System's constraints were not quite at rest.  Small clusters
+    // only: the large ones (proteins) project as they always did.
+    if (solvers[k].isDense())
+        addAlongConstraints(constraintStart[k], constraintStart[k + 1], velocities, directions.data(),
+                            &normalMomenta[constraintStart[k]], -1.0);
     if (!constrainVelocities(k, velocities, MaxIterations, true))
         return false;
     // A rigid cluster keeps the angles between its constraints, and so B and (1/2) mu^T B mu, everywhere on the

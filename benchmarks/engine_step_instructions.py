@@ -5,7 +5,12 @@ valgrind's callgrind (load-independent), CPU platform with one thread:
   - villin: the protein recipe (FlavorIntegrator, ArtificialProjected, Middle placement, delta = 2.5 fs, tau = 1 fs,
     bonds and the angles of non-planar centres frozen; examples/villin, 8,867 atoms with PME);
   - drude_water: StochasticImpulseIntegrator, Warped splitting with the Middle placement at H = 2.5 fs, cold Drude
-    bath (examples/drude_water, 256 SWM4-NDP molecules with PME).
+    bath (examples/drude_water, 256 SWM4-NDP molecules with PME);
+  - flexible_water: the flexible-water recipe (FlavorIntegrator, ArtificialProjected, Middle placement, delta = 6 fs,
+    tau = 0.5 fs, O-H bonds and H-O-H angles frozen; examples/flexible_water, 501 TIP3P molecules with PME), and
+    flexible_water_lm, LangevinMiddleIntegrator at 2 fs on the same system from the same state, the step it is
+    compared with.  For these the frozen stage's share is reported too: the functions of FrozenDistances and of its
+    solver SparseLDLT (what inlining leaves of them).
 
 Each step is run from one saved state for a short and a long number of steps in a child process under callgrind;
 the difference is the cost of a step.  Reported: all instructions per step, and those of the engine's own functions
@@ -13,7 +18,8 @@ the difference is the cost of a step.  Reported: all instructions per step, and 
 DIR/engine_step_instructions/ and reused by later runs (--fresh saves them again), so two builds are compared from
 the same start.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/engine_step_instructions.py [--out DIR] [--fresh]  # ~6 min
+    PYTHONPATH=build/python /usr/bin/python3 benchmarks/engine_step_instructions.py [--out DIR] [--fresh]  # ~15 min
+        [--scenes SCENE ...]
 
 Needs valgrind (apt-get install valgrind).  Output: a table on stdout and DIR/engine_step_instructions.json
 (default results/bench).
@@ -27,7 +33,11 @@ import sys
 from flavorbench import _config
 from flavorbench.callgrind import per_step, require_valgrind, scene_module
 
-SCENES = {"villin": (3, 9), "drude_water": (10, 40)}
+SCENES = {"villin": (3, 9), "drude_water": (10, 40), "flexible_water": (3, 11), "flexible_water_lm": (3, 11)}
+# Scenes that start from another scene's saved state.
+STATE_OF = {"flexible_water_lm": "flexible_water"}
+# The frozen stage's functions (FrozenDistances.cpp and its solver).
+FROZEN_STAGE = ("FrozenDistances", "SparseLDLT", "assembleB")
 
 
 def make_villin():
@@ -62,13 +72,49 @@ def make_drude_water():
     return "SIM WarpedMiddle H=2.5 fs", system, lambda: drude_water.make_integrator("WarpedMiddle", 2.5, 5), start
 
 
-MAKERS = {"villin": make_villin, "drude_water": make_drude_water}
+def flexible_water_system():
+    flexible_water = scene_module("flexible_water")
+    forcefield, modeller = flexible_water.build_box(501)
+    return flexible_water, modeller, flexible_water.make_system(forcefield, modeller.topology, False)
+
+
+def flexible_water_start(flexible_water, modeller, system):
+    import openmm
+    import openmm.unit as unit
+
+    def start():
+        integrator = openmm.LangevinMiddleIntegrator(flexible_water.TEMPERATURE, 1, 0.0005)
+        integrator.setRandomNumberSeed(3)
+        context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
+        context.setPositions(modeller.positions)
+        openmm.LocalEnergyMinimizer.minimize(context, 10, 200)
+        context.setVelocitiesToTemperature(flexible_water.TEMPERATURE * unit.kelvin, 7)
+        integrator.step(400)
+        return context.getState(getPositions=True, getVelocities=True)
+
+    return start
+
+
+def make_flexible_water():
+    flexible_water, modeller, system = flexible_water_system()
+    name, _, factory, _ = flexible_water.flavor_peer("ArtificialProjected", 6.0, 0.5, True, True)
+    return name, system, lambda: factory(5), flexible_water_start(flexible_water, modeller, system)
+
+
+def make_flexible_water_lm():
+    flexible_water, modeller, system = flexible_water_system()
+    name, _, factory, _ = flexible_water.langevin_peer(2.0)
+    return name, system, lambda: factory(5), flexible_water_start(flexible_water, modeller, system)
+
+
+MAKERS = {"villin": make_villin, "drude_water": make_drude_water, "flexible_water": make_flexible_water,
+          "flexible_water_lm": make_flexible_water_lm}
 
 
 def child(scene, steps, state_dir):
     import openmm
     _, system, factory, _ = MAKERS[scene]()
-    with open(os.path.join(state_dir, scene + ".state.xml")) as f:
+    with open(os.path.join(state_dir, STATE_OF.get(scene, scene) + ".state.xml")) as f:
         state = openmm.XmlSerializer.deserialize(f.read())
     integrator = factory()
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
@@ -93,7 +139,7 @@ def main():
     import openmm
     results = {}
     for scene in args.scenes:
-        state_file = os.path.join(state_dir, scene + ".state.xml")
+        state_file = os.path.join(state_dir, STATE_OF.get(scene, scene) + ".state.xml")
         name, _, _, start = MAKERS[scene]()
         if args.fresh or not os.path.exists(state_file):
             print("%s: saving a start state" % scene, file=sys.stderr, flush=True)
@@ -113,12 +159,16 @@ def main():
                 sys.exit("callgrind run failed: %s, %d steps\n%s" % (scene, n, errors[-2000:]))
         functions = per_step(*(os.path.join(state_dir, "callgrind.%s.%d" % (scene, n)) for n in steps), steps)
         engine = {f: c for f, c in functions.items() if "libOpenMMFlavors" in f}
+        frozen = {f: c for f, c in engine.items() if any(part in f for part in FROZEN_STAGE)}
         results[scene] = {"integrator": name, "steps": steps, "total_per_step": sum(functions.values()),
-                          "engine_per_step": sum(engine.values()),
+                          "engine_per_step": sum(engine.values()), "frozen_stage_per_step": sum(frozen.values()),
                           "engine_top_functions": [{"function": f[:200], "per_step": c} for f, c in
-                                                   sorted(engine.items(), key=lambda x: -x[1])[:20]]}
-        print("%-12s %-45s total %10.2fM per step, engine %8.3fM per step" % (
-            scene, name, results[scene]["total_per_step"] / 1e6, results[scene]["engine_per_step"] / 1e6))
+                                                   sorted(engine.items(), key=lambda x: -x[1])[:20]],
+                          "frozen_stage_functions": [{"function": f[:200], "per_step": c} for f, c in
+                                                     sorted(frozen.items(), key=lambda x: -x[1])]}
+        print("%-17s %-58s total %8.2fM per step, engine %7.3fM, frozen stage %7.3fM" % (
+            scene, name, results[scene]["total_per_step"] / 1e6, results[scene]["engine_per_step"] / 1e6,
+            results[scene]["frozen_stage_per_step"] / 1e6))
     with open(os.path.join(args.out, "engine_step_instructions.json"), "w") as f:
         json.dump({"benchmark": "engine_step_instructions", "platform": "CPU, 1 thread", "scenes": results}, f,
                   indent=1)

@@ -26,14 +26,15 @@ Eigen::MatrixXd gramOfRandomRows(int n, int m, int perRow, std::mt19937& random)
     return g * g.transpose();
 }
 
-SparseLDLT factorOf(const Eigen::MatrixXd& a, bool reorder, double dropTolerance, int& numDependent) {
+SparseLDLT factorOf(const Eigen::MatrixXd& a, bool reorder, double dropTolerance, int& numDependent,
+                    bool allowDense = true) {
     const int n = (int)a.rows();
     vector<pair<int, int>> offDiagonal;
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < j; ++i)
             if (a(i, j) != 0.0)
                 offDiagonal.emplace_back(j, i);
-    SparseLDLT solver(n, offDiagonal, reorder);
+    SparseLDLT solver(n, offDiagonal, reorder, allowDense);
     for (int i = 0; i < n; ++i)
         solver.setDiagonal(i, a(i, i));
     for (size_t k = 0; k < offDiagonal.size(); ++k)
@@ -113,4 +114,61 @@ TEST(SparseLDLT, NearlyDependentRowsAreDroppedByTheThreshold) {
     // The smallest pivot ratio among the rows kept: sin^2(theta) when row 2 is kept, 1 when it is dropped.
     EXPECT_NEAR(std::sin(theta) * std::sin(theta), strict.smallestPivotRatio(), 1e-12);
     EXPECT_NEAR(1.0, loose.smallestPivotRatio(), 1e-12);
+}
+
+TEST(SparseLDLT, TheDensePathOfSmallMatricesAgreesWithTheSparseOne) {
+    // Orders 1 to MaxDense, full and sparse patterns, in both orders: positive definite matrices, matrices with a row
+    // that is a combination of others (exactly, and within or beyond the drop tolerance), each solved for a right-hand
+    // side in its range.  The dense path must find the same dependent rows and pivots and give the same solution.
+    std::mt19937 random(17);
+    std::normal_distribution<double> value;
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    const double dropTolerance = 1e-10;
+    int numCompared = 0, numWithDependent = 0;
+    for (int n = 1; n <= SparseLDLT::MaxDense; ++n)
+        for (int trial = 0; trial < 200; ++trial) {
+            Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n, 3 * n);
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < 3 * n; ++j)
+                    if (trial % 2 == 0 || uniform(random) < 0.4 || j == i)
+                        g(i, j) = value(random);
+            const int kind = trial % 4;
+            if (n >= 2 && kind >= 1) {
+                // Row r a combination of the others: exactly (kind 1), or off by a relative 1e-3 (kind 2, pivot ratio
+                // about 1e-6, kept) or 1e-7 (kind 3, about 1e-14, dropped) in a new direction.
+                const int r = std::uniform_int_distribution<int>(1, n - 1)(random);
+                Eigen::RowVectorXd combination = Eigen::RowVectorXd::Zero(3 * n);
+                for (int i = 0; i < n; ++i)
+                    if (i != r)
+                        combination += value(random) * g.row(i);
+                Eigen::RowVectorXd offset = Eigen::RowVectorXd::Zero(3 * n);
+                offset(3 * n - 1 - r) = combination.norm();
+                g.row(r) = combination + (kind == 1 ? 0.0 : kind == 2 ? 1e-3 : 1e-7) * offset;
+            }
+            const Eigen::MatrixXd a = g * g.transpose();
+            const Eigen::VectorXd b = a * Eigen::VectorXd::Random(n);
+            for (bool reorder : {true, false}) {
+                int sparseDependent = -1, denseDependent = -1;
+                SparseLDLT sparse = factorOf(a, reorder, dropTolerance, sparseDependent, false);
+                SparseLDLT dense = factorOf(a, reorder, dropTolerance, denseDependent, true);
+                ASSERT_FALSE(sparse.isDense());
+                ASSERT_TRUE(dense.isDense());
+                ASSERT_EQ(sparseDependent, denseDependent) << "n " << n << " trial " << trial;
+                for (int i = 0; i < n; ++i)
+                    EXPECT_EQ(sparse.isDependent(i), dense.isDependent(i)) << "n " << n << " trial " << trial;
+                EXPECT_NEAR(sparse.smallestPivotRatio(), dense.smallestPivotRatio(),
+                            1e-12 * sparse.smallestPivotRatio());
+                Eigen::VectorXd x = b, y = b;
+                sparse.solve(x.data());
+                dense.solve(y.data());
+                EXPECT_LT((x - y).norm(), 1e-8 * x.norm()) << "n " << n << " trial " << trial;
+                if (sparseDependent == 0) {
+                    EXPECT_LT((a * y - b).norm(), 1e-8 * b.norm()) << "n " << n << " trial " << trial;
+                }
+                ++numCompared;
+                numWithDependent += sparseDependent > 0 ? 1 : 0;
+            }
+        }
+    EXPECT_EQ(2 * 200 * SparseLDLT::MaxDense, numCompared);
+    EXPECT_GT(numWithDependent, 100);
 }

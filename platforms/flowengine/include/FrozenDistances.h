@@ -92,6 +92,19 @@ OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector
  * construction (independentConstraints), so B stays well conditioned; rows that become exactly dependent later are
  * recognised by their pivots and dropped.
  *
+ * Rigid clusters, whose constraints fix every distance among their particles (a flexible water molecule with its
+ * O-H bonds and H-H distance frozen: 3 particles, 3 independent constraints; in general 3n - 6 for n >= 3 particles,
+ * 1 for 2), take a shortcut with the same drift.  Their B, whose entries w (u_c . u_d) depend only on the angles
+ * between the constraint directions, is the same everywhere on their manifold: it is factorized where the drift
+ * starts (the microsteps between drifts change the shape) and kept through the RATTLE steps, where only the unit
+ * directions follow the positions; and the force of mu^T B(q) mu / 2, being normal to the manifold, is left out, as
+ * the position and velocity projections that follow each of its kicks would take away what it adds; its kick
+ * factorizes where it is (the drift's B is from the drift's start), so that the steps do not depend on where a
+ * factorization was made.  The results agree with the general path to the constraint tolerance.  The shortcut is taken
+ * where the last factorization found that many independent rows and the System's constraints of the cluster hold where
+ * the drift starts (else the drift changes the shape).  Small clusters (up to SparseLDLT::MaxDense constraints) are
+ * factorized and solved on dense arrays by SparseLDLT, with the same elimination and the same test for dependent rows.
+ *
  * Clusters without a frozen distance (rigid water, molecules with only their own constraints, free particles) need
  * none of this: their drift is OpenMM's constrained drift and their kick OpenMM's projected kick, so they go through
  * the platform's constraint algorithms (SETTLE for water, CCMA otherwise), as in OpenMM's own integrators.
@@ -128,6 +141,12 @@ public:
     void kick(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
               const std::vector<OpenMM::Vec3>& forces, const std::vector<double>& inverseMasses, double h,
               double tolerance, bool projectOthers, ParallelLoop& loop);
+    /**
+     * Whether rigid clusters take their shortcut (the default): B factorized where the drift starts only, and no
+     * kicks by the force of the normal momenta, which is normal to their manifold.  false treats them as any other
+     * cluster; the two drifts agree to the constraint tolerance (tests compare them).
+     */
+    void setRigidShortcut(bool use) { rigidShortcut = use; }
     /**
      * Forgets every cluster's factorization: the next drift or kick factorizes where it starts, as the first one does.
      * Called when the Context's state is set from outside (positions, velocities, a checkpoint), so that what follows
@@ -177,23 +196,40 @@ private:
     /** The same for the constraints [first, last) (a numbered from first), each amount times factor. */
     void addAlongConstraints(int first, int last, OpenMM::Vec3* x, const OpenMM::Vec3* u, const double* a,
                              double factor = 1.0) const;
-    /** Factorizes B of cluster k at the current positions and stores the unit directions it was built from. */
+    /**
+     * Factorizes B of cluster k at the current positions and stores the unit directions it was built from; notes
+     * whether the cluster is rigid there.
+     */
     void factorize(int k) const;
+    /** Stores the unit directions of cluster k's constraints at the current positions, B as it was (rigid clusters). */
+    void storeDirections(int k) const;
+    /**
+     * Whether cluster k keeps its shape through a drift from here: rigid where last factorized, with its System
+     * constraints at their lengths (the frozen distances are held where the drift starts).
+     */
+    bool keepsShape(int k) const;
     /** Whether cluster k's last factorization was at exactly the current positions. */
     bool factorizedHere(int k) const;
     /**
      * Assembles into solver B of cluster k's constraints [constraintStart[k], last) with the first numCouplings of
-     * its couplings, at positions q with inverse masses w, stores their unit directions and factorizes it.
+     * its couplings, at positions q with inverse masses w, stores their unit directions and factorizes it; returns
+     * the number of rows found dependent.
      */
-    void factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const OpenMM::Vec3* q,
-                    const double* w) const;
+    int factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const OpenMM::Vec3* q, const double* w) const;
     /** Newton's iteration with the factorized B: moves positions along the stored directions until every length
      * holds. */
     bool constrainPositions(int k) const;
-    /** Sets v so that every constraint's rate along its current direction is 0. */
-    bool constrainVelocities(int k, OpenMM::Vec3* v, int maxIterations) const;
-    /** constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here. */
-    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v) const;
+    /**
+     * Sets v so that every constraint's rate along its current direction is 0.  directionsHere: the stored directions
+     * are those at the current positions (a factorization or storeDirections() since the positions last moved), so
+     * they need not be computed again.
+     */
+    bool constrainVelocities(int k, OpenMM::Vec3* v, int maxIterations, bool directionsHere = false) const;
+    /**
+     * constrainVelocities with the factorization at hand, then, if that does not converge soon, with B from here.
+     * directionsHere: the factorization at hand is at the current positions (its directions are those here).
+     */
+    bool constrainVelocitiesRefactorizing(int k, OpenMM::Vec3* v, bool directionsHere) const;
     void checkConvergence();
     int numFrozen;
     // Cluster k owns particles[particleStart[k] .. particleStart[k+1]) and constraints
@@ -212,6 +248,12 @@ private:
     mutable std::vector<SparseLDLT> systemSolvers;
     std::vector<int> systemCount, systemCouplingCount;
     std::vector<char> holdsMomenta;
+    // The number of independent constraints that fix every distance among a cluster's particles (1 for 2 particles,
+    // 3n - 6 for n >= 3), and whether its last factorization found that many (B then stays what it is along the
+    // drift).
+    std::vector<int> rigidRank;
+    mutable std::vector<char> rigid;
+    bool rigidShortcut = true;
     // Written per cluster while the loop runs (each cluster its own entries).  normalMomenta: mu of the drift.
     mutable std::vector<double> lengths, targetRates, residuals, normalMomenta;
     // directions: the unit constraint directions of the last factorization; currentDirections: of the last velocity

@@ -119,6 +119,26 @@ vector<ConstraintCoupling> couplingsOf(const vector<pair<int, int>>& pairs, int 
     return result;
 }
 
+/** r / |r|, or 0 where r = 0. */
+Vec3 unitDirection(const Vec3& r) {
+    const double length = std::sqrt(r.dot(r));
+    return length > 0 ? r / length : Vec3();
+}
+
+/**
+ * |error| <= tolerance (|a| + |b|), the convergence test of a constraint's rate (error) whose particles move with
+ * velocities a and b.  (|a| + |b|)^2 lies between s = |a|^2 + |b|^2 and 2 s, so the square roots are taken only
+ * where those bounds leave the answer open.  Written so that a NaN counts as not converged.
+ */
+bool rateConverged(double error, const Vec3& a, const Vec3& b, double tolerance) {
+    const double squares = a.dot(a), squareBound = tolerance * tolerance * (squares + b.dot(b));
+    if (error * error <= squareBound)
+        return true;
+    if (error * error > 2 * squareBound)
+        return false;
+    return std::abs(error) <= tolerance * (std::sqrt(squares) + std::sqrt(b.dot(b)));
+}
+
 /**
  * Sets b to B = J M^-1 J^T of constraints [first, last) of pairs (rows numbered from first) with the unit directions
  * at positions, stored in directions[first, last); couplings are B's off-diagonal entries in the order b was built
@@ -129,9 +149,7 @@ void assembleB(SparseLDLT& b, const vector<pair<int, int>>& pairs, int first, in
                const double* inverseMasses, Vec3* directions) {
     for (int c = first; c < last; ++c) {
         const int i = pairs[c].first, j = pairs[c].second;
-        const Vec3 r = positions[i] - positions[j];
-        const double length = std::sqrt(r.dot(r));
-        directions[c] = length > 0 ? r / length : Vec3();
+        directions[c] = unitDirection(positions[i] - positions[j]);
         b.setDiagonal(c - first, inverseMasses[i] + inverseMasses[j]);
     }
     for (int e = 0; e < numCouplings; ++e) {
@@ -160,6 +178,21 @@ vector<char> FlavorPlugin::independentConstraints(const vector<pair<int, int>>& 
     for (int c = 0; c < n; ++c)
         keep[c] = !frozen[c] || !rows.isDependent(c);
     return keep;
+}
+
+// The small helpers of the drift are defined inline: a shared library's exported functions are not inlined otherwise.
+inline void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Vec3* u, const double* a,
+                                                 double factor) const {
+    for (int c = first; c < last; ++c) {
+        const int i = pairs[c].first, j = pairs[c].second;
+        const double amount = factor * a[c - first];
+        x[i] += u[c] * (inverseMasses[i] * amount);
+        x[j] -= u[c] * (inverseMasses[j] * amount);
+    }
+}
+
+inline void FrozenDistances::addAlongConstraints(int k, Vec3* x, const Vec3* u, const double* a) const {
+    addAlongConstraints(constraintStart[k], constraintStart[k + 1], x, u, a);
 }
 
 FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, int>>& frozenPairs,
@@ -330,6 +363,11 @@ FrozenDistances::FrozenDistances(const System& system, const vector<pair<int, in
     normalVelocities.resize(n);
     failed.assign(numClusters, 0);
     factorized.assign(numClusters, 0);
+    rigid.assign(numClusters, 0);
+    for (int k = 0; k < numClusters; ++k) {
+        const int numParticles = particleStart[k + 1] - particleStart[k];
+        rigidRank.push_back(numParticles == 2 ? 1 : 3 * numParticles - 6);
+    }
     factorizedPositions.resize(n);
     // Which clusters hold normal momenta: those whose B is well conditioned where the set was chosen.
     holdsMomenta.assign(numClusters, 1);
@@ -444,6 +482,8 @@ void FrozenDistances::driftCluster(int k) const {
             positions[i] = startPositions[i];
             velocities[i] = startVelocities[i];
         }
+        // The directions stored where the failed flight went (rigid clusters keep B) are those of the start again.
+        factorized[k] = 0;
     }
     failed[k] = 1;
 }
@@ -453,10 +493,22 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     if (!factorizedHere(k))
         factorize(k);
     storeNormalMomenta(k);
-    const double startEnergy = normalKineticEnergy(k);
-    if (!constrainVelocities(k, velocities, MaxIterations))
+    // The kinetic energy of the rates is given back below where the momenta are not held.
+    const double startEnergy = holdsMomenta[k] ? 0.0 : normalKineticEnergy(k);
+    // The normal part of the velocities is M^-1 J^T mu (with the System's constraints at rest): taken off here, the
+    // projection only checks it, and refines where the System's constraints were not quite at rest.  Small clusters
+    // only: the large ones (proteins) project as they always did.
+    if (solvers[k].isDense())
+        addAlongConstraints(constraintStart[k], constraintStart[k + 1], velocities, directions.data(),
+                            &normalMomenta[constraintStart[k]], -1.0);
+    if (!constrainVelocities(k, velocities, MaxIterations, true))
         return false;
-    const bool turning = holdsMomenta[k] && hasNormalMomenta(k);
+    // A rigid cluster keeps the angles between its constraints, and so B and (1/2) mu^T B mu, everywhere on the
+    // manifold: the force of the normal momenta is normal to it, and what its kicks add the projections that follow
+    // take away again (along the directions there).  Its B need not be factorized again either, only the directions
+    // follow the flight.
+    const bool keepB = keepsShape(k);
+    const bool turning = !keepB && holdsMomenta[k] && hasNormalMomenta(k);
     for (int s = 0; s < substeps; ++s) {
         // RATTLE on the constraint manifold with the potential (1/2) mu^T B(q) mu of the frozen normal momenta.
         if (turning)
@@ -472,13 +524,17 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
             const int i = particles[n];
             velocities[i] = (positions[i] - previousPositions[i]) * (1.0 / step);
         }
-        // The factorization here serves the next step, the normal momenta and the kicks that follow the drift.
-        factorize(k);
+        // The factorization (a rigid cluster: the directions) here serves the next step, the normal momenta and the
+        // kicks that follow the drift.
+        if (keepB)
+            storeDirections(k);
+        else
+            factorize(k);
         if (turning) {
             updateSystemMomenta(k);
             kickByNormalMomenta(k, 0.5 * step);
         }
-        if (!constrainVelocities(k, velocities, MaxIterations))
+        if (!constrainVelocities(k, velocities, MaxIterations, true))
             return false;
     }
     // The normal part comes back along the new directions: with the held momenta, or, where the momenta are ill
@@ -495,14 +551,14 @@ bool FrozenDistances::driftInSubsteps(int k, int substeps) const {
     return true;
 }
 
-double FrozenDistances::normalKineticEnergy(int k) const {
+inline double FrozenDistances::normalKineticEnergy(int k) const {
     double energy = 0.0;
     for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
         energy += 0.5 * (frozen[c] ? targetRates[c] : 0.0) * normalMomenta[c];
     return energy;
 }
 
-void FrozenDistances::storeNormalMomenta(int k) const {
+inline void FrozenDistances::storeNormalMomenta(int k) const {
     // mu = B^-1 (0, rdot): the frozen distances' rates with the System's constraints at rest (B as just factorized).
     const int first = constraintStart[k], last = constraintStart[k + 1];
     double* mu = &normalMomenta[first];
@@ -511,7 +567,7 @@ void FrozenDistances::storeNormalMomenta(int k) const {
     solvers[k].solve(mu);
 }
 
-bool FrozenDistances::hasNormalMomenta(int k) const {
+inline bool FrozenDistances::hasNormalMomenta(int k) const {
     for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
         if (frozen[c] && normalMomenta[c] != 0.0)
             return true;
@@ -560,10 +616,15 @@ void FrozenDistances::kickCluster(int k) const {
         const int i = particles[n];
         scratch[i] = forces[i] * (h * inverseMasses[i]);
     }
-    // The factorization of the last drift is close to B here; a new one only when none exists yet.
-    if (!factorized[k])
+    // The factorization of the last drift is close to B here; a new one only when none exists yet.  A rigid
+    // cluster's drift kept B from where it started: its kick factorizes where it is, so that what it does does not
+    // depend on where the drift started (a Context whose state is set anew, a checkpoint rewound, forgets it).
+    bool here = factorizedHere(k);
+    if (!factorized[k] || (rigid[k] && !here)) {
         factorize(k);
-    if (!constrainVelocitiesRefactorizing(k, scratch.data()))
+        here = true;
+    }
+    if (!constrainVelocitiesRefactorizing(k, scratch.data(), here))
         failed[k] = 1;
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n) {
         const int i = particles[n];
@@ -571,33 +632,38 @@ void FrozenDistances::kickCluster(int k) const {
     }
 }
 
-void FrozenDistances::addAlongConstraints(int k, Vec3* x, const Vec3* u, const double* a) const {
-    addAlongConstraints(constraintStart[k], constraintStart[k + 1], x, u, a);
-}
-
-void FrozenDistances::addAlongConstraints(int first, int last, Vec3* x, const Vec3* u, const double* a,
-                                          double factor) const {
-    for (int c = first; c < last; ++c) {
-        const int i = pairs[c].first, j = pairs[c].second;
-        const double amount = factor * a[c - first];
-        x[i] += u[c] * (inverseMasses[i] * amount);
-        x[j] -= u[c] * (inverseMasses[j] * amount);
-    }
-}
-
-void FrozenDistances::factorize(int k) const {
-    factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k], positions,
-               inverseMasses);
+inline void FrozenDistances::factorize(int k) const {
+    const int numDependent = factorizeB(solvers[k], k, constraintStart[k + 1], couplingStart[k + 1] - couplingStart[k],
+                                        positions, inverseMasses);
+    rigid[k] = rigidShortcut && constraintStart[k + 1] - constraintStart[k] - numDependent == rigidRank[k] ? 1 : 0;
     factorized[k] = 1;
     for (int n = particleStart[k]; n < particleStart[k + 1]; ++n)
         factorizedPositions[particles[n]] = positions[particles[n]];
+}
+
+inline void FrozenDistances::storeDirections(int k) const {
+    for (int c = constraintStart[k]; c < constraintStart[k + 1]; ++c)
+        directions[c] = unitDirection(positions[pairs[c].first] - positions[pairs[c].second]);
+}
+
+inline bool FrozenDistances::keepsShape(int k) const {
+    if (!rigid[k])
+        return false;
+    // The test of constrainPositions(): where a System constraint is off its length, the drift changes the shape.
+    for (int c = constraintStart[k]; c < constraintStart[k] + systemCount[k]; ++c) {
+        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
+        const double target = lengths[c] * lengths[c];
+        if (!(std::abs(target - r.dot(r)) <= 2 * tolerance * target))
+            return false;
+    }
+    return true;
 }
 
 void FrozenDistances::forgetFactorizations() {
     std::fill(factorized.begin(), factorized.end(), 0);
 }
 
-bool FrozenDistances::factorizedHere(int k) const {
+inline bool FrozenDistances::factorizedHere(int k) const {
     // Kicks and thermostats between two drifts leave the positions, and so B and its directions, as they were.
     if (!factorized[k])
         return false;
@@ -607,11 +673,11 @@ bool FrozenDistances::factorizedHere(int k) const {
     return true;
 }
 
-void FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
-                                 const double* w) const {
+inline int FrozenDistances::factorizeB(SparseLDLT& solver, int k, int last, int numCouplings, const Vec3* q,
+                                       const double* w) const {
     assembleB(solver, pairs, constraintStart[k], last, couplings.data() + couplingStart[k], numCouplings, q, w,
               directions.data());
-    solver.factorize(DependentPivot);
+    return solver.factorize(DependentPivot);
 }
 
 bool FrozenDistances::constrainPositions(int k) const {
@@ -644,40 +710,43 @@ bool FrozenDistances::constrainPositions(int k) const {
     return false;
 }
 
-bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v) const {
+bool FrozenDistances::constrainVelocitiesRefactorizing(int k, Vec3* v, bool directionsHere) const {
     // Refinement with B from elsewhere converges while the directions are close; if not, B from here.
-    if (constrainVelocities(k, v, MaxIterations / 10))
+    if (constrainVelocities(k, v, MaxIterations / 10, directionsHere))
         return true;
     factorize(k);
-    return constrainVelocities(k, v, MaxIterations);
+    return constrainVelocities(k, v, MaxIterations, true);
 }
 
-bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations) const {
+bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations, bool directionsHere) const {
     // RATTLE's velocity step: (J M^-1 J^T) mu = -J v along the current unit directions J, by iterative refinement
     // with the factorized B (exact in one iteration where B was factorized).
     const int first = constraintStart[k], last = constraintStart[k + 1];
     double* mu = &residuals[first];
-    for (int c = first; c < last; ++c) {
-        const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
-        currentDirections[c] = r / std::sqrt(r.dot(r));
-    }
+    const Vec3* u = directionsHere ? directions.data() : currentDirections.data();
+    if (!directionsHere)
+        for (int c = first; c < last; ++c) {
+            const Vec3 r = positions[pairs[c].first] - positions[pairs[c].second];
+            currentDirections[c] = r / std::sqrt(r.dot(r));
+        }
+    const pair<int, int>* ends = pairs.data();
+    const SparseLDLT& solver = solvers[k];
+    const double tol = tolerance;
     for (int iteration = 0; iteration < maxIterations; ++iteration) {
         bool converged = true;
         for (int c = first; c < last; ++c) {
-            const Vec3 relative = v[pairs[c].first] - v[pairs[c].second];
-            const double error = -currentDirections[c].dot(relative);
+            const Vec3 vi = v[ends[c].first], vj = v[ends[c].second];
+            const double error = -u[c].dot(vi - vj);
             // Relative to the two speeds, not to their difference: where the pair moves as one (a rigid molecule
             // translating), its relative velocity is rounding of the speeds and cannot be resolved below them.
-            const double scale = std::sqrt(v[pairs[c].first].dot(v[pairs[c].first])) +
-                                 std::sqrt(v[pairs[c].second].dot(v[pairs[c].second]));
-            if (!(std::abs(error) <= tolerance * scale) && !solvers[k].isDependent(c - first))
+            if (!rateConverged(error, vi, vj, tol) && !solver.isDependent(c - first))
                 converged = false;
             mu[c - first] = error;
         }
         if (converged)
             return true;
-        solvers[k].solve(mu);
-        addAlongConstraints(k, v, currentDirections.data(), mu);
+        solver.solve(mu);
+        addAlongConstraints(k, v, u, mu);
     }
     return false;
 }

@@ -7,8 +7,8 @@ using namespace FlavorPlugin;
 using std::pair;
 using std::vector;
 
-SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool reorder)
-    : n(n), diagonalSlot(n), offDiagonalSlot(offDiagonal.size()) {
+SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool reorder, bool allowDense)
+    : n(n), dense(allowDense && n <= MaxDense), diagonalSlot(n), offDiagonalSlot(offDiagonal.size()) {
     // Fill-reducing order from the symmetric pattern.
     order.resize(n);
     position.resize(n);
@@ -77,9 +77,31 @@ SparseLDLT::SparseLDLT(int n, const vector<pair<int, int>>& offDiagonal, bool re
     pattern.resize(n);
     accumulator.assign(n, 0.0);
     permuted.resize(n);
+    if (dense) {
+        // The dense path keeps the permuted matrix's lower triangle in values, row by row (entry (j, i), i <= j, at
+        // j n + i; those outside the pattern stay 0).  An entry given twice (summed by the sparse path) keeps the
+        // sparse path.
+        vector<int> denseSlot(rowIndex.size());
+        vector<char> taken(n * n, 0);
+        for (int j = 0; j < n; ++j)
+            for (int p = columnStart[j]; p < columnStart[j + 1]; ++p) {
+                denseSlot[p] = j * n + rowIndex[p];
+                dense = dense && !taken[denseSlot[p]];
+                taken[denseSlot[p]] = 1;
+            }
+        if (dense) {
+            for (int& slot : diagonalSlot)
+                slot = denseSlot[slot];
+            for (int& slot : offDiagonalSlot)
+                slot = denseSlot[slot];
+            values.assign(n * n, 0.0);
+        }
+    }
 }
 
 int SparseLDLT::factorize(double dropTolerance) {
+    if (dense)
+        return factorizeDense(dropTolerance);
     int numDependent = 0;
     smallestRatio = 1.0;
     for (int k = 0; k < n; ++k) {
@@ -127,7 +149,90 @@ int SparseLDLT::factorize(double dropTolerance) {
     return numDependent;
 }
 
-void SparseLDLT::solve(double* b) const {
+int SparseLDLT::factorizeDense(double dropTolerance) {
+    switch (n) {
+    case 1:
+        return eliminateDense<1>(dropTolerance);
+    case 2:
+        return eliminateDense<2>(dropTolerance);
+    case 3:
+        return eliminateDense<3>(dropTolerance);
+    case 4:
+        return eliminateDense<4>(dropTolerance);
+    default:
+        smallestRatio = 1.0;
+        return 0;
+    }
+}
+
+template <int N> int SparseLDLT::eliminateDense(double dropTolerance) {
+    // The elimination of factorize() on dense arrays, in the same order: a is the permuted matrix's lower triangle
+    // (values), l the strict lower triangle of L, d the pivots, keep 1 for the rows not found dependent.
+    const double* a = values.data();
+    double l[N][N], d[N], keep[N];
+    int numDependent = 0;
+    double ratio = 1.0;
+#pragma GCC unroll 4
+    for (int k = 0; k < N; ++k) {
+        // Row k of L from L D y = a_k (the triangular solve of factorize(), every entry present).
+        double y[N];
+#pragma GCC unroll 4
+        for (int i = 0; i < k; ++i)
+            y[i] = a[k * N + i];
+        d[k] = a[k * N + k];
+#pragma GCC unroll 4
+        for (int i = 0; i < k; ++i) {
+#pragma GCC unroll 4
+            for (int r = i + 1; r < k; ++r)
+                y[r] -= l[r][i] * y[i];
+            const double entry = keep[i] != 0.0 ? y[i] / d[i] : 0.0;
+            d[k] -= entry * y[i];
+            l[k][i] = entry;
+        }
+        const bool dropped = d[k] <= dropTolerance * a[k * N + k];
+        keep[k] = dropped ? 0.0 : 1.0;
+        numDependent += dropped ? 1 : 0;
+        if (!dropped)
+            ratio = std::min(ratio, d[k] / a[k * N + k]);
+    }
+    // G = L^-T D^+ L^-1 with m = L^-1 (unit lower triangular), stored in the caller's numbering.
+    double m[N][N], inversePivot[N];
+#pragma GCC unroll 4
+    for (int i = 0; i < N; ++i) {
+        m[i][i] = 1.0;
+#pragma GCC unroll 4
+        for (int j = 0; j < i; ++j) {
+            double sum = 0.0;
+#pragma GCC unroll 4
+            for (int q = j; q < i; ++q)
+                sum -= l[i][q] * m[q][j];
+            m[i][j] = sum;
+        }
+        inversePivot[i] = keep[i] != 0.0 ? 1.0 / d[i] : 0.0;
+    }
+    int original[N];
+#pragma GCC unroll 4
+    for (int i = 0; i < N; ++i) {
+        original[i] = order[i];
+        pivot[i] = d[i];
+        dependent[i] = keep[i] == 0.0 ? 1 : 0;
+    }
+#pragma GCC unroll 4
+    for (int i = 0; i < N; ++i)
+#pragma GCC unroll 4
+        for (int j = 0; j <= i; ++j) {
+            double sum = 0.0;
+#pragma GCC unroll 4
+            for (int k = i; k < N; ++k)
+                sum += m[k][i] * inversePivot[k] * m[k][j];
+            inverse[original[i] * N + original[j]] = sum;
+            inverse[original[j] * N + original[i]] = sum;
+        }
+    smallestRatio = ratio;
+    return numDependent;
+}
+
+void SparseLDLT::solveSparse(double* b) const {
     for (int k = 0; k < n; ++k)
         permuted[k] = b[order[k]];
     for (int j = 0; j < n; ++j)

@@ -21,14 +21,6 @@ using std::vector;
 
 namespace {
 
-class SerialLoop : public ParallelLoop {
-public:
-    void run(const RangeTask& task, int count) override {
-        if (count > 0)
-            task.apply(0, count);
-    }
-};
-
 Vec3 rotated(const Vec3& v, const Vec3& axis, double angle) {
     // Rodrigues' rotation of v about the unit axis.
     return v * std::cos(angle) + axis.cross(v) * std::sin(angle) + axis * (axis.dot(v) * (1 - std::cos(angle)));

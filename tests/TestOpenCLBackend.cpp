@@ -488,6 +488,14 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
                   << " nm, " << sims.velocityDeviation << " nm/ps" << std::endl;
         EXPECT_LE(deviation, Tolerance) << setting.first;
     }
+    // A checkpoint holds the share forces that the next step's kicks and force responses add.
+    std::stringstream checkpoint;
+    sims.openclContext->createCheckpoint(checkpoint);
+    sims.opencl->step(10);
+    const vector<Vec3> q = sims.openclContext->getState(State::Positions).getPositions();
+    sims.openclContext->loadCheckpoint(checkpoint);
+    sims.opencl->step(10);
+    EXPECT_EQ(0.0, largestDifference(sims.openclContext->getState(State::Positions).getPositions(), q));
 }
 
 TEST(OpenCLBackend, RigidDrudeWatersWithPmeFollowReference) {

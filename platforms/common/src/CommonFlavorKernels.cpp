@@ -436,6 +436,8 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
         switch (flow.kind) {
         case SubFlow::Drift:
             drifts = true;
+            // The device's constraint algorithms, also with host constraints: the SIM's steps have no drifts (its
+            // free flow is part of the stiff flow).
             if (hasConstraints) {
                 // With constraints a pass is one sub-flow or a run of kicks and thermostats (analyzeStep).
                 const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();

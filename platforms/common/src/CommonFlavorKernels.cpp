@@ -831,15 +831,10 @@ void CommonImpulseStepKernel::initialize(const System& system, const StochasticI
 }
 
 void CommonImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups) {
+    // Constraints may join a stiff component to particles outside it; the constrained particle carries its component
+    // through the host's constraint solve, as on the CPU platforms.
     auto checkConstraints = [&context](const StiffModes& modes) {
-        // Constraints may join a stiff component to particles outside it; the constrained particle carries its
-        // component through the constraint solve (ConstraintProjector), as on the CPU platforms.
-        vector<int> componentOf(context.getSystem().getNumParticles(), -1);
-        for (int c = 0; c < modes.getNumComponents(); ++c)
-            if (modes.getComponent(c).stiff)
-                for (int k = 0; k < modes.getComponent(c).numParticles; ++k)
-                    componentOf[modes.getComponentParticles(c)[k]] = modes.getComponentParticles(c)[0];
-        rejectConstraintsInsideStiffComponents(context, componentOf);
+        ConstraintProjector::rejectUncarriedConstraints(context, modes);
     };
     if (measurement->measure(context, stiffGroups, checkConstraints))
         stepper->setStiffModes(measurement->getModes());

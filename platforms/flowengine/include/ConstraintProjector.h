@@ -48,6 +48,12 @@ public:
         double velocity = 0.0, impulse = 0.0;
     };
     static CorrectionScales stiffFlowScales(const SubFlow& flow);
+    /**
+     * Throws unless the projector can carry the stiff components of modes through the System's constraints (a
+     * constraint may join a stiff component to particles outside it, at most one particle of each component;
+     * rejectConstraintsInsideStiffComponents).
+     */
+    static void rejectUncarriedConstraints(const OpenMM::ContextImpl& context, const StiffModes& modes);
     /** Finds the carriers of the stiff components of modes (none without modes). */
     void setStiffModes(const StiffModes* modes);
     /** The carried particles and their carriers, each once (whose share forces the next step's kicks add). */

@@ -1,5 +1,6 @@
 #include "ConstraintProjector.h"
 #include "internal/ExactModeFlow.h"
+#include "internal/StiffGroupChecks.h"
 #include "openmm/HarmonicAngleForce.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
@@ -58,6 +59,15 @@ ConstraintProjector::CorrectionScales ConstraintProjector::stiffFlowScales(const
     scales.impulse = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
     scales.velocity = zeroMode.vv * scales.impulse;
     return scales;
+}
+
+void ConstraintProjector::rejectUncarriedConstraints(const ContextImpl& context, const StiffModes& modes) {
+    vector<int> componentOf(context.getSystem().getNumParticles(), -1);
+    for (int c = 0; c < modes.getNumComponents(); ++c)
+        if (modes.getComponent(c).stiff)
+            for (int k = 0; k < modes.getComponent(c).numParticles; ++k)
+                componentOf[modes.getComponentParticles(c)[k]] = modes.getComponentParticles(c)[0];
+    rejectConstraintsInsideStiffComponents(context, componentOf);
 }
 
 ReferenceConstraints& ConstraintProjector::ownConstraints() {

@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
-"""Speed on OpenMM's OpenCL platform: what the plugin's OpenCL backend runs today (the nonintrusive FLAVOR, the SIM's
-LieTrotter/Strang/Yoshida4 splittings) beside OpenMM's own integrators on the same platform, in the same run, timed
+"""Speed on OpenMM's OpenCL platform: what the plugin's OpenCL backend runs (the FLAVOR, the SIM's splittings, the SIM
+on rigid Drude water) beside OpenMM's own integrators on the same platform, in the same run, timed
 in interleaved batches (flavorbench.runners.time_batches: every peer steps one batch in turn, so a change of the
 machine's load hits them alike).  Each batch ends with a download of the velocities, so that the OpenCL queue has
 drained before the clock stops.
 
 Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
-  drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs.  The scene's SIM
-                  peer (Warped splitting, Middle placement, 2.5 fs, on rigid water) is NOT available on OpenCL yet: SIMs
-                  on Systems with constraints are rejected there.
-                  The script still tries to create it and records OpenMM's error; nothing is timed for it.
+  drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs against the
+                  scene's SIM (Warped splitting, Middle placement, 2.5 fs).  The SIM's constraint solves run on the
+                  host (each oxygen core carries its Drude particle through them), with a copy of the positions and
+                  velocities from and to the device around each: expect that to cost on a GPU.
   flexible_water  flexible TIP3P water (PME; examples/flexible_water): LangevinMiddle flexible 0.5, 1 and 2 fs against
                   the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,
                   tau = 0.5 fs), and the scene's artificial FLAVOR (ArtificialProjected, bonds and angles frozen,

@@ -19,8 +19,6 @@ inline const std::vector<std::string>& suitesNotOnOpenCL() {
     static const std::vector<std::string> suites = {
         "EngineSchedules",    // runs the CPU-side engine (FlowStepRunner) on Reference and CPU particle data
         "FlavorAccuracy",     // blow-up past 1e50 (OpenCL's fixed-point forces saturate); a 20 s run on PoCL
-        "ImpulseApi",         // constraints beside stiff components; frequencies to 1e-9 (fixed-point forces)
-        "ImpulseConstraints", // constraints beside stiff components (carried components)
         "ImpulseExact",       // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
         "ImpulseFiltered",    // fixed points to 1e-10; OpenCL's force constants are single (k off by 3e-8)
         "ImpulseHardWall",    // the hard wall (setMaxDrudeDistance)

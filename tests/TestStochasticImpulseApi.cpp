@@ -12,6 +12,7 @@
 #include <functional>
 #include <memory>
 #include <sstream>
+#include <string>
 
 using namespace FlavorPlugin;
 using namespace FlavorTests;
@@ -90,19 +91,21 @@ TEST_P(ImpulseApi, ChangesToTheStiffPotentialAreMeasuredAgain) {
     StochasticImpulseIntegrator integrator(0, 0, 0.01, StiffMask);
     Context context(system, integrator, platform(), properties());
     context.setPositions({Vec3(0.1, 0, 0), Vec3(0, 0.2, 0)});
+    // OpenCL's fixed-point forces (2^-32 kJ/mol/nm) leave the measured frequencies 1.6e-9 off (PoCL).
+    const double tolerance = isOpenCL() ? 5e-9 : 1e-9;
     integrator.step(1);
-    EXPECT_NEAR(10.0, integrator.getStiffModeFrequencies().back(), 1e-9);
+    EXPECT_NEAR(10.0, integrator.getStiffModeFrequencies().back(), tolerance);
     // A context parameter used by a stiff force.
     context.setParameter("k", 400.0);
-    EXPECT_NEAR(20.0, integrator.getStiffModeFrequencies().back(), 1e-9);
+    EXPECT_NEAR(20.0, integrator.getStiffModeFrequencies().back(), tolerance);
     // A force's updateParametersInContext(): the second particle's spring becomes the stiffest.
     perParticle->setParticleParameters(0, 1, {900.0});
     perParticle->updateParametersInContext(context);
     integrator.step(1);
-    EXPECT_NEAR(30.0, integrator.getStiffModeFrequencies().back(), 1e-9);
+    EXPECT_NEAR(30.0, integrator.getStiffModeFrequencies().back(), tolerance);
     // The explicit call (after a change the integrator is told about anyway, it must agree).
     integrator.updateStiffModes();
-    EXPECT_NEAR(30.0, integrator.getStiffModeFrequencies().back(), 1e-9);
+    EXPECT_NEAR(30.0, integrator.getStiffModeFrequencies().back(), tolerance);
 }
 
 TEST_P(ImpulseApi, NonquadraticStiffForcesNegativeCurvatureAndConstraintsAreRejected) {
@@ -126,7 +129,17 @@ TEST_P(ImpulseApi, NonquadraticStiffForcesNegativeCurvatureAndConstraintsAreReje
     StochasticImpulseIntegrator second(300, 1, 0.01, StiffMask);
     Context invertedContext(inverted, second, platform(), properties());
     invertedContext.setPositions({Vec3(0.1, 0, 0)});
-    expectRejected([&] { second.step(1); }, {"negative curvature", "omega^2 = -50"});
+    // On OpenCL its fixed-point forces make it -49.99999993 (PoCL).
+    try {
+        second.step(1);
+        ADD_FAILURE() << "no exception for negative curvature";
+    } catch (const OpenMMException& e) {
+        const string message = e.what();
+        EXPECT_NE(string::npos, message.find("negative curvature")) << message;
+        const size_t at = message.find("omega^2 = ");
+        ASSERT_NE(string::npos, at) << message;
+        EXPECT_NEAR(-50.0, std::stod(message.substr(at + 10)), isOpenCL() ? 1e-6 : 1e-12) << message;
+    }
 
     // A constraint between two particles of one stiff component, at Context creation.
     std::unique_ptr<System> constrained(springPair(1e4, 0.0));

@@ -53,10 +53,11 @@ void initializeMixed4(ComputeContext& cc, ComputeArray& array, int size, const s
 
 } // namespace
 
-CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, string owner, string platformName)
+CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, string owner, string platformName,
+                                     bool hostConstraints)
     : cc(cc), system(system), owner(std::move(owner)), platformName(std::move(platformName)),
       numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0), hasVirtualSites(false),
-      history(system.getNumParticles()), frozenStage(cc, system) {
+      history(system.getNumParticles()), frozenStage(cc, system), particles(system) {
     for (int i = 0; i < numParticles; ++i)
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     ContextSelector selector(cc);
@@ -84,6 +85,16 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     slotValid.assign(MaxForceSlots, false);
     initializeMixed4(cc, forceDifferences, numParticles, "flavorForceDifferences");
     initializeMixed4(cc, openingForces, numParticles, "flavorOpeningForces");
+    initializeMixed4(cc, shareForces, numParticles, "flavorShareForces");
+    if (hostConstraints && hasConstraints) {
+        projector = std::make_unique<ConstraintProjector>(system, particles, true);
+        mirror = std::make_unique<HostStateMirror>(cc, numParticles);
+        unconstrained.resize(numParticles);
+        if (doubles)
+            shareDouble.resize(numParticles);
+        else
+            shareFloat.resize(numParticles);
+    }
     slotClock.assign(MaxForceSlots, SlotClock());
     copyForcesKernel->addArg(cc.getLongForceBuffer());
     copyForcesKernel->addArg(slotForces[0]);
@@ -167,9 +178,11 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     uploadInts(cc, responseOffset, responseOffsets, "flavorResponseOffset");
     uploadMixed(cc, responseScratch, vector<double>(12 * particleList.size(), 0.0), "flavorResponseScratch");
     // The modes are measured again after parameter changes and checkpoints: the history of particles that are still
-    // stiff stays, as in the CPU engine (no carried components here: no constraints).
+    // carried or stiff stays, as in the CPU engine.
+    if (projector)
+        projector->setStiffModes(modes.get());
     downloadHistory(history);
-    history.keepOnly(vector<int>(), modes.get());
+    history.keepOnly(projector ? projector->getShareParticles() : vector<int>(), modes.get());
     uploadHistory();
     prepare();
 }
@@ -228,6 +241,7 @@ void CommonFlowStepper::prepare() {
     responses.resize(plan.passes.size());
     processings.clear();
     processings.resize(plan.passes.size());
+    correctionScales.assign(plan.passes.size(), ConstraintProjector::CorrectionScales());
     bool haveBath = false;
     Bath bath;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
@@ -270,11 +284,13 @@ void CommonFlowStepper::prepare() {
             }
             case SubFlow::StiffFlow:
             case SubFlow::HarmonicFlow:
+                correctionScales[p] = ConstraintProjector::stiffFlowScales(flow);
                 if (modes) // else prepared again when the modes are measured
                     kernel = createStiffFlowKernel(flow, p);
                 break;
             case SubFlow::FilteredStiffFlow:
                 // The flow, then the response to the forces where it began.
+                correctionScales[p] = ConstraintProjector::stiffFlowScales(flow);
                 if (modes) {
                     passKernels[p].push_back(createStiffFlowKernel(flow, p));
                     kernel = createForceResponseKernel(flow, pass.slots[k], p);
@@ -375,6 +391,9 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
     kernel->addArg(responseOffset);
     kernel->addArg(responseScratch);
     kernel->addArg(slotForces[slot]);
+    // The share forces of carried components add to the forces the response reads (not to their change).
+    kernel->addArg(shareForces);
+    kernel->addArg(projector && !projector->getShareParticles().empty() ? 1 : 0);
     kernel->addArg(openingForces);
     kernel->addArg(forceDifferences);
     kernel->addArg(closing ? 1 : 0);
@@ -417,6 +436,8 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
         switch (flow.kind) {
         case SubFlow::Drift:
             drifts = true;
+            // The device's constraint algorithms, also with host constraints: the SIM's steps have no drifts (its
+            // free flow is part of the stiff flow).
             if (hasConstraints) {
                 // With constraints a pass is one sub-flow or a run of kicks and thermostats (analyzeStep).
                 const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
@@ -445,8 +466,67 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
     }
     if (drifts)
         invalidateForces();
+    else if (projector)
+        constrainAfterKicks(&pass, constraintTolerance);
     else if (hasConstraints)
         cc.getIntegrationUtilities().applyVelocityConstraints(constraintTolerance);
+}
+
+void CommonFlowStepper::rememberFlowStart() {
+    if (!projector)
+        return;
+    mirror->downloadPositions();
+    projector->rememberPositions(mirror->positions);
+}
+
+void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passIndex, double constraintTolerance) {
+    if (!projector)
+        return;
+    // As StiffFlowExecutor::runFlow: the correction of the positions is an impulse at the start of the flow, so it
+    // also changes the velocities, and the projection after it removes what is left along the constraints.
+    mirror->downloadPositions();
+    mirror->downloadVelocities();
+    vector<Vec3>& positions = mirror->positions;
+    vector<Vec3>& velocities = mirror->velocities;
+    unconstrained = positions;
+    const ConstraintProjector::CorrectionScales& scales = correctionScales[passIndex];
+    projector->constrainPositions(positions, constraintTolerance, scales.impulse);
+    for (int i = 0; i < numParticles; ++i)
+        if (particles.inverseMasses[i] != 0.0)
+            velocities[i] += (positions[i] - unconstrained[i]) * scales.velocity;
+    if (!pass.nextProjectsVelocities)
+        projector->constrainVelocities(positions, velocities, constraintTolerance);
+    mirror->uploadPositions();
+    mirror->uploadVelocities();
+}
+
+void CommonFlowStepper::constrainAfterKicks(const FlowPass* kicks, double constraintTolerance) {
+    mirror->downloadPositions();
+    mirror->downloadVelocities();
+    vector<Vec3>& velocities = mirror->velocities;
+    // As ParticlePassExecutor::run: each kick adds the share forces of the last step's constraint solves.
+    if (kicks)
+        for (const SubFlow& flow : kicks->flows)
+            if (flow.kind == SubFlow::Kick)
+                for (int p : projector->getShareParticles())
+                    velocities[p] += history.shareForces[p] * (flow.h * particles.inverseMasses[p]);
+    projector->constrainVelocities(mirror->positions, velocities, constraintTolerance);
+    mirror->uploadVelocities();
+}
+
+void CommonFlowStepper::uploadShareForces() {
+    if (!projector)
+        return;
+    const vector<Vec3>& values = history.shareForces;
+    if (cc.getUseDoublePrecision() || cc.getUseMixedPrecision()) {
+        for (int i = 0; i < numParticles; ++i)
+            shareDouble[i] = mm_double4(values[i][0], values[i][1], values[i][2], 0.0);
+        shareForces.upload(shareDouble);
+    } else {
+        for (int i = 0; i < numParticles; ++i)
+            shareFloat[i] = mm_float4((float)values[i][0], (float)values[i][1], (float)values[i][2], 0.0f);
+        shareForces.upload(shareFloat);
+    }
 }
 
 void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
@@ -504,7 +584,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         switch (pass.flows[0].kind) {
         case SubFlow::StiffFlow:
         case SubFlow::HarmonicFlow:
+            rememberFlowStart();
             runStiffFlow(pass, p);
+            constrainAfterFlow(pass, p, constraintTolerance);
             break;
         case SubFlow::FrozenDrift:
         case SubFlow::FrozenKick:
@@ -512,12 +594,16 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
             break;
         case SubFlow::FilteredStiffFlow:
             // The response reads the slot's forces from where the flow began: invalidated, not overwritten.
+            rememberFlowStart();
             runStiffFlow(pass, p);
             runForceResponse(p, 1);
+            constrainAfterFlow(pass, p, constraintTolerance);
             break;
         case SubFlow::FilteredKick:
             // Its position response is zero: the forces stay valid for the next step's opening.
             runForceResponse(p, 0);
+            if (projector)
+                constrainAfterKicks(nullptr, constraintTolerance);
             break;
         default:
             runParticlePass(pass, p, constraintTolerance);
@@ -525,6 +611,10 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         }
     }
     nextStream += (std::uint64_t)plan.noiseStreams;
+    if (projector && !projector->getShareParticles().empty()) {
+        projector->takeShares(stepSize, history.shareForces);
+        uploadShareForces();
+    }
     placeVirtualSites();
     cc.setTime(cc.getTime() + stepSize);
     cc.setStepCount(cc.getStepCount() + 1);
@@ -601,6 +691,7 @@ void CommonFlowStepper::uploadHistory() {
             device[i] = mm_float4((float)values[i][0], (float)values[i][1], (float)values[i][2], 0.0f);
         forceDifferences.upload(device);
     }
+    uploadShareForces();
 }
 
 void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& stream) {
@@ -732,18 +823,19 @@ void CommonImpulseStepKernel::initialize(const System& system, const StochasticI
     // The platform sets up its buffers (forces, atom order) before the kernels use them, as OpenMM's own do.
     cc.initializeContexts();
     ContextSelector selector(cc);
-    stepper = std::make_unique<CommonFlowStepper>(cc, system, ImpulseName, getPlatform().getName());
+    // The System's constraints are solved on the host, carrying stiff components (ConstraintProjector).
+    stepper = std::make_unique<CommonFlowStepper>(cc, system, ImpulseName, getPlatform().getName(), true);
     stepper->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
     measurement =
         std::make_unique<StiffModesMeasurement>(system, ImpulseName, "use FlavorIntegrator for nonlinear stiff forces");
 }
 
 void CommonImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups) {
-    if (context.getSystem().getNumConstraints() > 0)
-        throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
-                              " platform: a System with constraints is not supported there yet (the stiff flow "
-                              "does not carry constrained particles); use the Reference or CPU platform");
-    auto checkConstraints = [](const StiffModes&) {};
+    // Constraints may join a stiff component to particles outside it; the constrained particle carries its component
+    // through the host's constraint solve, as on the CPU platforms.
+    auto checkConstraints = [&context](const StiffModes& modes) {
+        ConstraintProjector::rejectUncarriedConstraints(context, modes);
+    };
     if (measurement->measure(context, stiffGroups, checkConstraints))
         stepper->setStiffModes(measurement->getModes());
 }

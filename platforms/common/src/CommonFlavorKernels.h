@@ -1,11 +1,14 @@
 #ifndef OPENMM_FLAVORS_COMMON_FLAVOR_KERNELS_H_
 #define OPENMM_FLAVORS_COMMON_FLAVOR_KERNELS_H_
 
+#include "ConstraintProjector.h"
 #include "ContextRollback.h"
 #include "FlavorKernels.h"
 #include "FrozenCoordinates.h"
 #include "HostFrozenStage.h"
+#include "HostStateMirror.h"
 #include "ParticleFlows.h"
+#include "ParticleTable.h"
 #include "StepHistory.h"
 #include "StiffClock.h"
 #include "StiffModes.h"
@@ -35,12 +38,20 @@ namespace FlavorPlugin {
  * System's particle order, so they survive the Context's reordering of atoms; the history goes through the host
  * StepHistory for checkpoints, in the CPU engine's format.  Steps whose sub-flows it does not have yet are rejected by
  * setSchedule(), naming the setting that asks for them.
+ *
+ * With hostConstraints (the SIM) the System's constraints around the stiff flows and kicks are solved on the host by
+ * the CPU engine's ConstraintProjector, the one implementation of their math: a constrained particle of a stiff
+ * component carries its component through the solve, and the constraint share forces of a step (StepHistory's share
+ * forces, kept on the host and copied to the device once a step) enter the next step's kicks and force responses.
+ * Each such pass copies the positions and velocities from the device and the corrected ones back (HostStateMirror):
+ * a device constraint solve for carried components is future work.  Without it, constraints are applied on the
+ * device by IntegrationUtilities.
  */
 class CommonFlowStepper {
 public:
     /** owner and platformName name the integrator and the platform in messages. */
     CommonFlowStepper(OpenMM::ComputeContext& cc, const OpenMM::System& system, std::string owner,
-                      std::string platformName);
+                      std::string platformName, bool hostConstraints = false);
     ~CommonFlowStepper();
     /**
      * Sets the schedule of one step; cheap when nothing changed.  unsupported(kind) names the setting that asks for a
@@ -85,6 +96,18 @@ private:
     void invalidateForces();
     void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
     void runStiffFlow(const FlowPass& pass, size_t passIndex);
+    /** With host constraints: remembers the positions where a stiff flow starts. */
+    void rememberFlowStart();
+    /**
+     * With host constraints: the constraint correction after a stiff flow of pass passIndex, as the CPU engine's
+     * StiffFlowExecutor makes it.
+     */
+    void constrainAfterFlow(const FlowPass& pass, size_t passIndex, double constraintTolerance);
+    /** With host constraints: a kick pass's share forces (kicks: their steps; none for a FilteredKick), then the
+     * velocity projection. */
+    void constrainAfterKicks(const FlowPass* kicks, double constraintTolerance);
+    /** Copies the host's share forces onto the device, for the force responses. */
+    void uploadShareForces();
     void runFrozenPass(OpenMM::ContextImpl& context, const FlowPass& pass, double constraintTolerance);
     /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
      */
@@ -138,6 +161,17 @@ private:
     // current Filtered step began.  history's forceDifferences is a copy for checkpoints and forget().
     OpenMM::ComputeArray forceDifferences, openingForces;
     HostFrozenStage frozenStage;
+    // With host constraints: the particles, the projector, host copies of the state, the positions after a stiff
+    // flow before their correction, per pass the scales of that correction, the share forces on the device (system
+    // order) and their upload buffers.
+    ParticleTable particles;
+    std::unique_ptr<ConstraintProjector> projector;
+    std::unique_ptr<HostStateMirror> mirror;
+    std::vector<OpenMM::Vec3> unconstrained;
+    std::vector<ConstraintProjector::CorrectionScales> correctionScales;
+    OpenMM::ComputeArray shareForces;
+    std::vector<OpenMM::mm_double4> shareDouble;
+    std::vector<OpenMM::mm_float4> shareFloat;
     int fusedSlot = -1;
     double fusedStep = 0.0;
 };

@@ -6,28 +6,16 @@ using namespace OpenMM;
 using std::vector;
 
 HostFrozenStage::HostFrozenStage(ComputeContext& cc, const System& system)
-    : cc(cc), doubles(cc.getUseDoublePrecision()), mixed(cc.getUseMixedPrecision()),
-      inverseMasses(system.getNumParticles(), 0.0), positions(system.getNumParticles()),
-      velocities(system.getNumParticles()), forceValues(system.getNumParticles()) {
+    : doubles(cc.getUseDoublePrecision()), mixed(cc.getUseMixedPrecision()),
+      inverseMasses(system.getNumParticles(), 0.0), state(cc, system.getNumParticles()),
+      forceValues(system.getNumParticles()) {
     for (int i = 0; i < system.getNumParticles(); ++i)
         if (system.getParticleMass(i) != 0.0)
             inverseMasses[i] = 1.0 / system.getParticleMass(i);
-    const size_t padded = cc.getPaddedNumAtoms();
-    if (doubles) {
-        posqDouble.resize(padded);
-        velmDouble.resize(padded);
+    if (doubles || mixed)
         forcesDouble.resize(system.getNumParticles());
-    } else {
-        posqFloat.resize(padded);
-        if (mixed) {
-            correctionFloat.resize(padded);
-            velmDouble.resize(padded);
-            forcesDouble.resize(system.getNumParticles());
-        } else {
-            velmFloat.resize(padded);
-            forcesFloat.resize(system.getNumParticles());
-        }
-    }
+    else
+        forcesFloat.resize(system.getNumParticles());
 }
 
 void HostFrozenStage::setDistances(std::shared_ptr<FrozenDistances> newDistances) {
@@ -54,6 +42,8 @@ void HostFrozenStage::run(const SubFlow& flow, const ComputeArray* forces, doubl
                                                                                        "setStiffModes()"));
     const bool drift = flow.kind == SubFlow::FrozenDrift;
     download(drift ? nullptr : forces);
+    vector<Vec3>& positions = state.positions;
+    vector<Vec3>& velocities = state.velocities;
     if (onDistances) {
         if (drift)
             distances->drift(positions, velocities, inverseMasses, flow.h, tolerance, projectOthers, loop);
@@ -66,37 +56,14 @@ void HostFrozenStage::run(const SubFlow& flow, const ComputeArray* forces, doubl
         modeTask->sourceIsForce = !drift;
         loop.run(*modeTask, modes->getNumComponents());
     }
-    upload(drift);
+    if (drift)
+        state.uploadPositions();
+    state.uploadVelocities();
 }
 
 void HostFrozenStage::download(const ComputeArray* forces) {
-    const vector<int>& order = cc.getAtomIndex();
-    const int numAtoms = cc.getNumAtoms();
-    if (doubles) {
-        cc.getPosq().download(posqDouble);
-        for (int atom = 0; atom < numAtoms; ++atom)
-            positions[order[atom]] = Vec3(posqDouble[atom].x, posqDouble[atom].y, posqDouble[atom].z);
-    } else {
-        cc.getPosq().download(posqFloat);
-        if (mixed)
-            cc.getPosqCorrection().download(correctionFloat);
-        for (int atom = 0; atom < numAtoms; ++atom) {
-            const mm_float4& p = posqFloat[atom];
-            Vec3 position(p.x, p.y, p.z);
-            if (mixed)
-                position += Vec3(correctionFloat[atom].x, correctionFloat[atom].y, correctionFloat[atom].z);
-            positions[order[atom]] = position;
-        }
-    }
-    if (doubles || mixed) {
-        cc.getVelm().download(velmDouble);
-        for (int atom = 0; atom < numAtoms; ++atom)
-            velocities[order[atom]] = Vec3(velmDouble[atom].x, velmDouble[atom].y, velmDouble[atom].z);
-    } else {
-        cc.getVelm().download(velmFloat);
-        for (int atom = 0; atom < numAtoms; ++atom)
-            velocities[order[atom]] = Vec3(velmFloat[atom].x, velmFloat[atom].y, velmFloat[atom].z);
-    }
+    state.downloadPositions();
+    state.downloadVelocities();
     if (forces == nullptr)
         return;
     // Force slots are already in the System's order.
@@ -108,45 +75,5 @@ void HostFrozenStage::download(const ComputeArray* forces) {
         forces->download(forcesFloat);
         for (size_t i = 0; i < forceValues.size(); ++i)
             forceValues[i] = Vec3(forcesFloat[i].x, forcesFloat[i].y, forcesFloat[i].z);
-    }
-}
-
-void HostFrozenStage::upload(bool positionsMoved) {
-    // The fourth components (charges, inverse masses) go back as they came.
-    const vector<int>& order = cc.getAtomIndex();
-    const int numAtoms = cc.getNumAtoms();
-    if (positionsMoved) {
-        if (doubles) {
-            for (int atom = 0; atom < numAtoms; ++atom) {
-                const Vec3& q = positions[order[atom]];
-                posqDouble[atom] = mm_double4(q[0], q[1], q[2], posqDouble[atom].w);
-            }
-            cc.getPosq().upload(posqDouble);
-        } else {
-            for (int atom = 0; atom < numAtoms; ++atom) {
-                const Vec3& q = positions[order[atom]];
-                const mm_float4 rounded((float)q[0], (float)q[1], (float)q[2], posqFloat[atom].w);
-                posqFloat[atom] = rounded;
-                if (mixed)
-                    correctionFloat[atom] =
-                        mm_float4((float)(q[0] - rounded.x), (float)(q[1] - rounded.y), (float)(q[2] - rounded.z), 0);
-            }
-            cc.getPosq().upload(posqFloat);
-            if (mixed)
-                cc.getPosqCorrection().upload(correctionFloat);
-        }
-    }
-    if (doubles || mixed) {
-        for (int atom = 0; atom < numAtoms; ++atom) {
-            const Vec3& v = velocities[order[atom]];
-            velmDouble[atom] = mm_double4(v[0], v[1], v[2], velmDouble[atom].w);
-        }
-        cc.getVelm().upload(velmDouble);
-    } else {
-        for (int atom = 0; atom < numAtoms; ++atom) {
-            const Vec3& v = velocities[order[atom]];
-            velmFloat[atom] = mm_float4((float)v[0], (float)v[1], (float)v[2], velmFloat[atom].w);
-        }
-        cc.getVelm().upload(velmFloat);
     }
 }

@@ -3,6 +3,7 @@
 
 #include "FrozenDistances.h"
 #include "FrozenFlowTask.h"
+#include "HostStateMirror.h"
 #include "ParticleFlows.h"
 #include "StiffModes.h"
 #include "internal/FlowSchedule.h"
@@ -62,19 +63,18 @@ public:
 
 private:
     void download(const OpenMM::ComputeArray* forces);
-    void upload(bool positionsMoved);
-    OpenMM::ComputeContext& cc;
     const bool doubles, mixed;
     std::vector<double> inverseMasses;
     std::shared_ptr<FrozenDistances> distances;
     std::shared_ptr<const StiffModes> modes;
     std::unique_ptr<FrozenFlowTask> modeTask;
     SerialLoop loop;
-    // In the System's particle order.
-    std::vector<OpenMM::Vec3> positions, velocities, forceValues;
-    // The device arrays as downloaded (atom order, padded): double or single precision as the platform keeps them.
-    std::vector<OpenMM::mm_double4> posqDouble, velmDouble, forcesDouble;
-    std::vector<OpenMM::mm_float4> posqFloat, correctionFloat, velmFloat, forcesFloat;
+    // The positions and velocities, and a kick's forces, in the System's particle order.
+    HostStateMirror state;
+    std::vector<OpenMM::Vec3> forceValues;
+    // The force slot as downloaded: double or single precision as the platform keeps it.
+    std::vector<OpenMM::mm_double4> forcesDouble;
+    std::vector<OpenMM::mm_float4> forcesFloat;
 };
 
 } // namespace FlavorPlugin

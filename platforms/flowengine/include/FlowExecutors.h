@@ -106,10 +106,7 @@ private:
     // processing (StiffModes), and the constraint scales of a correction at the start of the flow in a zero mode.
     std::vector<StiffModes::Propagator> propagators;
     std::vector<StiffModes::ForceResponse> responses, processing;
-    struct ConstraintScales {
-        double velocity = 0.0, impulse = 0.0;
-    };
-    std::vector<ConstraintScales> scales;
+    std::vector<ConstraintProjector::CorrectionScales> scales;
     // The positions after a stiff flow, before their constraint correction.
     std::vector<OpenMM::Vec3> unconstrained;
 };

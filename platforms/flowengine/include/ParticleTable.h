@@ -1,6 +1,7 @@
 #ifndef OPENMM_FLAVORS_PARTICLE_TABLE_H_
 #define OPENMM_FLAVORS_PARTICLE_TABLE_H_
 
+#include "internal/windowsExportFlavors.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
 #include <vector>
@@ -8,7 +9,7 @@
 namespace FlavorPlugin {
 
 /** The per-particle constants of a System that every part of the step engine reads. */
-struct ParticleTable {
+struct OPENMM_EXPORT_FLAVORS ParticleTable {
     explicit ParticleTable(const OpenMM::System& system);
     int numParticles;
     bool hasConstraints, hasVirtualSites;

@@ -1,9 +1,13 @@
 #include "ConstraintProjector.h"
+#include "internal/ExactModeFlow.h"
+#include "internal/StiffGroupChecks.h"
 #include "openmm/HarmonicAngleForce.h"
+#include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/reference/ReferenceConstraints.h"
 #include "openmm/reference/ReferencePlatform.h"
 #include <algorithm>
+#include <cmath>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -17,7 +21,7 @@ ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
 
 } // namespace
 
-ConstraintProjector::ConstraintProjector(const System& system, const ParticleTable& particles)
+ConstraintProjector::ConstraintProjector(const System& system, const ParticleTable& particles, bool ownSolver)
     : particles(particles), inverseMasses(particles.inverseMasses), reference(particles.numParticles) {
     constraintSystem = std::make_unique<System>();
     for (int i = 0; i < particles.numParticles; ++i)
@@ -39,9 +43,38 @@ ConstraintProjector::ConstraintProjector(const System& system, const ParticleTab
             }
             constraintSystem->addForce(copy);
         }
+    if (ownSolver)
+        solver = std::make_unique<ReferenceConstraints>(*constraintSystem);
 }
 
 ConstraintProjector::~ConstraintProjector() = default;
+
+ConstraintProjector::CorrectionScales ConstraintProjector::stiffFlowScales(const SubFlow& flow) {
+    // Constrained particles are free particles or carry their component as a rigid body: zero modes.
+    const bool middleFlow = flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
+    const double friction = flow.bath.friction;
+    const ModeFlow zeroMode = middleFlow ? computeMiddleFreeFlow(friction, flow.h)
+                                         : computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
+    CorrectionScales scales;
+    scales.impulse = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
+    scales.velocity = zeroMode.vv * scales.impulse;
+    return scales;
+}
+
+void ConstraintProjector::rejectUncarriedConstraints(const ContextImpl& context, const StiffModes& modes) {
+    vector<int> componentOf(context.getSystem().getNumParticles(), -1);
+    for (int c = 0; c < modes.getNumComponents(); ++c)
+        if (modes.getComponent(c).stiff)
+            for (int k = 0; k < modes.getComponent(c).numParticles; ++k)
+                componentOf[modes.getComponentParticles(c)[k]] = modes.getComponentParticles(c)[0];
+    rejectConstraintsInsideStiffComponents(context, componentOf);
+}
+
+ReferenceConstraints& ConstraintProjector::ownConstraints() {
+    if (!solver)
+        throw OpenMMException("ConstraintProjector: solves on vectors need a projector built with its own solver");
+    return *solver;
+}
 
 void ConstraintProjector::setStiffModes(const StiffModes* modes) {
     carriedConstraints.reset();
@@ -93,9 +126,26 @@ void ConstraintProjector::setStiffModes(const StiffModes* modes) {
 
 void ConstraintProjector::constrainPositions(ContextImpl& context, double tolerance, double impulsePerCorrection) {
     ReferencePlatform::PlatformData& data = platformData(context);
-    vector<Vec3>& positions = *data.positions;
+    solvePositions(*data.constraints, *data.positions, tolerance, impulsePerCorrection);
+}
+
+void ConstraintProjector::constrainPositions(vector<Vec3>& positions, double tolerance, double impulsePerCorrection) {
+    solvePositions(ownConstraints(), positions, tolerance, impulsePerCorrection);
+}
+
+void ConstraintProjector::constrainVelocities(ContextImpl& context, double tolerance) {
+    ReferencePlatform::PlatformData& data = platformData(context);
+    solveVelocities(*data.constraints, *data.positions, *data.velocities, tolerance);
+}
+
+void ConstraintProjector::constrainVelocities(vector<Vec3>& positions, vector<Vec3>& velocities, double tolerance) {
+    solveVelocities(ownConstraints(), positions, velocities, tolerance);
+}
+
+void ConstraintProjector::solvePositions(ReferenceConstraints& uncarried, vector<Vec3>& positions, double tolerance,
+                                         double impulsePerCorrection) {
     if (!carriedConstraints) {
-        data.constraints->apply(reference, positions, inverseMasses, tolerance);
+        uncarried.apply(reference, positions, inverseMasses, tolerance);
         return;
     }
     for (size_t k = 0; k < carriedParticles.size(); ++k)
@@ -106,16 +156,15 @@ void ConstraintProjector::constrainPositions(ContextImpl& context, double tolera
         positions[carriedParticles[k].first] += positions[carriedParticles[k].second] - carrierBefore[k];
 }
 
-void ConstraintProjector::constrainVelocities(ContextImpl& context, double tolerance) {
-    ReferencePlatform::PlatformData& data = platformData(context);
-    vector<Vec3>& velocities = *data.velocities;
+void ConstraintProjector::solveVelocities(ReferenceConstraints& uncarried, vector<Vec3>& positions,
+                                          vector<Vec3>& velocities, double tolerance) {
     if (!carriedConstraints) {
-        data.constraints->applyToVelocities(*data.positions, velocities, inverseMasses, tolerance);
+        uncarried.applyToVelocities(positions, velocities, inverseMasses, tolerance);
         return;
     }
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         carrierBefore[k] = velocities[carriedParticles[k].second];
-    carriedConstraints->applyToVelocities(*data.positions, velocities, carriedInverseMasses, tolerance);
+    carriedConstraints->applyToVelocities(positions, velocities, carriedInverseMasses, tolerance);
     addCarrierImpulses(velocities, 1.0);
     for (size_t k = 0; k < carriedParticles.size(); ++k)
         velocities[carriedParticles[k].first] += velocities[carriedParticles[k].second] - carrierBefore[k];

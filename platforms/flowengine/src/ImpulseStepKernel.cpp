@@ -1,4 +1,5 @@
 #include "ImpulseStepKernel.h"
+#include "ConstraintProjector.h"
 #include "StiffProbe.h"
 #include "internal/StiffGroupChecks.h"
 #include "openmm/OpenMMException.h"
@@ -20,15 +21,10 @@ void ImpulseStepKernel::initialize(const System& system, const StochasticImpulse
 }
 
 void ImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups) {
+    // Constraints may join a stiff component to particles outside it; the runner lets the constrained particle carry
+    // its component through the constraint solve.
     auto checkConstraints = [&context](const StiffModes& modes) {
-        // Constraints may join a stiff component to particles outside it; the runner lets the constrained particle
-        // carry its component through the constraint solve.
-        std::vector<int> componentOf(context.getSystem().getNumParticles(), -1);
-        for (int c = 0; c < modes.getNumComponents(); ++c)
-            if (modes.getComponent(c).stiff)
-                for (int k = 0; k < modes.getComponent(c).numParticles; ++k)
-                    componentOf[modes.getComponentParticles(c)[k]] = modes.getComponentParticles(c)[0];
-        rejectConstraintsInsideStiffComponents(context, componentOf);
+        ConstraintProjector::rejectUncarriedConstraints(context, modes);
     };
     if (measurement->measure(context, stiffGroups, checkConstraints))
         runner->setStiffModes(measurement->getModes());

@@ -21,7 +21,7 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
     propagators.assign(n, StiffModes::Propagator());
     responses.assign(n, StiffModes::ForceResponse());
     processing.assign(n, StiffModes::ForceResponse());
-    scales.assign(n, ConstraintScales());
+    scales.assign(n, ConstraintProjector::CorrectionScales());
     if (parts.constraints)
         unconstrained.resize(parts.particles.numParticles);
     for (size_t p = 0; p < n; ++p) {
@@ -29,13 +29,9 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
         const bool filtered = flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
         const bool middle = flow.zeroModes == SubFlow::ZeroModeFlow::Middle;
         if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
-            // Constrained particles are free particles or carry their component as a rigid body: zero modes.
             const bool middleFlow = middle && flow.h > 0;
             const double friction = flow.bath.friction;
-            const ModeFlow zeroMode = middleFlow ? computeMiddleFreeFlow(friction, flow.h)
-                                                 : computeModeFlow(0.0, flow.h > 0 ? friction : 0.0, std::abs(flow.h));
-            scales[p].impulse = 1.0 / (flow.h > 0 ? zeroMode.xv : -zeroMode.xv);
-            scales[p].velocity = zeroMode.vv * scales[p].impulse;
+            scales[p] = ConstraintProjector::stiffFlowScales(flow);
             if (modes)
                 modes->computePropagator(flow.h, friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
                                          propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);

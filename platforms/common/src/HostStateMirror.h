@@ -1,0 +1,37 @@
+#ifndef OPENMM_FLAVORS_HOST_STATE_MIRROR_H_
+#define OPENMM_FLAVORS_HOST_STATE_MIRROR_H_
+
+#include "openmm/Vec3.h"
+#include "openmm/common/ComputeContext.h"
+#include "openmm/common/ComputeVectorTypes.h"
+#include <vector>
+
+namespace FlavorPlugin {
+
+/**
+ * Host copies of a common compute Context's positions and velocities in the System's particle order, for the parts
+ * of a step that run the step engine's host code (HostFrozenStage, the SIM's constraint solves): download, change
+ * them, upload.  Double, mixed (positions with their correction) and single precision; the fourth components
+ * (charges, inverse masses) go back as they came, so an upload follows a download of the same array within one pass.
+ * All buffers are sized at construction.
+ */
+class HostStateMirror {
+public:
+    HostStateMirror(OpenMM::ComputeContext& cc, int numParticles);
+    void downloadPositions();
+    void downloadVelocities();
+    void uploadPositions();
+    void uploadVelocities();
+    std::vector<OpenMM::Vec3> positions, velocities;
+
+private:
+    OpenMM::ComputeContext& cc;
+    const bool doubles, mixed;
+    // The device arrays as downloaded (atom order, padded): double or single precision as the platform keeps them.
+    std::vector<OpenMM::mm_double4> posqDouble, velmDouble;
+    std::vector<OpenMM::mm_float4> posqFloat, correctionFloat, velmFloat;
+};
+
+} // namespace FlavorPlugin
+
+#endif

@@ -103,10 +103,10 @@ TEST_P(FlavorConfigurationWarnings, AMesostepBeyondTheMeasuredOnesWithFrozenAngl
     ASSERT_EQ(1u, warnings.size());
     expectContains(warnings[0], {"mesoStep = 3 fs", "with torsions", "villin", "mesoStep <= 2.5 fs"});
     EXPECT_TRUE(warningsOf(*protein, *artificial(0.0025), platform()).empty());
-    warnings = warningsOf(*water, *artificial(0.007), platform());
+    warnings = warningsOf(*water, *artificial(0.008), platform());
     ASSERT_EQ(1u, warnings.size());
-    expectContains(warnings[0], {"mesoStep = 7 fs", "flexible TIP3P water", "mesoStep <= 6 fs"});
-    EXPECT_TRUE(warningsOf(*water, *artificial(0.006), platform()).empty());
+    expectContains(warnings[0], {"mesoStep = 8 fs", "flexible TIP3P water", "mesoStep <= 7 fs"});
+    EXPECT_TRUE(warningsOf(*water, *artificial(0.007), platform()).empty());
     FlavorIntegrator nonintrusive(0.005, 0.0005, 1 << StiffGroup); // nothing frozen: nothing measured to compare
     EXPECT_TRUE(warningsOf(*protein, nonintrusive, platform()).empty());
 }

@@ -280,9 +280,41 @@ void expectRejected(const std::function<void()>& step, const string& setting) {
     }
 }
 
+/**
+ * Runs the settings in order (each adds to the ones before it) from start and expects every run to end within
+ * Tolerance of Reference; label names the integrator in the output.
+ */
+template <class IntegratorType> using Settings = vector<std::pair<string, std::function<void(IntegratorType&)>>>;
+
+template <class IntegratorType>
+void expectSettingsFollowReference(SideBySide<IntegratorType>& pair, const char* label,
+                                   const Settings<IntegratorType>& settings, const FpuChains& chains) {
+    for (const auto& setting : settings) {
+        const double deviation = pair.run(setting.second, {chains.positions, chains.velocities});
+        std::cout << label << " " << setting.first << ": largest deviation from Reference " << deviation << " nm"
+                  << std::endl;
+        EXPECT_LE(deviation, Tolerance) << setting.first;
+    }
+}
+
+/** The drude_water scene's SIM: Warped, Middle placement, the Drude modes at 1 K with friction 20/ps. */
+StochasticImpulseIntegrator* warpedMiddleColdBath(double step, int seed) {
+    using S = StochasticImpulseIntegrator;
+    S* s = new S(300.0, 1.0, step, StiffMask);
+    s->setSplitting(S::Warped);
+    s->setThermostatPlacement(S::Middle);
+    s->setStiffModeTemperature(1.0);
+    s->setStiffModeFriction(20.0);
+    s->setRandomNumberSeed(seed);
+    return s;
+}
+
 } // namespace
 
-TEST(OpenCLBackend, NonintrusiveFlavorFollowsReferenceInDoublePrecision) {
+TEST(OpenCLBackend, FlavorFollowsReferenceInDoublePrecision) {
+    // The nonintrusive FLAVOR all on the device; then the artificial averagings, whose frozen stage runs on the host
+    // through the engine's own FrozenDistances and FrozenFlowTask (the kicks, drifts, thermostats and the exact fast
+    // flow on the device).  FPU chains: the stiff springs are quadratic, so their nonzero modes freeze.
     if (!haveOpenCL())
         GTEST_SKIP() << "no OpenCL platform";
     using F = FlavorIntegrator;
@@ -293,7 +325,8 @@ TEST(OpenCLBackend, NonintrusiveFlavorFollowsReferenceInDoublePrecision) {
         f->setRandomNumberSeed(31);
         return f;
     });
-    const std::map<string, std::function<void(F&)>> settings = {
+    // In this order: each setting adds to the last.
+    const Settings<F> settings = {
         {"verlet", [](F& f) { f.setScheme(F::Verlet); }},
         {"euler", [](F& f) { f.setScheme(F::SymplecticEuler); }},
         {"euler/langevin", [](F& f) { f.setFriction(5.0); }},
@@ -308,14 +341,26 @@ TEST(OpenCLBackend, NonintrusiveFlavorFollowsReferenceInDoublePrecision) {
              f.setStiffFriction(false);
              f.setFrictionParticles({0, 3, 7});
          }},
+        {"artificial", [](F& f) { f.setAveraging(F::Artificial); }},
+        {"projected", [](F& f) { f.setAveraging(F::ArtificialProjected); }},
+        {"projected/langevin/middle",
+         [](F& f) {
+             f.setFriction(5.0);
+             f.setThermostatPlacement(F::Middle);
+         }},
+        {"projected/exact-fast-flow",
+         [](F& f) {
+             f.setThermostatPlacement(F::Edges);
+             f.setExactFastFlow(true);
+         }},
+        {"euler/artificial",
+         [](F& f) {
+             f.setExactFastFlow(false);
+             f.setScheme(F::SymplecticEuler);
+             f.setAveraging(F::Artificial);
+         }},
     };
-    // In this order: each setting adds to the last.
-    for (const char* name : {"verlet", "euler", "euler/langevin", "verlet/langevin", "verlet/stiff-friction",
-                             "verlet/friction-particles"}) {
-        const double deviation = flavors.run(settings.at(name), {chains.positions, chains.velocities});
-        std::cout << "FLAVOR " << name << ": largest deviation from Reference " << deviation << " nm" << std::endl;
-        EXPECT_LE(deviation, Tolerance) << name;
-    }
+    expectSettingsFollowReference(flavors, "FLAVOR", settings, chains);
 }
 
 TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
@@ -426,15 +471,7 @@ TEST(OpenCLBackend, DrudeWatersWithPmeFollowReferenceInDoublePrecision) {
     // Drude pairs and of free hydrogens.  PME forces differ by rounding between the platforms.
     using S = StochasticImpulseIntegrator;
     DrudeWaters waters;
-    SideBySide<S> sims(waters.system, [] {
-        S* s = new S(300.0, 1.0, 0.001, StiffMask);
-        s->setSplitting(S::Warped);
-        s->setThermostatPlacement(S::Middle);
-        s->setStiffModeTemperature(1.0);
-        s->setStiffModeFriction(20.0);
-        s->setRandomNumberSeed(43);
-        return s;
-    });
+    SideBySide<S> sims(waters.system, [] { return warpedMiddleColdBath(0.001, 43); });
     const double largest = sims.run([](S&) {}, {waters.positions, waters.velocities});
     std::cout << "SIM Drude waters (PME, warped/middle): largest deviation from Reference " << largest << " nm"
               << std::endl;
@@ -511,15 +548,7 @@ TEST(OpenCLBackend, RigidDrudeWatersWithPmeFollowReference) {
     for (int f = 0; f < waters.system.getNumForces(); ++f)
         if (auto* nonbonded = dynamic_cast<NonbondedForce*>(&waters.system.getForce(f)))
             nonbonded->setEwaldErrorTolerance(1e-6);
-    SideBySide<S> sims(waters.system, [] {
-        S* s = new S(300.0, 1.0, 0.002, StiffMask);
-        s->setSplitting(S::Warped);
-        s->setThermostatPlacement(S::Middle);
-        s->setStiffModeTemperature(1.0);
-        s->setStiffModeFriction(20.0);
-        s->setRandomNumberSeed(59);
-        return s;
-    });
+    SideBySide<S> sims(waters.system, [] { return warpedMiddleColdBath(0.002, 59); });
     const double largest = sims.run([](S&) {}, {waters.positions, waters.velocities});
     std::cout << "SIM rigid Drude waters (PME, warped/middle): largest deviation from Reference " << largest << " nm, "
               << sims.velocityDeviation << " nm/ps" << std::endl;
@@ -612,49 +641,6 @@ TEST(OpenCLBackend, RejectsWhatItDoesNotHaveByName) {
         sim.setMaxDrudeDistance(0.0);
         sim.setMetropolis(true);
         expectRejected([&] { sim.step(1); }, "setMetropolis(true)");
-    }
-}
-
-TEST(OpenCLBackend, ArtificialFlavorFollowsReferenceInDoublePrecision) {
-    // The frozen stage runs on the host through the engine's own FrozenDistances and FrozenFlowTask; the kicks, drifts,
-    // thermostats and the exact fast flow on the device.  FPU chains: the stiff springs are quadratic, so their
-    // nonzero modes freeze.
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
-    using F = FlavorIntegrator;
-    FpuChains chains;
-    SideBySide<F> flavors(*chains.system, [] {
-        F* f = new F(0.02, 0.004, StiffMask);
-        f->setTemperature(300.0);
-        f->setRandomNumberSeed(37);
-        return f;
-    });
-    const std::map<string, std::function<void(F&)>> settings = {
-        {"artificial", [](F& f) { f.setAveraging(F::Artificial); }},
-        {"projected", [](F& f) { f.setAveraging(F::ArtificialProjected); }},
-        {"projected/langevin/middle",
-         [](F& f) {
-             f.setFriction(5.0);
-             f.setThermostatPlacement(F::Middle);
-         }},
-        {"projected/exact-fast-flow",
-         [](F& f) {
-             f.setThermostatPlacement(F::Edges);
-             f.setExactFastFlow(true);
-         }},
-        {"euler/artificial",
-         [](F& f) {
-             f.setExactFastFlow(false);
-             f.setScheme(F::SymplecticEuler);
-             f.setAveraging(F::Artificial);
-         }},
-    };
-    // In this order: each setting adds to the last.
-    for (const char* name :
-         {"artificial", "projected", "projected/langevin/middle", "projected/exact-fast-flow", "euler/artificial"}) {
-        const double deviation = flavors.run(settings.at(name), {chains.positions, chains.velocities});
-        std::cout << "FLAVOR " << name << ": largest deviation from Reference " << deviation << " nm" << std::endl;
-        EXPECT_LE(deviation, Tolerance) << name;
     }
 }
 

@@ -35,6 +35,7 @@ to stdout; DIR/opencl_benchmark.json (every batch) and DIR/opencl_benchmark.png 
 """
 import os
 import sys
+import textwrap
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -285,7 +286,7 @@ def plot(data, path):
     plt = reporting.pyplot()
     panels = [(name, precision, run) for name, scene in data["scenes"].items()
               for precision, run in scene["precisions"].items()]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(11, 2.2 + 1.1 * sum(len(r["peers"]) for *_, r in panels) / 2),
+    fig, axes = plt.subplots(len(panels), 1, figsize=(12, 2.6 + 1.1 * sum(len(r["peers"]) for *_, r in panels) / 2),
                              squeeze=False)
     device = next(((r["device"] or {}).get("DeviceName") for *_, r in panels if r["device"]), "?")
     opencl = next(((r["device"] or {}).get("OpenCLPlatformName") for *_, r in panels if r["device"]), "?")
@@ -306,7 +307,9 @@ def plot(data, path):
         ax.set_xlim(0, 1.35 * top)
         unit_note = " (reduced time units read as ps)" if name == "fpu" else ""
         ax.set_xlabel(f"ns/day{unit_note}")
-        ax.set_title(f"{name}: {data['scenes'][name]['system']} — {precision} precision", fontsize=9)
+        # Left-aligned on the axes, wrapped: the long peer names push the axes to the right half of the figure.
+        ax.set_title(textwrap.fill(f"{name}: {data['scenes'][name]['system']} — {precision} precision", 70),
+                     fontsize=9, loc="left")
     pocl = "pocl" in opencl.lower() or "portable computing language" in opencl.lower()
     fig.suptitle(f"ns/day on OpenMM's OpenCL platform ({opencl}: {device}): the plugin's integrators (orange)\n"
                  "against OpenMM's own (blue) in the same run, interleaved batches, best batch.  " +

@@ -162,7 +162,11 @@ def main():
                         help="SIM steps H in fs (default 1.5 2; README: 2.5 fs is not stable here)")
     parser.add_argument("--seed", type=int, default=1, help="random seed of the run (default 1)")
     parser.add_argument("--wall", type=float, default=0.0,
-                        help="the SIM runs' hard wall (setMaxDrudeDistance) in nm; 0 (default) for none")
+                        help="the hard wall (setMaxDrudeDistance) in nm of the SIM runs and the --wall-peers; 0 "
+                             "(default) for none")
+    parser.add_argument("--wall-peers", type=float, nargs="*", default=[], metavar="FS",
+                        help="DrudeLangevin at these steps (fs) with the same --wall, the practitioner's peer "
+                             "(default none)")
     args = parser.parse_args()
     if args.quick:
         waters, pairs, cutoff, equilibration_ps = 64, 2, 0.55, 0.1
@@ -184,6 +188,13 @@ def main():
 
     runs = [run_one(system, state, analysis, scf, "DrudeLangevin", args.reference_step, settings, args.seed + 2)]
     print(f"DrudeLangevin {args.reference_step} fs done", flush=True)
+    for step_fs in args.wall_peers:
+        try:
+            runs.append(run_one(system, state, analysis, scf, "DrudeLangevin", step_fs, settings, args.seed + 4,
+                                args.wall))
+        except openmm.OpenMMException as e:
+            runs.append({"integrator": "DrudeLangevin", "step_fs": step_fs, "failed": str(e)})
+        print(f"DrudeLangevin {step_fs} fs (wall {args.wall:g} nm) done", flush=True)
     for step_fs in args.sim_steps:
         try:
             runs.append(run_one(separated, state, analysis, scf, "WarpedMiddle", step_fs, settings, args.seed + 3,
@@ -195,10 +206,10 @@ def main():
     names = [("induced_ratio", "induced / SCF, all"), ("induced_ratio_ions", "induced / SCF, ions"),
              ("t_drude", "T Drude (K)"), ("t_drude_max", "hottest frame (K)"), ("t_com", "T centre of mass (K)"),
              ("pe_per_pair", "PE per Drude pair"), ("ns_per_day", "ns/day")]
-    print(f"\n{'run':24s}" + "".join(f"{label:>24s}" for _, label in names))
+    print(f"\n{'run':32s}" + "".join(f"{label:>24s}" for _, label in names))
     for run in runs:
         wall = f" wall {run['wall_nm']:g}" if run.get("wall_nm") else ""
-        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs' + wall:24s}"
+        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs' + wall:32s}"
         if "failed" in run:
             print(row + "  failed: " + run["failed"][:80])
             continue

@@ -21,7 +21,6 @@ inline const std::vector<std::string>& suitesNotOnOpenCL() {
         "FlavorAccuracy",     // blow-up past 1e50 (OpenCL's fixed-point forces saturate); a 20 s run on PoCL
         "ImpulseExact",       // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
         "ImpulseFiltered",    // fixed points to 1e-10; OpenCL's force constants are single (k off by 3e-8)
-        "ImpulseHardWall",    // the hard wall (setMaxDrudeDistance)
         "MetropolisAdjusted", // the Metropolis adjustment (setMetropolis)
         "StepAllocations",    // counts the CPU engine's allocations
         "StoredTrajectories", // trajectories stored bit for bit on Reference and CPU

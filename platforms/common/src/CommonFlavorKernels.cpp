@@ -181,6 +181,7 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     // carried or stiff stays, as in the CPU engine.
     if (projector)
         projector->setStiffModes(modes.get());
+    hardWall.setStiffModes(modes.get(), particles);
     downloadHistory(history);
     history.keepOnly(projector ? projector->getShareParticles() : vector<int>(), modes.get());
     uploadHistory();
@@ -310,9 +311,13 @@ void CommonFlowStepper::prepare() {
                                           "with constraints is not supported there yet; use the Reference or CPU "
                                           "platform");
                 break; // runs on the host (HostFrozenStage)
+            case SubFlow::HardWall:
+                // Runs on the host (HardWall) on copies of the particle data.
+                if (!mirror)
+                    mirror = std::make_unique<HostStateMirror>(cc, numParticles);
+                break;
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
-            case SubFlow::HardWall:
                 throw OpenMMException(owner + " on the " + platformName + " platform: " + unsupported(flow.kind) +
                                       " is not supported there yet; use the Reference or CPU platform");
             }
@@ -564,6 +569,17 @@ void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
     passKernels[passIndex][kernelIndex]->execute(modes->getNumComponents());
 }
 
+void CommonFlowStepper::runHardWall(const SubFlow& flow) {
+    mirror->downloadPositions();
+    mirror->downloadVelocities();
+    if (!hardWall.apply(mirror->positions, mirror->velocities, particles.masses, flow.distance, flow.h,
+                        flow.stiffBath.kT))
+        return;
+    mirror->uploadPositions();
+    mirror->uploadVelocities();
+    invalidateForces();
+}
+
 void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ContextSelector selector(cc);
     if (!forcesValid)
@@ -591,6 +607,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         case SubFlow::FrozenDrift:
         case SubFlow::FrozenKick:
             runFrozenPass(context, pass, constraintTolerance);
+            break;
+        case SubFlow::HardWall:
+            runHardWall(pass.flows[0]);
             break;
         case SubFlow::FilteredStiffFlow:
             // The response reads the slot's forces from where the flow began: invalidated, not overwritten.
@@ -845,14 +864,12 @@ void CommonImpulseStepKernel::execute(ContextImpl& context, const StochasticImpu
     ContextSelector selector(cc);
     const ImpulseParameters current = impulseParameters(integrator);
     validateImpulseStep(current);
+    // What no platform allows is named first, as on the others; then what this one does not have yet.
+    validateMetropolis(current, context.getSystem().getNumConstraints() > 0);
     if (current.metropolis)
         throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
                               " platform: the Metropolis adjustment (StochasticImpulseIntegrator::setMetropolis(true)) "
                               "is not supported there yet; set it to false, or use the Reference or CPU platform");
-    if (current.maxDrudeDistance > 0.0)
-        throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
-                              " platform: the hard wall (StochasticImpulseIntegrator::setMaxDrudeDistance) is not "
-                              "supported there yet; set it to 0, or use the Reference or CPU platform");
     if (!configured || !(current == parameters)) {
         // Rebuilt only when a parameter changed, so the step loop does not allocate.
         const string splitting = splittingName(current.splitting);

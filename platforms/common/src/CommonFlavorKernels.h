@@ -5,6 +5,7 @@
 #include "ContextRollback.h"
 #include "FlavorKernels.h"
 #include "FrozenCoordinates.h"
+#include "HardWall.h"
 #include "HostFrozenStage.h"
 #include "HostStateMirror.h"
 #include "ParticleFlows.h"
@@ -46,6 +47,10 @@ namespace FlavorPlugin {
  * Each such pass copies the positions and velocities from the device and the corrected ones back (HostStateMirror):
  * a device constraint solve for carried components is future work.  Without it, constraints are applied on the
  * device by IntegrationUtilities.
+ *
+ * Two more kinds of passes run the engine's host code on such copies: the artificial FLAVOR's frozen stage
+ * (FrozenDrift, FrozenKick: HostFrozenStage) and the SIM's hard wall (HardWall).  The Metropolis proposals are not
+ * here yet.
  */
 class CommonFlowStepper {
 public:
@@ -109,6 +114,8 @@ private:
     /** Copies the host's share forces onto the device, for the force responses. */
     void uploadShareForces();
     void runFrozenPass(OpenMM::ContextImpl& context, const FlowPass& pass, double constraintTolerance);
+    /** The hard wall (HardWall) on host copies of the positions and velocities, written back where it moved any. */
+    void runHardWall(const SubFlow& flow);
     /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
      */
     void runForceResponse(size_t passIndex, size_t kernelIndex);
@@ -161,6 +168,7 @@ private:
     // current Filtered step began.  history's forceDifferences is a copy for checkpoints and forget().
     OpenMM::ComputeArray forceDifferences, openingForces;
     HostFrozenStage frozenStage;
+    HardWall hardWall;
     // With host constraints: the particles, the projector, host copies of the state, the positions after a stiff
     // flow before their correction, per pass the scales of that correction, the share forces on the device (system
     // order) and their upload buffers.

@@ -6,6 +6,7 @@
 #include "ForceCache.h"
 #include "FrozenDistances.h"
 #include "FrozenFlowTask.h"
+#include "HardWall.h"
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
 #include "StepHistory.h"
@@ -168,12 +169,7 @@ public:
     void run(const FlowPass& pass, size_t passIndex, StepState& state) override;
 
 private:
-    struct Pair {
-        int drude, parent;
-        /** Whether the parent stays where it is (constrained or massless). */
-        bool parentFixed;
-    };
-    std::vector<Pair> pairs;
+    HardWall wall;
 };
 
 } // namespace FlavorPlugin

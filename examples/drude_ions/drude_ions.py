@@ -188,20 +188,18 @@ def main():
 
     runs = [run_one(system, state, analysis, scf, "DrudeLangevin", args.reference_step, settings, args.seed + 2)]
     print(f"DrudeLangevin {args.reference_step} fs done", flush=True)
+    def walled(run_system, kind, step_fs, seed):
+        """A run with the --wall, or the record of its failure (a step too large blows up)."""
+        try:
+            runs.append(run_one(run_system, state, analysis, scf, kind, step_fs, settings, seed, args.wall))
+        except openmm.OpenMMException as e:
+            runs.append({"integrator": kind, "step_fs": step_fs, "failed": str(e)})
+        print(f"{kind} {step_fs} fs (wall {args.wall:g} nm) done", flush=True)
+
     for step_fs in args.wall_peers:
-        try:
-            runs.append(run_one(system, state, analysis, scf, "DrudeLangevin", step_fs, settings, args.seed + 4,
-                                args.wall))
-        except openmm.OpenMMException as e:
-            runs.append({"integrator": "DrudeLangevin", "step_fs": step_fs, "failed": str(e)})
-        print(f"DrudeLangevin {step_fs} fs (wall {args.wall:g} nm) done", flush=True)
+        walled(system, "DrudeLangevin", step_fs, args.seed + 4)
     for step_fs in args.sim_steps:
-        try:
-            runs.append(run_one(separated, state, analysis, scf, "WarpedMiddle", step_fs, settings, args.seed + 3,
-                                args.wall))
-        except openmm.OpenMMException as e:
-            runs.append({"integrator": "WarpedMiddle", "step_fs": step_fs, "failed": str(e)})
-        print(f"WarpedMiddle {step_fs} fs done", flush=True)
+        walled(separated, "WarpedMiddle", step_fs, args.seed + 3)
 
     names = [("induced_ratio", "induced / SCF, all"), ("induced_ratio_ions", "induced / SCF, ions"),
              ("t_drude", "T Drude (K)"), ("t_drude_max", "hottest frame (K)"), ("t_com", "T centre of mass (K)"),

@@ -186,25 +186,9 @@ def peers(flavor_settings):
         ("MTSLangevin 2 fs / 4", False,
          lambda: mm.MTSLangevinIntegrator(TEMPERATURE, FRICTION, 2e-3, [(0, 1), (BOND_GROUP, 4), (ANGLE_GROUP, 4)])),
     ]
-    averagings = {"Nonintrusive": openmmflavors.FlavorIntegrator.Nonintrusive,
-                  "Artificial": openmmflavors.FlavorIntegrator.Artificial,
-                  "ArtificialProjected": openmmflavors.FlavorIntegrator.ArtificialProjected}
     for averaging, delta, tau, angles, middle in flavor_settings:
-        groups = {BOND_GROUP} | ({ANGLE_GROUP} if angles else set())
-
-        def factory(averaging=averaging, delta=delta, tau=tau, groups=groups, middle=middle):
-            integrator = openmmflavors.FlavorIntegrator(delta * unit.femtosecond, tau * unit.femtosecond, groups)
-            integrator.setAveraging(averagings[averaging])
-            integrator.setTemperature(TEMPERATURE * unit.kelvin)
-            integrator.setFriction(FRICTION / unit.picosecond)
-            if middle:
-                integrator.setThermostatPlacement(openmmflavors.FlavorIntegrator.Middle)
-            integrator.setRandomNumberSeed(1234)
-            return integrator
-
-        name = "FLAVOR %s%s%s δ=%g fs τ=%g fs" % (averaging, " +angles" if angles else "", " Middle" if middle else "",
-                                                 delta, tau)
-        result.append((name, False, factory))
+        name, rigid, seeded_factory, _ = flavor_peer(averaging, delta, tau, angles, middle)
+        result.append((name, rigid, lambda seeded_factory=seeded_factory: seeded_factory(1234)))
     return result
 
 

@@ -57,7 +57,8 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
                                      bool hostConstraints)
     : cc(cc), system(system), owner(std::move(owner)), platformName(std::move(platformName)),
       numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0), hasVirtualSites(false),
-      history(system.getNumParticles()), frozenStage(cc, system), particles(system) {
+      history(system.getNumParticles()), particles(system), mirror(cc, system.getNumParticles()),
+      frozenStage(mirror, particles) {
     for (int i = 0; i < numParticles; ++i)
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     ContextSelector selector(cc);
@@ -88,7 +89,6 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     initializeMixed4(cc, shareForces, numParticles, "flavorShareForces");
     if (hostConstraints && hasConstraints) {
         projector = std::make_unique<ConstraintProjector>(system, particles, true);
-        mirror = std::make_unique<HostStateMirror>(cc, numParticles);
         unconstrained.resize(numParticles);
         if (doubles)
             shareDouble.resize(numParticles);
@@ -312,10 +312,7 @@ void CommonFlowStepper::prepare() {
                                           "platform");
                 break; // runs on the host (HostFrozenStage)
             case SubFlow::HardWall:
-                // Runs on the host (HardWall) on copies of the particle data.
-                if (!mirror)
-                    mirror = std::make_unique<HostStateMirror>(cc, numParticles);
-                break;
+                break; // runs on the host (HardWall) on copies of the particle data
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
                 throw OpenMMException(owner + " on the " + platformName + " platform: " + unsupported(flow.kind) +
@@ -480,8 +477,8 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
 void CommonFlowStepper::rememberFlowStart() {
     if (!projector)
         return;
-    mirror->downloadPositions();
-    projector->rememberPositions(mirror->positions);
+    mirror.downloadPositions();
+    projector->rememberPositions(mirror.positions);
 }
 
 void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passIndex, double constraintTolerance) {
@@ -489,10 +486,10 @@ void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passInde
         return;
     // As StiffFlowExecutor::runFlow: the correction of the positions is an impulse at the start of the flow, so it
     // also changes the velocities, and the projection after it removes what is left along the constraints.
-    mirror->downloadPositions();
-    mirror->downloadVelocities();
-    vector<Vec3>& positions = mirror->positions;
-    vector<Vec3>& velocities = mirror->velocities;
+    mirror.downloadPositions();
+    mirror.downloadVelocities();
+    vector<Vec3>& positions = mirror.positions;
+    vector<Vec3>& velocities = mirror.velocities;
     unconstrained = positions;
     const ConstraintProjector::CorrectionScales& scales = correctionScales[passIndex];
     projector->constrainPositions(positions, constraintTolerance, scales.impulse);
@@ -501,22 +498,22 @@ void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passInde
             velocities[i] += (positions[i] - unconstrained[i]) * scales.velocity;
     if (!pass.nextProjectsVelocities)
         projector->constrainVelocities(positions, velocities, constraintTolerance);
-    mirror->uploadPositions();
-    mirror->uploadVelocities();
+    mirror.uploadPositions();
+    mirror.uploadVelocities();
 }
 
 void CommonFlowStepper::constrainAfterKicks(const FlowPass* kicks, double constraintTolerance) {
-    mirror->downloadPositions();
-    mirror->downloadVelocities();
-    vector<Vec3>& velocities = mirror->velocities;
+    mirror.downloadPositions();
+    mirror.downloadVelocities();
+    vector<Vec3>& velocities = mirror.velocities;
     // As ParticlePassExecutor::run: each kick adds the share forces of the last step's constraint solves.
     if (kicks)
         for (const SubFlow& flow : kicks->flows)
             if (flow.kind == SubFlow::Kick)
                 for (int p : projector->getShareParticles())
                     velocities[p] += history.shareForces[p] * (flow.h * particles.inverseMasses[p]);
-    projector->constrainVelocities(mirror->positions, velocities, constraintTolerance);
-    mirror->uploadVelocities();
+    projector->constrainVelocities(mirror.positions, velocities, constraintTolerance);
+    mirror.uploadVelocities();
 }
 
 void CommonFlowStepper::uploadShareForces() {
@@ -551,12 +548,11 @@ void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
     invalidateForces();
 }
 
-void CommonFlowStepper::runFrozenPass(ContextImpl& context, const FlowPass& pass, double constraintTolerance) {
+void CommonFlowStepper::runFrozenPass(const FlowPass& pass, double constraintTolerance) {
     // Frozen passes hold one sub-flow each (analyzeStep).
     const SubFlow& flow = pass.flows[0];
+    // A kick's forces were evaluated where the pass begins, as for every pass with a force slot (step()).
     const bool kick = flow.kind == SubFlow::FrozenKick;
-    if (kick)
-        ensureForces(context, pass.slots[0]);
     frozenStage.run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance, !pass.othersFixedLater);
     if (!kick)
         invalidateForces();
@@ -570,13 +566,13 @@ void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
 }
 
 void CommonFlowStepper::runHardWall(const SubFlow& flow) {
-    mirror->downloadPositions();
-    mirror->downloadVelocities();
-    if (!hardWall.apply(mirror->positions, mirror->velocities, particles.masses, flow.distance, flow.h,
+    mirror.downloadPositions();
+    mirror.downloadVelocities();
+    if (!hardWall.apply(mirror.positions, mirror.velocities, particles.masses, flow.distance, flow.h,
                         flow.stiffBath.kT))
         return;
-    mirror->uploadPositions();
-    mirror->uploadVelocities();
+    mirror.uploadPositions();
+    mirror.uploadVelocities();
     invalidateForces();
 }
 
@@ -606,7 +602,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
             break;
         case SubFlow::FrozenDrift:
         case SubFlow::FrozenKick:
-            runFrozenPass(context, pass, constraintTolerance);
+            runFrozenPass(pass, constraintTolerance);
             break;
         case SubFlow::HardWall:
             runHardWall(pass.flows[0]);
@@ -644,26 +640,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
 
 double CommonFlowStepper::kineticEnergy() {
     ContextSelector selector(cc);
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
-    const vector<int>& order = cc.getAtomIndex();
-    vector<double> perParticle(numParticles, 0.0);
-    if (doubles) {
-        vector<mm_double4> v;
-        cc.getVelm().download(v);
-        for (int atom = 0; atom < cc.getNumAtoms(); ++atom)
-            perParticle[order[atom]] = v[atom].x * v[atom].x + v[atom].y * v[atom].y + v[atom].z * v[atom].z;
-    } else {
-        vector<mm_float4> v;
-        cc.getVelm().download(v);
-        for (int atom = 0; atom < cc.getNumAtoms(); ++atom)
-            perParticle[order[atom]] =
-                (double)v[atom].x * v[atom].x + (double)v[atom].y * v[atom].y + (double)v[atom].z * v[atom].z;
-    }
     // Summed in the System's order, as the CPU engine sums it.
-    double energy = 0.0;
-    for (int i = 0; i < numParticles; ++i)
-        energy += system.getParticleMass(i) * perParticle[i];
-    return 0.5 * energy;
+    mirror.downloadVelocities();
+    return particles.kineticEnergy(mirror.velocities);
 }
 
 void CommonFlowStepper::createCheckpoint(std::ostream& stream) const {

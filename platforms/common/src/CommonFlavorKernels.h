@@ -113,7 +113,7 @@ private:
     void constrainAfterKicks(const FlowPass* kicks, double constraintTolerance);
     /** Copies the host's share forces onto the device, for the force responses. */
     void uploadShareForces();
-    void runFrozenPass(OpenMM::ContextImpl& context, const FlowPass& pass, double constraintTolerance);
+    void runFrozenPass(const FlowPass& pass, double constraintTolerance);
     /** The hard wall (HardWall) on host copies of the positions and velocities, written back where it moved any. */
     void runHardWall(const SubFlow& flow);
     /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
@@ -167,14 +167,15 @@ private:
     // The step history on the device (system order): the force differences of the last step and the forces where the
     // current Filtered step began.  history's forceDifferences is a copy for checkpoints and forget().
     OpenMM::ComputeArray forceDifferences, openingForces;
+    // The particles' constants and the host copies of their state, shared by every pass that runs on the host: the
+    // frozen stage, the hard wall and the constraint solves.
+    ParticleTable particles;
+    HostStateMirror mirror;
     HostFrozenStage frozenStage;
     HardWall hardWall;
-    // With host constraints: the particles, the projector, host copies of the state, the positions after a stiff
-    // flow before their correction, per pass the scales of that correction, the share forces on the device (system
-    // order) and their upload buffers.
-    ParticleTable particles;
+    // With host constraints: the projector, the positions after a stiff flow before their correction, per pass the
+    // scales of that correction, the share forces on the device (system order) and their upload buffers.
     std::unique_ptr<ConstraintProjector> projector;
-    std::unique_ptr<HostStateMirror> mirror;
     std::vector<OpenMM::Vec3> unconstrained;
     std::vector<ConstraintProjector::CorrectionScales> correctionScales;
     OpenMM::ComputeArray shareForces;

@@ -5,17 +5,12 @@ using namespace FlavorPlugin;
 using namespace OpenMM;
 using std::vector;
 
-HostFrozenStage::HostFrozenStage(ComputeContext& cc, const System& system)
-    : doubles(cc.getUseDoublePrecision()), mixed(cc.getUseMixedPrecision()),
-      inverseMasses(system.getNumParticles(), 0.0), state(cc, system.getNumParticles()),
-      forceValues(system.getNumParticles()) {
-    for (int i = 0; i < system.getNumParticles(); ++i)
-        if (system.getParticleMass(i) != 0.0)
-            inverseMasses[i] = 1.0 / system.getParticleMass(i);
-    if (doubles || mixed)
-        forcesDouble.resize(system.getNumParticles());
+HostFrozenStage::HostFrozenStage(HostStateMirror& state, const ParticleTable& particles)
+    : state(state), particles(particles), doubles(state.usesDoubles()), forceValues(particles.numParticles) {
+    if (doubles)
+        forcesDouble.resize(particles.numParticles);
     else
-        forcesFloat.resize(system.getNumParticles());
+        forcesFloat.resize(particles.numParticles);
 }
 
 void HostFrozenStage::setDistances(std::shared_ptr<FrozenDistances> newDistances) {
@@ -46,9 +41,10 @@ void HostFrozenStage::run(const SubFlow& flow, const ComputeArray* forces, doubl
     vector<Vec3>& velocities = state.velocities;
     if (onDistances) {
         if (drift)
-            distances->drift(positions, velocities, inverseMasses, flow.h, tolerance, projectOthers, loop);
+            distances->drift(positions, velocities, particles.inverseMasses, flow.h, tolerance, projectOthers, loop);
         else
-            distances->kick(positions, velocities, forceValues, inverseMasses, flow.h, tolerance, projectOthers, loop);
+            distances->kick(positions, velocities, forceValues, particles.inverseMasses, flow.h, tolerance,
+                            projectOthers, loop);
     } else {
         modeTask->h = flow.h;
         modeTask->source = drift ? velocities.data() : forceValues.data();
@@ -67,7 +63,7 @@ void HostFrozenStage::download(const ComputeArray* forces) {
     if (forces == nullptr)
         return;
     // Force slots are already in the System's order.
-    if (doubles || mixed) {
+    if (doubles) {
         forces->download(forcesDouble);
         for (size_t i = 0; i < forceValues.size(); ++i)
             forceValues[i] = Vec3(forcesDouble[i].x, forcesDouble[i].y, forcesDouble[i].z);

@@ -5,6 +5,7 @@
 #include "FrozenFlowTask.h"
 #include "HostStateMirror.h"
 #include "ParticleFlows.h"
+#include "ParticleTable.h"
 #include "StiffModes.h"
 #include "internal/FlowSchedule.h"
 #include "openmm/System.h"
@@ -47,7 +48,8 @@ private:
  */
 class HostFrozenStage {
 public:
-    HostFrozenStage(OpenMM::ComputeContext& cc, const OpenMM::System& system);
+    /** state: the host copies of the particle data it works on; particles: their masses. */
+    HostFrozenStage(HostStateMirror& state, const ParticleTable& particles);
     /** Freezes these distances (FrozenSet::Distances); null for none. */
     void setDistances(std::shared_ptr<FrozenDistances> distances);
     /** Freezes the nonzero modes of these stiff modes (FrozenSet::StiffModes); null for none. */
@@ -63,14 +65,14 @@ public:
 
 private:
     void download(const OpenMM::ComputeArray* forces);
-    const bool doubles, mixed;
-    std::vector<double> inverseMasses;
+    HostStateMirror& state;
+    const ParticleTable& particles;
+    const bool doubles;
     std::shared_ptr<FrozenDistances> distances;
     std::shared_ptr<const StiffModes> modes;
     std::unique_ptr<FrozenFlowTask> modeTask;
     SerialLoop loop;
-    // The positions and velocities, and a kick's forces, in the System's particle order.
-    HostStateMirror state;
+    // A kick's forces in the System's particle order.
     std::vector<OpenMM::Vec3> forceValues;
     // The force slot as downloaded: double or single precision as the platform keeps it.
     std::vector<OpenMM::mm_double4> forcesDouble;

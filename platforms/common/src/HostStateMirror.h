@@ -22,6 +22,8 @@ public:
     void downloadVelocities();
     void uploadPositions();
     void uploadVelocities();
+    /** Whether the platform keeps velocities and forces in double precision (double or mixed). */
+    bool usesDoubles() const { return doubles || mixed; }
     std::vector<OpenMM::Vec3> positions, velocities;
 
 private:

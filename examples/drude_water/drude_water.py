@@ -313,6 +313,7 @@ def plot(data, path):
         ax.set_xticks(range(len(labels)))
         ax.set_xticklabels(ticks, rotation=90, fontsize=9)
         ax.set_ylabel(title)
+        ax.ticklabel_format(axis="y", useOffset=False)  # ratios near 1 read as themselves, not as +1
     ax = axes.flat[6]
     for index, label in enumerate(labels):
         run = runs[label]
@@ -339,7 +340,7 @@ def plot(data, path):
     ax.set_xlabel("r (nm)")
     ax.set_ylabel("g_OO(r)")
     # Below the panel (its neighbours have their tick labels there), so that it hides no curve.
-    ax.legend(fontsize=9, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.2), frameon=False)
+    ax.legend(fontsize=9, ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.32), frameon=False)
     failed = [f"{kind_label(r['integrator'])} H = {r['step_fs']:g} fs (" +
               (f"fails at step {r['failed_at_step']}" if r.get("failed_at_step") == r.get("failed_by_step") else
                f"fails in steps {r['failed_at_step']}–{r['failed_by_step']}" if "failed_at_step" in r else "NaN") +

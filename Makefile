@@ -16,6 +16,9 @@ APT_PACKAGES := cmake make gcc g++ swig libopenmm-dev libopenmm-plugins python3-
                 libgtest-dev python3-numpy python3-pytest python3-matplotlib python3-scipy clang-format git \
                 pocl-opencl-icd opencl-c-headers opencl-clhpp-headers ocl-icd-opencl-dev
 PYTHON_ENV := PYTHONPATH=$(CURDIR)/$(BUILD)/python PYTHONDONTWRITEBYTECODE=1
+# The layer that refuses OpenCL kernel arguments of the wrong size as NVIDIA's driver does (tests/OpenCLArgumentCheck.cpp),
+# where the OpenCL backend was built.
+OPENCL_CHECK = $(if $(wildcard $(BUILD)/tests/libOpenCLArgumentCheck.so),LD_PRELOAD=$(CURDIR)/$(BUILD)/tests/libOpenCLArgumentCheck.so)
 
 .PHONY: deps build format-check test demo install bench clean
 
@@ -37,7 +40,7 @@ format-check: deps
 
 test: format-check build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
-	$(PYTHON_ENV) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python
+	$(PYTHON_ENV) $(OPENCL_CHECK) $(PYTHON) -m pytest -q -p no:cacheprovider tests/python
 
 demo: build
 	$(PYTHON_ENV) $(PYTHON) examples/demo/demo.py

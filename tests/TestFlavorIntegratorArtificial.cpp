@@ -216,8 +216,9 @@ TEST_P(FlavorArtificial, StabilityBoundaryOfTheorem5_1IsTwoSqrtTwo) {
             // Symplectic Euler on q'' = -q/2 started at rest keeps |q| <= |q0| / sqrt(1 - delta^2/8).
             if (delta < 2 * std::sqrt(2.0))
                 EXPECT_LE(largest, 1.1 * 0.8011 / std::sqrt(1 - delta * delta / 8)) << "scheme " << scheme;
-            else // OpenCL's fixed-point forces saturate: its positions stop growing near 1e15
-                EXPECT_GT(largest, isOpenCL() ? 1e12 : 1e50) << "scheme " << scheme;
+            else // OpenCL's fixed-point forces saturate, after which the positions grow only about linearly: to
+                 // 2.5e11 on an NVIDIA H200 and 1e15 on PoCL in these 500 steps, 1e6 times the start
+                EXPECT_GT(largest, isOpenCL() ? 1e6 : 1e50) << "scheme " << scheme;
         }
 }
 

@@ -19,9 +19,14 @@ using std::vector;
 
 namespace {
 
+/** Whether the kernels' `mixed` type is double (double and mixed precision) or float (single). */
+bool mixedIsDouble(const ComputeContext& cc) {
+    return cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+}
+
 /** Uploads values into a mixed-precision array, created with at least one element. */
 void uploadMixed(ComputeContext& cc, ComputeArray& array, vector<double> values, const string& name) {
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const bool doubles = mixedIsDouble(cc);
     if (values.empty())
         values.push_back(0.0);
     if (!array.isInitialized() || (size_t)array.getSize() != values.size()) {
@@ -44,9 +49,27 @@ void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, con
     array.upload(values);
 }
 
+/**
+ * A `mixed` scalar argument, in the size the kernel declares: OpenCL drivers that check argument sizes (NVIDIA's)
+ * reject a double where a single-precision Context compiled a float.
+ */
+void addMixedArg(const ComputeContext& cc, ComputeKernel& kernel, double value) {
+    if (mixedIsDouble(cc))
+        kernel->addArg(value);
+    else
+        kernel->addArg((float)value);
+}
+
+void setMixedArg(const ComputeContext& cc, ComputeKernel& kernel, int index, double value) {
+    if (mixedIsDouble(cc))
+        kernel->setArg(index, value);
+    else
+        kernel->setArg(index, (float)value);
+}
+
 /** A per-particle array of mixed4 on the device (system order), zero. */
 void initializeMixed4(ComputeContext& cc, ComputeArray& array, int size, const string& name) {
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const bool doubles = mixedIsDouble(cc);
     array.initialize(cc, size, doubles ? 4 * sizeof(double) : 4 * sizeof(float), name);
     cc.clearBuffer(array);
 }
@@ -78,7 +101,7 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     slotOf.initialize<int>(cc, numParticles, "flavorSlotOf");
     uploadInts(cc, thermostated, vector<int>(numParticles, 1), "flavorThermostated");
     uploadMixed(cc, thermalSpeed, vector<double>(numParticles, 0.0), "flavorThermalSpeed");
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const bool doubles = mixedIsDouble(cc);
     slotForces.resize(MaxForceSlots);
     for (int s = 0; s < MaxForceSlots; ++s)
         slotForces[s].initialize(cc, numParticles, doubles ? 4 * sizeof(double) : 4 * sizeof(float),
@@ -104,12 +127,12 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     IntegrationUtilities& integration = cc.getIntegrationUtilities();
     driftDisplacementKernel->addArg(integration.getPosDelta());
     driftDisplacementKernel->addArg(cc.getVelm());
-    driftDisplacementKernel->addArg(0.0);
+    addMixedArg(cc, driftDisplacementKernel, 0.0);
     applyDisplacementKernel->addArg(cc.getPosq());
     applyDisplacementKernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
     applyDisplacementKernel->addArg(integration.getPosDelta());
     applyDisplacementKernel->addArg(cc.getVelm());
-    applyDisplacementKernel->addArg(0.0);
+    addMixedArg(cc, applyDisplacementKernel, 0.0);
 }
 
 CommonFlowStepper::~CommonFlowStepper() = default;
@@ -224,13 +247,7 @@ void CommonFlowStepper::prepare() {
         throw OpenMMException(owner + ": a step may kick with at most " + std::to_string(MaxForceSlots) +
                               " distinct force-group sets");
     ContextSelector selector(cc);
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
-    auto addReal = [doubles](ComputeKernel& kernel, double value) {
-        if (doubles)
-            kernel->addArg(value);
-        else
-            kernel->addArg((float)value);
-    };
+    auto addReal = [this](ComputeKernel& kernel, double value) { addMixedArg(cc, kernel, value); };
     ArrayInterface& correction = cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq();
     passKernels.assign(plan.passes.size(), {});
     propagators.clear();
@@ -341,7 +358,6 @@ ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size
     vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
     uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
     propagatorNoisy[p] = propagator.noisy ? 1 : 0;
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
     ComputeKernel kernel = program->createKernel("stiffFlow");
     kernel->addArg(modes->getNumComponents());
     kernel->addArg(components);
@@ -359,10 +375,7 @@ ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size
     kernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
     kernel->addArg(cc.getVelm());
     kernel->addArg(slotForces[0]);
-    if (doubles)
-        kernel->addArg(0.0);
-    else
-        kernel->addArg(0.0f);
+    addMixedArg(cc, kernel, 0.0);
     kernel->addArg(propagatorNoisy[p]);
     kernel->addArg((std::uint64_t)0);
     addRandomArgs(kernel);
@@ -442,14 +455,8 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
             // free flow is part of the stiff flow).
             if (hasConstraints) {
                 // With constraints a pass is one sub-flow or a run of kicks and thermostats (analyzeStep).
-                const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
-                if (doubles) {
-                    driftDisplacementKernel->setArg(2, flow.h);
-                    applyDisplacementKernel->setArg(4, 1.0 / flow.h);
-                } else {
-                    driftDisplacementKernel->setArg(2, (float)flow.h);
-                    applyDisplacementKernel->setArg(4, (float)(1.0 / flow.h));
-                }
+                setMixedArg(cc, driftDisplacementKernel, 2, flow.h);
+                setMixedArg(cc, applyDisplacementKernel, 4, 1.0 / flow.h);
                 driftDisplacementKernel->execute(cc.getNumAtoms());
                 cc.getIntegrationUtilities().applyConstraints(constraintTolerance);
                 applyDisplacementKernel->execute(cc.getNumAtoms());
@@ -520,7 +527,7 @@ void CommonFlowStepper::uploadShareForces() {
     if (!projector)
         return;
     const vector<Vec3>& values = history.shareForces;
-    if (cc.getUseDoublePrecision() || cc.getUseMixedPrecision()) {
+    if (mixedIsDouble(cc)) {
         for (int i = 0; i < numParticles; ++i)
             shareDouble[i] = mm_double4(values[i][0], values[i][1], values[i][2], 0.0);
         shareForces.upload(shareDouble);
@@ -536,12 +543,8 @@ void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
         throw OpenMMException(owner + ": a stiff flow needs the stiff modes");
     ComputeKernel& kernel = passKernels[passIndex][0];
     findAtomsKernel->execute(cc.getNumAtoms());
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
     kernel->setArg(15, slotForces[fusedSlot >= 0 ? fusedSlot : 0]);
-    if (doubles)
-        kernel->setArg(16, fusedSlot >= 0 ? fusedStep : 0.0);
-    else
-        kernel->setArg(16, (float)(fusedSlot >= 0 ? fusedStep : 0.0));
+    setMixedArg(cc, kernel, 16, fusedSlot >= 0 ? fusedStep : 0.0);
     kernel->setArg(18, (std::uint64_t)(nextStream + (std::uint64_t)std::max(0, pass.streams[0])));
     kernel->execute(modes->getNumComponents());
     fusedSlot = -1;
@@ -661,7 +664,7 @@ void CommonFlowStepper::forgetStepHistory() {
 }
 
 void CommonFlowStepper::downloadHistory(StepHistory& target) const {
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const bool doubles = mixedIsDouble(cc);
     if (doubles) {
         vector<mm_double4> values;
         forceDifferences.download(values);
@@ -676,7 +679,7 @@ void CommonFlowStepper::downloadHistory(StepHistory& target) const {
 }
 
 void CommonFlowStepper::uploadHistory() {
-    const bool doubles = cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+    const bool doubles = mixedIsDouble(cc);
     const vector<Vec3>& values = history.forceDifferences;
     if (doubles) {
         vector<mm_double4> device(numParticles);

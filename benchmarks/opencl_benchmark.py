@@ -24,14 +24,17 @@ Scenes (each in every precision of --precision: mixed and double by default; Ope
                   small omega H (benchmarks/sim_work_precision.py measures accuracy on Reference).
 
 The start states are made on the CPU platform (minimization and a short equilibration), then every peer starts from
-them.  With PoCL (a CPU OpenCL driver) the times are a CPU's: only the ratios between peers of one run mean anything.
+them; with --states DIR they are kept there (XML, made on first use) and read back by later runs, on this or another
+machine, so that a run on a borrowed GPU spends no time equilibrating.  With PoCL (a CPU OpenCL driver) the times are a CPU's: only the ratios between peers of one run mean anything.
 
     PYTHONPATH=build/python /usr/bin/python3 benchmarks/opencl_benchmark.py [--quick] [--out DIR]
         [--precision mixed double] [--scenes drude_water flexible_water villin fpu] [--target S] [--repeats N]
+        [--states DIR] [--no-chart] [--replot JSON]
 
 $FLAVORS_BENCH_QUICK=1 acts as --quick; $FLAVORS_OPENCL_PLATFORM_INDEX and $FLAVORS_OPENCL_DEVICE_INDEX pick the OpenCL
 device (OpenMM's OpenCLPlatformIndex and DeviceIndex; by default OpenMM chooses).  Progress goes to stderr; the table
-to stdout; DIR/opencl_benchmark.json (every batch) and DIR/opencl_benchmark.png (ns/day bars per peer).
+to stdout; DIR/opencl_benchmark.json (every batch) and DIR/opencl_benchmark.png (ns/day bars per peer).  --no-chart
+writes the JSON alone (for a machine without matplotlib); --replot JSON draws that run's chart into --out.
 """
 import os
 import sys
@@ -103,15 +106,42 @@ def device_of(platform, context):
             for key in ("DeviceName", "OpenCLPlatformName", "Precision", "DeviceIndex", "OpenCLPlatformIndex")}
 
 
+def stored_start(states, key, make):
+    """make() -> an openmm.State (positions, velocities where it has them), kept as states/key.xml when states names a
+    folder: read from there when present, made and written otherwise."""
+    if not states:
+        return make()
+    path = os.path.join(states, key + ".xml")
+    if os.path.exists(path):
+        log(f"  start state read from {path}")
+        with open(path) as f:
+            return mm.XmlSerializer.deserialize(f.read())
+    state = make()
+    os.makedirs(states, exist_ok=True)
+    with open(path, "w") as f:
+        f.write(mm.XmlSerializer.serialize(state))
+    log(f"  start state written to {path}")
+    return state
+
+
+def positions_state(system, positions):
+    """A State holding only `positions` (a Context on the Reference platform makes it)."""
+    context = mm.Context(system, mm.VerletIntegrator(0.001), mm.Platform.getPlatformByName("Reference"))
+    context.setPositions(positions)
+    return context.getState(getPositions=True)
+
+
 # ----------------------------------------------------------------------------------------------------------------------
 # Scenes: each returns (description, start, peers); a peer is (name, step in fs, system, integrator factory, note)
 # and start(context) puts a new Context at the scene's start state.
 
-def drude_scene(quick):
+def drude_scene(quick, states):
     molecules = 64 if quick else 256
     log(f"drude_water: {molecules} SWM4-NDP molecules, minimizing and equilibrating on the CPU platform")
     system, _, positions, _ = drude_water.build_water(molecules)
-    state = drude_water.equilibrated_state(system, positions, 1.0, 50 if quick else 1000, 1)
+    steps = 50 if quick else 1000
+    state = stored_start(states, f"drude_water_{molecules}_{steps}",
+                         lambda: drude_water.equilibrated_state(system, positions, 1.0, steps, 1))
     peers = [("DrudeLangevin 1 fs", 1.0, system, lambda: drude_water.make_integrator("DrudeLangevin", 1.0, 7), ""),
              ("SIM Warped Middle 2.5 fs", 2.5, system, lambda: drude_water.make_integrator("WarpedMiddle", 2.5, 7),
               "the scene's SIM peer")]
@@ -119,12 +149,14 @@ def drude_scene(quick):
     return description, lambda context: context.setState(state), peers
 
 
-def flexible_scene(quick):
+def flexible_scene(quick, states):
     molecules = 216 if quick else 501
     log(f"flexible_water: {molecules} TIP3P molecules, minimizing and equilibrating on the CPU platform")
     forcefield, modeller = flexible_water.build_box(molecules)
-    positions = flexible_water.common_start(forcefield, modeller, 0.05 if quick else 1.0, 2, 20 if quick else 200)
     system = flexible_water.make_system(forcefield, modeller.topology, False)
+    positions = stored_start(states, f"flexible_water_{molecules}_{'quick' if quick else 'full'}", lambda: positions_state(
+        system, flexible_water.common_start(forcefield, modeller, 0.05 if quick else 1.0, 2, 20 if quick else 200)
+    )).getPositions()
     stiff = {flexible_water.BOND_GROUP, flexible_water.ANGLE_GROUP}
 
     def langevin_middle(step_fs):
@@ -157,7 +189,7 @@ def flexible_scene(quick):
     return description, start, peers
 
 
-def villin_scene(quick):
+def villin_scene(quick, states):
     log("villin: minimizing and equilibrating on the CPU platform")
     forcefield = app.ForceField("amber14-all.xml", "amber14/tip3p.xml")
     pdb = app.PDBFile(villin.PDB)
@@ -170,14 +202,17 @@ def villin_scene(quick):
         return systems[key]
 
     plain = system_for({"hydrogen_mass": None, "water_hydrogen_mass": False})
-    integrator = mm.LangevinMiddleIntegrator(villin.TEMPERATURE, villin.FRICTION, 0.002)
-    context = mm.Context(plain, integrator, mm.Platform.getPlatformByName("CPU"))
-    context.setPositions(pdb.positions)
-    mm.LocalEnergyMinimizer.minimize(context, 10, 50 if quick else 200)
-    context.setVelocitiesToTemperature(villin.TEMPERATURE * unit.kelvin, 7)
-    integrator.step(10 if quick else 500)
-    positions = context.getState(getPositions=True).getPositions()
-    del context, integrator
+
+    def equilibrate():
+        integrator = mm.LangevinMiddleIntegrator(villin.TEMPERATURE, villin.FRICTION, 0.002)
+        context = mm.Context(plain, integrator, mm.Platform.getPlatformByName("CPU"))
+        context.setPositions(pdb.positions)
+        mm.LocalEnergyMinimizer.minimize(context, 10, 50 if quick else 200)
+        context.setVelocitiesToTemperature(villin.TEMPERATURE * unit.kelvin, 7)
+        integrator.step(10 if quick else 500)
+        return context.getState(getPositions=True)
+
+    positions = stored_start(states, f"villin_{'quick' if quick else 'full'}", equilibrate).getPositions()
     # The scene's recipe without HMR, and with HMR 3 amu at delta = 5 fs beside OpenMM's HMR peer.
     entries = villin.peers([(2.5, 1.0, "bonds+nonplanar angles", True),
                             (5.0, 1.0, "bonds+nonplanar angles", True, 3.0)],
@@ -199,7 +234,7 @@ def villin_scene(quick):
     return description, start, peers
 
 
-def fpu_scene(quick):
+def fpu_scene(quick, states):
     # The SIM measures its stiff modes on the host through the Context (a few force evaluations per particle): on PoCL
     # that took about 5 minutes for 2000 chains, so the scene stays small.
     chains = 50 if quick else 200
@@ -325,7 +360,14 @@ def main():
     p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     p.add_argument("--target", type=float, default=None, help="seconds per batch (default 3, --quick 0.5)")
     p.add_argument("--repeats", type=int, default=None, help="rounds of batches (default 5, --quick 2)")
+    p.add_argument("--states", default=None, metavar="DIR",
+                   help="keep the scenes' start states in DIR (XML): read when there, made and written otherwise")
+    p.add_argument("--no-chart", action="store_true", help="write the JSON only (draw it later with --replot)")
+    p.add_argument("--replot", metavar="JSON", help="only draw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
+    if args.replot:
+        reporting.replot(args.replot, args.out, "opencl_benchmark", plot)
+        return
     if os.environ.get("FLAVORS_BENCH_QUICK", "") not in ("", "0"):
         args.quick = True
         reporting.set_smoke_run(True)
@@ -337,9 +379,13 @@ def main():
     data = {"command": " ".join(sys.argv), "quick": args.quick, "batch_target_s": target, "repeats": repeats,
             "openmm_version": mm.Platform.getOpenMMVersion(), "scenes": {}}
     for name in args.scenes:
-        data["scenes"][name] = run_scene(name, builders[name](args.quick), platform, args.precision, target, repeats)
+        data["scenes"][name] = run_scene(name, builders[name](args.quick, args.states), platform, args.precision, target, repeats)
     print_tables(data)
-    reporting.save_outputs(args.out, "opencl_benchmark", data, lambda path: plot(data, path))
+    if args.no_chart:
+        reporting.write_json(os.path.join(args.out, "opencl_benchmark.json"), data, strict=False)
+        print(f"\nwrote {os.path.join(args.out, 'opencl_benchmark.json')} (no chart: --no-chart)")
+    else:
+        reporting.save_outputs(args.out, "opencl_benchmark", data, lambda path: plot(data, path))
 
 
 if __name__ == "__main__":

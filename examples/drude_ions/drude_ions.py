@@ -42,29 +42,54 @@ def build(waters, pairs, cutoff):
 
 
 class Analysis:
-    def __init__(self, system, topology):
+    """The Drude pairs and the other massive particles of a System, for temperatures per class of degrees of freedom;
+    `solute` names the residues whose pairs are told apart (solute_pairs: the ions here)."""
+
+    def __init__(self, system, topology, solute=("NA", "CL")):
         drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
         n = system.getNumParticles()
         self.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(n)])
         pairs = np.array([drude.getParticleParameters(i)[:2] for i in range(drude.getNumParticles())])
         self.drudes, self.cores = pairs[:, 0], pairs[:, 1]
-        residue = [a.residue.name for a in topology.atoms()]
-        self.ion_pairs = np.array([i for i, core in enumerate(self.cores) if residue[core] in ("NA", "CL")])
+        self.residue = [a.residue.name for a in topology.atoms()]
+        self.solute_pairs = np.array([i for i, core in enumerate(self.cores) if self.residue[core] in solute], dtype=int)
+        self.ion_pairs = self.solute_pairs
         self.ions = {name: sum(1 for r in topology.residues() if r.name == name) for name in ("NA", "CL")}
         in_pair = set(self.drudes) | set(self.cores)
         self.others = np.array([i for i in range(n) if self.masses[i] > 0 and i not in in_pair])
+        self.constraints = [system.getConstraintParameters(c)[:2] for c in range(system.getNumConstraints())]
         # 3 per pair (centre of mass) and per other massive particle, less constraints and the removed momentum.
         self.com_dof = 3 * (len(self.cores) + len(self.others)) - system.getNumConstraints() - 3
         self.drude_dof = 3 * len(self.drudes)
 
-    def temperatures(self, v):
+    def kinetic_parts(self, v):
+        """Kinetic energies (kJ/mol): of each pair's centre of mass, of each other particle, of each pair's relative
+        motion."""
         m = self.masses
         mc, md = m[self.cores][:, None], m[self.drudes][:, None]
         com = (mc * v[self.cores] + md * v[self.drudes]) / (mc + md)
         rel = v[self.drudes] - v[self.cores]
-        ke_com = 0.5 * np.sum((mc + md) * com**2) + 0.5 * np.sum(m[self.others][:, None] * v[self.others]**2)
-        ke_rel = 0.5 * np.sum(mc * md / (mc + md) * rel**2)
-        return 2 * ke_com / (self.com_dof * BOLTZ), 2 * ke_rel / (self.drude_dof * BOLTZ)
+        return (0.5 * np.sum((mc + md) * com**2, axis=1), 0.5 * np.sum(m[self.others][:, None] * v[self.others]**2,
+                                                                          axis=1),
+                0.5 * np.sum(mc * md / (mc + md) * rel**2, axis=1))
+
+    def temperatures(self, v):
+        pairs, others, relative = self.kinetic_parts(v)
+        return (2 * (pairs.sum() + others.sum()) / (self.com_dof * BOLTZ),
+                2 * relative.sum() / (self.drude_dof * BOLTZ))
+
+    def class_selection(self, residues):
+        """The pairs and other particles of the given residue names, and their degrees of freedom (3 each, less the
+        constraints among them)."""
+        pairs = np.array([i for i, c in enumerate(self.cores) if self.residue[c] in residues], dtype=int)
+        others = np.array([k for k, i in enumerate(self.others) if self.residue[i] in residues], dtype=int)
+        constrained = sum(1 for i, j in self.constraints if self.residue[i] in residues and self.residue[j] in residues)
+        return pairs, others, 3 * (len(pairs) + len(others)) - constrained
+
+    def class_temperature(self, parts, selection):
+        """The centre-of-mass temperature of one class (class_selection) from kinetic_parts."""
+        pairs, others, dof = selection
+        return 2 * (parts[0][pairs].sum() + parts[1][others].sum()) / (dof * BOLTZ)
 
     def displacements(self, x):
         return x[self.drudes] - x[self.cores]
@@ -118,7 +143,13 @@ def equilibrated(system, positions, seed, ps):
     return context.getState(getPositions=True, getVelocities=True)
 
 
-def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm=0.0):
+def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm=0.0, induced_groups=None,
+            extra=None):
+    """One peer from the common state: burn-in, then the production's block averages.  induced_groups: name -> pair
+    indices, each reported as induced_ratio_<name> beside all pairs'; extra(frame) -> {name: value} more observables
+    per frame (default: the ions' induced ratio, nothing more)."""
+    if induced_groups is None:
+        induced_groups = {"ions": analysis.ion_pairs}
     integrator = make_integrator(kind, step_fs, seed)
     if wall_nm > 0:
         integrator.setMaxDrudeDistance(wall_nm)
@@ -127,7 +158,8 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm
     integrator.step(int(round(settings["burn_ps"] * 1000 / step_fs)))
     samples = settings["samples"]
     steps = int(round(settings["production_ps"] * 1000 / step_fs))
-    series = {"t_com": [], "t_drude": [], "pe_per_pair": [], "induced_ratio": [], "induced_ratio_ions": []}
+    series = {"t_com": [], "t_drude": [], "pe_per_pair": [], "induced_ratio": []}
+    series.update({"induced_ratio_" + name: [] for name in induced_groups})
     scf_every = max(1, samples // settings["scf_frames"])
     production = ProductionFrames(context, integrator, steps, samples)
     for s, frame in enumerate(production):
@@ -135,12 +167,15 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm
         series["t_com"].append(t_com)
         series["t_drude"].append(t_drude)
         series["pe_per_pair"].append(frame.potential_energy / len(analysis.drudes))
+        for name, value in (extra(frame) if extra else {}).items():
+            series.setdefault(name, []).append(value)
         if s % scf_every == 0:
             d = analysis.displacements(frame.positions)
             d_scf = scf.displacements(frame.state, analysis)
             series["induced_ratio"].append(float(np.sum(d * d_scf) / np.sum(d_scf * d_scf)))
-            ions = analysis.ion_pairs
-            series["induced_ratio_ions"].append(float(np.sum(d[ions] * d_scf[ions]) / np.sum(d_scf[ions]**2)))
+            for name, group in induced_groups.items():
+                series["induced_ratio_" + name].append(float(np.sum(d[group] * d_scf[group]) /
+                                                             np.sum(d_scf[group]**2)))
     result = {"integrator": kind, "step_fs": step_fs, "wall_nm": wall_nm, "steps": production.steps_done,
               "ns_per_day": production.ns_per_day(step_fs)}
     for name, values in series.items():
@@ -148,6 +183,24 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm
         result[name] = block_error(values, blocks)
     result["t_drude_max"] = max(series["t_drude"])  # the hottest frame: a transient the block means would blur
     return result
+
+
+def print_runs(runs, names, width=24):
+    """One row per run: each observable (key, label) of `names` as mean ± error, or the run's failure."""
+    print(f"\n{'run':32s}" + "".join(f"{label:>{width}s}" for _, label in names))
+    for run in runs:
+        wall = f" wall {run['wall_nm']:g}" if run.get("wall_nm") else ""
+        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs' + wall:32s}"
+        if "failed" in run:
+            print(row + "  failed: " + run["failed"][:80])
+            continue
+        for key, _ in names:
+            value = run[key]
+            if isinstance(value, (list, tuple)):
+                row += f"{value[0]:{width - 9}.4f} ± {value[1]:6.4f}"
+            else:
+                row += f"{value:{width}.2f}"
+        print(row)
 
 
 def main():
@@ -204,20 +257,7 @@ def main():
     names = [("induced_ratio", "induced / SCF, all"), ("induced_ratio_ions", "induced / SCF, ions"),
              ("t_drude", "T Drude (K)"), ("t_drude_max", "hottest frame (K)"), ("t_com", "T centre of mass (K)"),
              ("pe_per_pair", "PE per Drude pair"), ("ns_per_day", "ns/day")]
-    print(f"\n{'run':32s}" + "".join(f"{label:>24s}" for _, label in names))
-    for run in runs:
-        wall = f" wall {run['wall_nm']:g}" if run.get("wall_nm") else ""
-        row = f"{run['integrator'] + ' ' + str(run['step_fs']) + ' fs' + wall:32s}"
-        if "failed" in run:
-            print(row + "  failed: " + run["failed"][:80])
-            continue
-        for key, _ in names:
-            value = run[key]
-            if isinstance(value, (list, tuple)):
-                row += f"{value[0]:15.4f} ± {value[1]:6.4f}"
-            else:
-                row += f"{value:24.2f}"
-        print(row)
+    print_runs(runs, names)
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "drude_ions.json"), "w") as out:
         json.dump({"waters": waters, "ions": analysis.ions, "settings": settings, "seed": args.seed,

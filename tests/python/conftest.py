@@ -5,6 +5,7 @@ of rest length 0 between (0,1), (2,3), (4,5) in force group 1, and soft quartic 
 plus quartic walls x^4 on particles 0 and 5 in force group 0.
 """
 import importlib.util
+import math
 import os
 import subprocess
 import sys
@@ -222,3 +223,14 @@ def protein_recipe_flavor(seed=0):
     integrator.setFriction(1 / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
     return integrator
+
+
+def assert_runs_complete(runs, observables):
+    """Every run of a scene's JSON (label -> record) finished, stepped, and has each observable as a finite mean with
+    an error that is non-negative (or NaN where a short run has one block)."""
+    for label, run in runs.items():
+        assert "failed" not in run, (label, run.get("failed"))
+        assert run["ns_per_day"] > 0 and run["steps"] > 0
+        for key in observables:
+            value, error = run[key]
+            assert math.isfinite(value) and (error >= 0 or math.isnan(error)), (label, key)

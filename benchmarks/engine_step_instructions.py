@@ -9,7 +9,11 @@ valgrind's callgrind (load-independent), CPU platform with one thread:
   - flexible_water: the flexible-water recipe (FlavorIntegrator, ArtificialProjected, Middle placement, delta = 6 fs,
     tau = 0.5 fs, O-H bonds and H-O-H angles frozen; examples/flexible_water, 501 TIP3P molecules with PME), and
     flexible_water_lm, LangevinMiddleIntegrator at 2 fs on the same system from the same state, the step it is
-    compared with.  For these the frozen stage's share is reported too: the functions of FrozenDistances and of its
+    compared with;
+  - drude_protein: StochasticImpulseIntegrator (Warped, Middle, H = 2 fs, the 0.02-nm wall) on alanine dipeptide in
+    Drude-2019 with 250 SWM4-NDP molecules (examples/drude_protein), and drude_protein_dl, DrudeLangevinIntegrator at
+    1 fs with the same wall from the same state: on the CPU platform OpenMM runs DrudeLangevin through its Reference
+    code, so instructions are the fair cost there.  For these the frozen stage's share is reported too: the functions of FrozenDistances and of its
     solver SparseLDLT (what inlining leaves of them).
 
 Each step is run from one saved state for a short and a long number of steps in a child process under callgrind;
@@ -33,9 +37,13 @@ import sys
 from flavorbench import _config
 from flavorbench.callgrind import per_step, require_valgrind, scene_module
 
-SCENES = {"villin": (3, 9), "drude_water": (10, 40), "flexible_water": (3, 11), "flexible_water_lm": (3, 11)}
+SCENES = {"villin": (3, 9), "drude_water": (10, 40), "flexible_water": (3, 11), "flexible_water_lm": (3, 11),
+          "drude_protein": (3, 9), "drude_protein_dl": (3, 9)}
 # Scenes that start from another scene's saved state.
-STATE_OF = {"flexible_water_lm": "flexible_water"}
+STATE_OF = {"flexible_water_lm": "flexible_water", "drude_protein_dl": "drude_protein"}
+# Each scene's step (fs), for the instructions per simulated ps.
+STEP_FS = {"villin": 2.5, "drude_water": 2.5, "flexible_water": 6.0, "flexible_water_lm": 2.0, "drude_protein": 2.0,
+           "drude_protein_dl": 1.0}
 # The frozen stage's functions (FrozenDistances.cpp and its solver).
 FROZEN_STAGE = ("FrozenDistances", "SparseLDLT", "assembleB")
 
@@ -107,8 +115,27 @@ def make_flexible_water_lm():
     return name, system, lambda: factory(5), flexible_water_start(flexible_water, modeller, system)
 
 
+def make_drude_protein(kind):
+    import openmm
+    drude_protein, drude_ions = scene_module("drude_protein"), scene_module("drude_ions")
+    unsplit, _, positions = drude_protein.build(250, 0.8)
+    system, step_fs = unsplit, 1.0
+    if kind == "WarpedMiddle":
+        system, step_fs = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(unsplit)), 2.0
+        drude_protein.StochasticImpulseIntegrator.separateDrudeSprings(system, drude_protein.SPRING_GROUP)
+
+    def factory():
+        integrator = drude_ions.make_integrator(kind, step_fs, 5)
+        integrator.setMaxDrudeDistance(0.02)
+        return integrator
+
+    return (f"{kind} {step_fs:g} fs, wall 0.02 nm", system, factory,
+            lambda: drude_protein.equilibrated(unsplit, positions, 1, 0.2))
+
+
 MAKERS = {"villin": make_villin, "drude_water": make_drude_water, "flexible_water": make_flexible_water,
-          "flexible_water_lm": make_flexible_water_lm}
+          "flexible_water_lm": make_flexible_water_lm, "drude_protein": lambda: make_drude_protein("WarpedMiddle"),
+          "drude_protein_dl": lambda: make_drude_protein("DrudeLangevin")}
 
 
 def child(scene, steps, state_dir):
@@ -161,14 +188,15 @@ def main():
         engine = {f: c for f, c in functions.items() if "libOpenMMFlavors" in f}
         frozen = {f: c for f, c in engine.items() if any(part in f for part in FROZEN_STAGE)}
         results[scene] = {"integrator": name, "steps": steps, "total_per_step": sum(functions.values()),
+                          "step_fs": STEP_FS[scene], "total_per_ps": sum(functions.values()) * 1000 / STEP_FS[scene],
                           "engine_per_step": sum(engine.values()), "frozen_stage_per_step": sum(frozen.values()),
                           "engine_top_functions": [{"function": f[:200], "per_step": c} for f, c in
                                                    sorted(engine.items(), key=lambda x: -x[1])[:20]],
                           "frozen_stage_functions": [{"function": f[:200], "per_step": c} for f, c in
                                                      sorted(frozen.items(), key=lambda x: -x[1])]}
-        print("%-17s %-58s total %8.2fM per step, engine %7.3fM, frozen stage %7.3fM" % (
-            scene, name, results[scene]["total_per_step"] / 1e6, results[scene]["engine_per_step"] / 1e6,
-            results[scene]["frozen_stage_per_step"] / 1e6))
+        print("%-17s %-58s total %8.2fM per step (%8.1fG per ps), engine %7.3fM, frozen stage %7.3fM" % (
+            scene, name, results[scene]["total_per_step"] / 1e6, results[scene]["total_per_ps"] / 1e9,
+            results[scene]["engine_per_step"] / 1e6, results[scene]["frozen_stage_per_step"] / 1e6))
     with open(os.path.join(args.out, "engine_step_instructions.json"), "w") as f:
         json.dump({"benchmark": "engine_step_instructions", "platform": "CPU, 1 thread", "scenes": results}, f,
                   indent=1)

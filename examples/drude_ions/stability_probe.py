@@ -85,10 +85,15 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "stability_probe.json"), "w") as f:
         json.dump({"args": vars(args), "runs": runs, "wall_s": time.time() - begin}, f, indent=1)
+    print_summary(runs, args.steps, args.walls)
+
+
+def print_summary(runs, steps, walls):
+    """A Markdown table: per step and wall, how many runs held and how the others failed."""
     print("\n| step | wall | runs held | failures |")
     print("|---|---|---|---|")
-    for step_fs in args.steps:
-        for wall in args.walls:
+    for step_fs in steps:
+        for wall in walls:
             these = [r for r in runs if r["step_fs"] == step_fs and r["wall_nm"] == wall]
             held = sum(r["failed"] is None for r in these)
             fails = "; ".join(f"seed {r['seed'] - 3}: {r['failed']}" for r in these if r["failed"])

@@ -3,6 +3,7 @@ Thole-screened Drude particles, lone pairs, X-H constraints on cores that carry 
 writes its JSON with every observable, and the SIM with the hard wall keeps the induced dipoles self-consistent and the
 Drudes cold."""
 import json
+import math
 import os
 
 import conftest
@@ -27,3 +28,17 @@ def test_drude_protein_quick(tmp_path):
         assert abs(run["induced_ratio_water"][0] - 1) < 0.05, label
         assert run["t_drude"][0] < 20, label
         assert run["rmsd_nm"][0] < 0.1, label
+
+
+def test_step_limit_probe_quick(tmp_path):
+    """The --quick probe runs the SIM on the peptide as it is and with the Thole screening off, one record per run."""
+    script = os.path.join(REPO_ROOT, "examples", "drude_protein", "step_limit_probe.py")
+    for extra in ((), ("--thole-off",)):
+        result = conftest.run_quick(script, tmp_path, extra=extra)
+        assert result.returncode == 0, result.stderr[-3000:]
+        with open(tmp_path / "step_limit_probe.json") as f:
+            data = json.load(f)
+        assert data["args"]["thole_off"] == bool(extra)
+        assert len(data["runs"]) == 1
+        run = data["runs"][0]
+        assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run

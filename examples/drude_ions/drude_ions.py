@@ -32,6 +32,13 @@ def build(waters, pairs, cutoff):
     # Modeller adds round(n_water * I / 55.4 M) pairs: ask for exactly `pairs`.
     modeller.addSolvent(app.ForceField("amber14/tip3p.xml"), model="tip3p", numAdded=waters + 2 * pairs,
                         positiveIon="Na+", negativeIon="Cl-", ionicStrength=pairs * 55.4 / waters * unit.molar)
+    return polar_system(modeller, cutoff)
+
+
+def polar_system(modeller, cutoff):
+    """Drude-2019 for the Modeller's topology (TIP3P water becomes SWM4-NDP): its Drude particles and lone pairs
+    added, PME (cutoff in nm), rigid water, X-H bonds constrained, every force in group 0.  Returns the System, the
+    topology and the positions."""
     forcefield = app.ForceField("charmm_polar_2019.xml")
     modeller.addExtraParticles(forcefield)
     system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.PME,

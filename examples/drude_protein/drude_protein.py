@@ -35,7 +35,8 @@ from openmmflavors import StochasticImpulseIntegrator
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "drude_ions"))
-from drude_ions import SPRING_GROUP, Analysis, SelfConsistent, equilibrated, print_runs, run_one  # noqa: E402
+from drude_ions import (SPRING_GROUP, Analysis, SelfConsistent, equilibrated, polar_system, print_runs,  # noqa: E402
+                        run_one)
 
 PDB = os.path.join(HERE, "..", "metropolis", "alanine_dipeptide.pdb")
 PEPTIDE = "ALA"  # the capped peptide as one residue (below)
@@ -63,14 +64,7 @@ def build(waters, cutoff):
             atoms[atom] = topology.addAtom(atom.name, atom.element, target)
     for a, b in solvated.topology.bonds():
         topology.addBond(atoms[a], atoms[b])
-    modeller = app.Modeller(topology, solvated.positions)
-    forcefield = app.ForceField("charmm_polar_2019.xml")
-    modeller.addExtraParticles(forcefield)
-    system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.PME,
-                                     nonbondedCutoff=cutoff * unit.nanometer, constraints=app.HBonds, rigidWater=True)
-    for force in system.getForces():
-        force.setForceGroup(0)
-    return system, modeller.topology, modeller.positions
+    return polar_system(app.Modeller(topology, solvated.positions), cutoff)
 
 
 class PeptideGeometry:

@@ -484,7 +484,7 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
 void CommonFlowStepper::rememberFlowStart() {
     if (!projector)
         return;
-    mirror.downloadPositions();
+    mirror.download(true, false);
     projector->rememberPositions(mirror.positions);
 }
 
@@ -493,8 +493,7 @@ void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passInde
         return;
     // As StiffFlowExecutor::runFlow: the correction of the positions is an impulse at the start of the flow, so it
     // also changes the velocities, and the projection after it removes what is left along the constraints.
-    mirror.downloadPositions();
-    mirror.downloadVelocities();
+    mirror.download(true, true);
     vector<Vec3>& positions = mirror.positions;
     vector<Vec3>& velocities = mirror.velocities;
     unconstrained = positions;
@@ -505,13 +504,11 @@ void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passInde
             velocities[i] += (positions[i] - unconstrained[i]) * scales.velocity;
     if (!pass.nextProjectsVelocities)
         projector->constrainVelocities(positions, velocities, constraintTolerance);
-    mirror.uploadPositions();
-    mirror.uploadVelocities();
+    mirror.upload(true, true);
 }
 
 void CommonFlowStepper::constrainAfterKicks(const FlowPass* kicks, double constraintTolerance) {
-    mirror.downloadPositions();
-    mirror.downloadVelocities();
+    mirror.download(true, true);
     vector<Vec3>& velocities = mirror.velocities;
     // As ParticlePassExecutor::run: each kick adds the share forces of the last step's constraint solves.
     if (kicks)
@@ -520,7 +517,7 @@ void CommonFlowStepper::constrainAfterKicks(const FlowPass* kicks, double constr
                 for (int p : projector->getShareParticles())
                     velocities[p] += history.shareForces[p] * (flow.h * particles.inverseMasses[p]);
     projector->constrainVelocities(mirror.positions, velocities, constraintTolerance);
-    mirror.uploadVelocities();
+    mirror.upload(false, true);
 }
 
 void CommonFlowStepper::uploadShareForces() {
@@ -569,13 +566,11 @@ void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
 }
 
 void CommonFlowStepper::runHardWall(const SubFlow& flow) {
-    mirror.downloadPositions();
-    mirror.downloadVelocities();
+    mirror.download(true, true);
     if (!hardWall.apply(mirror.positions, mirror.velocities, particles.masses, flow.distance, flow.h,
                         flow.stiffBath.kT))
         return;
-    mirror.uploadPositions();
-    mirror.uploadVelocities();
+    mirror.upload(true, true);
     invalidateForces();
 }
 
@@ -644,7 +639,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
 double CommonFlowStepper::kineticEnergy() {
     ContextSelector selector(cc);
     // Summed in the System's order, as the CPU engine sums it.
-    mirror.downloadVelocities();
+    mirror.download(false, true);
     return particles.kineticEnergy(mirror.velocities);
 }
 

@@ -52,24 +52,20 @@ void HostFrozenStage::run(const SubFlow& flow, const ComputeArray* forces, doubl
         modeTask->sourceIsForce = !drift;
         loop.run(*modeTask, modes->getNumComponents());
     }
-    if (drift)
-        state.uploadPositions();
-    state.uploadVelocities();
+    state.upload(drift, true);
 }
 
 void HostFrozenStage::download(const ComputeArray* forces) {
-    state.downloadPositions();
-    state.downloadVelocities();
+    // One wait for the forces, positions and velocities together.
+    void* target = doubles ? (void*)forcesDouble.data() : (void*)forcesFloat.data();
+    state.download(true, true, forces, forces != nullptr ? target : nullptr);
     if (forces == nullptr)
         return;
     // Force slots are already in the System's order.
-    if (doubles) {
-        forces->download(forcesDouble);
+    if (doubles)
         for (size_t i = 0; i < forceValues.size(); ++i)
             forceValues[i] = Vec3(forcesDouble[i].x, forcesDouble[i].y, forcesDouble[i].z);
-    } else {
-        forces->download(forcesFloat);
+    else
         for (size_t i = 0; i < forceValues.size(); ++i)
             forceValues[i] = Vec3(forcesFloat[i].x, forcesFloat[i].y, forcesFloat[i].z);
-    }
 }

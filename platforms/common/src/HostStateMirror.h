@@ -2,6 +2,7 @@
 #define OPENMM_FLAVORS_HOST_STATE_MIRROR_H_
 
 #include "openmm/Vec3.h"
+#include "openmm/common/ArrayInterface.h"
 #include "openmm/common/ComputeContext.h"
 #include "openmm/common/ComputeVectorTypes.h"
 #include <vector>
@@ -18,10 +19,15 @@ namespace FlavorPlugin {
 class HostStateMirror {
 public:
     HostStateMirror(OpenMM::ComputeContext& cc, int numParticles);
-    void downloadPositions();
-    void downloadVelocities();
-    void uploadPositions();
-    void uploadVelocities();
+    /**
+     * Copies the positions and/or the velocities from the device.  The copies (and one of `extra`, if given: another
+     * device array into `extraTarget`, enqueued first) go on the in-order queue without waiting, all but the last,
+     * which waits for them all: one synchronization per call, not one per array (on a GPU each costs a round trip).
+     */
+    void download(bool withPositions, bool withVelocities, const OpenMM::ArrayInterface* extra = nullptr,
+                  void* extraTarget = nullptr);
+    /** Copies the positions and/or the velocities to the device; as download(), only the last copy waits. */
+    void upload(bool withPositions, bool withVelocities);
     /** Whether the platform keeps velocities and forces in double precision (double or mixed). */
     bool usesDoubles() const { return doubles || mixed; }
     std::vector<OpenMM::Vec3> positions, velocities;

@@ -131,6 +131,14 @@ def positions_state(system, positions):
     return context.getState(getPositions=True)
 
 
+def thermal_start(positions, temperature):
+    """start(context) for a scene: the positions, velocities drawn at temperature (K) with the seed every peer shares."""
+    def start(context):
+        context.setPositions(positions)
+        context.setVelocitiesToTemperature(temperature * unit.kelvin, 7)
+    return start
+
+
 # ----------------------------------------------------------------------------------------------------------------------
 # Scenes: each returns (description, start, peers); a peer is (name, step in fs, system, integrator factory, note)
 # and start(context) puts a new Context at the scene's start state.
@@ -181,12 +189,8 @@ def flexible_scene(quick, states):
         peers.append((name, delta, system, lambda factory=factory: factory(1234),
                       "the scene's artificial FLAVOR (frozen stage on the host)"))
 
-    def start(context):
-        context.setPositions(positions)
-        context.setVelocitiesToTemperature(flexible_water.TEMPERATURE * unit.kelvin, 7)
-
     description = f"{molecules} flexible TIP3P molecules ({3 * molecules} atoms), PME, 300 K, friction 1/ps"
-    return description, start, peers
+    return description, thermal_start(positions, flexible_water.TEMPERATURE), peers
 
 
 def villin_scene(quick, states):
@@ -226,12 +230,8 @@ def villin_scene(quick, states):
         peers.append((name, step_fs, system_for(factory.system_options), factory,
                       "frozen stage on the host" if name.startswith("FLAVOR") else ""))
 
-    def start(context):
-        context.setPositions(positions)
-        context.setVelocitiesToTemperature(villin.TEMPERATURE * unit.kelvin, 7)
-
     description = f"villin in TIP3P water ({plain.getNumParticles()} atoms), amber14, PME, HBonds, rigid water"
-    return description, start, peers
+    return description, thermal_start(positions, villin.TEMPERATURE), peers
 
 
 def fpu_scene(quick, states):

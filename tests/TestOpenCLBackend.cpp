@@ -291,8 +291,8 @@ void expectSettingsFollowReference(SideBySide<IntegratorType>& pair, const char*
                                    const Settings<IntegratorType>& settings, const FpuChains& chains) {
     for (const auto& setting : settings) {
         const double deviation = pair.run(setting.second, {chains.positions, chains.velocities});
-        std::cout << label << " " << setting.first << ": largest deviation from Reference " << deviation << " nm"
-                  << std::endl;
+        std::cout << label << " " << setting.first << ": largest deviation from Reference " << deviation << " nm, "
+                  << pair.velocityDeviation << " nm/ps" << std::endl;
         EXPECT_LE(deviation, Tolerance) << setting.first;
     }
 }
@@ -373,7 +373,7 @@ TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
         s->setRandomNumberSeed(37);
         return s;
     });
-    const vector<std::pair<string, std::function<void(S&)>>> settings = {
+    const Settings<S> settings = {
         {"strang", [](S& s) { s.setSplitting(S::Strang); }},
         {"strang/langevin", [](S& s) { s.setFriction(5.0); }},
         {"strang/mode-bath",
@@ -400,12 +400,7 @@ TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
         {"warped/middle", [](S& s) { s.setSplitting(S::Warped); }},
         {"warped", [](S& s) { s.setThermostatPlacement(S::Throughout); }},
     };
-    for (const auto& setting : settings) {
-        const double deviation = sims.run(setting.second, {chains.positions, chains.velocities});
-        std::cout << "SIM " << setting.first << ": largest deviation from Reference " << deviation << " nm, "
-                  << sims.velocityDeviation << " nm/ps" << std::endl;
-        EXPECT_LE(deviation, Tolerance) << setting.first;
-    }
+    expectSettingsFollowReference(sims, "SIM", settings, chains);
 }
 
 TEST(OpenCLBackend, FilteredCheckpointsCarryTheStepHistory) {
@@ -489,7 +484,7 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
     std::unique_ptr<System> system(fpuSystem(3, 50.0, 2));
     const Vec3 link = chains.positions[1] - chains.positions[2];
     system->addConstraint(1, 2, std::sqrt(link.dot(link)));
-    const vector<std::pair<string, std::function<void(S&)>>> settings = {
+    const Settings<S> settings = {
         {"strang", [](S& s) { s.setSplitting(S::Strang); }},
         {"lie-trotter/langevin",
          [](S& s) {
@@ -520,12 +515,7 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
         s->setRandomNumberSeed(53);
         return s;
     });
-    for (const auto& setting : settings) {
-        const double deviation = sims.run(setting.second, {chains.positions, chains.velocities});
-        std::cout << "SIM with constraints, " << setting.first << ": largest deviation from Reference " << deviation
-                  << " nm, " << sims.velocityDeviation << " nm/ps" << std::endl;
-        EXPECT_LE(deviation, Tolerance) << setting.first;
-    }
+    expectSettingsFollowReference(sims, "SIM with constraints,", settings, chains);
     // A checkpoint holds the share forces that the next step's kicks and force responses add.
     std::stringstream checkpoint;
     sims.openclContext->createCheckpoint(checkpoint);
@@ -560,7 +550,7 @@ TEST(OpenCLBackend, FilteredAndWarpedFollowReferenceInSingleAndMixedPrecision) {
         GTEST_SKIP() << "no OpenCL platform";
     using S = StochasticImpulseIntegrator;
     DrudePairs pairs;
-    const vector<std::pair<string, std::function<void(S&)>>> settings = {
+    const Settings<S> settings = {
         {"filtered", [](S& s) { s.setSplitting(S::Filtered); }},
         {"warped/middle",
          [](S& s) {

@@ -81,7 +81,7 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     : cc(cc), system(system), owner(std::move(owner)), platformName(std::move(platformName)),
       numParticles(system.getNumParticles()), hasConstraints(system.getNumConstraints() > 0), hasVirtualSites(false),
       history(system.getNumParticles()), particles(system), mirror(cc, system.getNumParticles()),
-      frozenStage(mirror, particles) {
+      frozenStage(mirror, particles), staging(mixedIsDouble(cc), system.getNumParticles()) {
     for (int i = 0; i < numParticles; ++i)
         hasVirtualSites = hasVirtualSites || system.isVirtualSite(i);
     ContextSelector selector(cc);
@@ -113,10 +113,6 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     if (hostConstraints && hasConstraints) {
         projector = std::make_unique<ConstraintProjector>(system, particles, true);
         unconstrained.resize(numParticles);
-        if (doubles)
-            shareDouble.resize(numParticles);
-        else
-            shareFloat.resize(numParticles);
     }
     slotClock.assign(MaxForceSlots, SlotClock());
     copyForcesKernel->addArg(cc.getLongForceBuffer());
@@ -523,16 +519,8 @@ void CommonFlowStepper::constrainAfterKicks(const FlowPass* kicks, double constr
 void CommonFlowStepper::uploadShareForces() {
     if (!projector)
         return;
-    const vector<Vec3>& values = history.shareForces;
-    if (mixedIsDouble(cc)) {
-        for (int i = 0; i < numParticles; ++i)
-            shareDouble[i] = mm_double4(values[i][0], values[i][1], values[i][2], 0.0);
-        shareForces.upload(shareDouble);
-    } else {
-        for (int i = 0; i < numParticles; ++i)
-            shareFloat[i] = mm_float4((float)values[i][0], (float)values[i][1], (float)values[i][2], 0.0f);
-        shareForces.upload(shareFloat);
-    }
+    staging.fromVec3(history.shareForces);
+    shareForces.upload(staging.data());
 }
 
 void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
@@ -659,34 +647,13 @@ void CommonFlowStepper::forgetStepHistory() {
 }
 
 void CommonFlowStepper::downloadHistory(StepHistory& target) const {
-    const bool doubles = mixedIsDouble(cc);
-    if (doubles) {
-        vector<mm_double4> values;
-        forceDifferences.download(values);
-        for (int i = 0; i < numParticles; ++i)
-            target.forceDifferences[i] = Vec3(values[i].x, values[i].y, values[i].z);
-    } else {
-        vector<mm_float4> values;
-        forceDifferences.download(values);
-        for (int i = 0; i < numParticles; ++i)
-            target.forceDifferences[i] = Vec3(values[i].x, values[i].y, values[i].z);
-    }
+    forceDifferences.download(staging.data());
+    staging.toVec3(target.forceDifferences);
 }
 
 void CommonFlowStepper::uploadHistory() {
-    const bool doubles = mixedIsDouble(cc);
-    const vector<Vec3>& values = history.forceDifferences;
-    if (doubles) {
-        vector<mm_double4> device(numParticles);
-        for (int i = 0; i < numParticles; ++i)
-            device[i] = mm_double4(values[i][0], values[i][1], values[i][2], 0.0);
-        forceDifferences.upload(device);
-    } else {
-        vector<mm_float4> device(numParticles);
-        for (int i = 0; i < numParticles; ++i)
-            device[i] = mm_float4((float)values[i][0], (float)values[i][1], (float)values[i][2], 0.0f);
-        forceDifferences.upload(device);
-    }
+    staging.fromVec3(history.forceDifferences);
+    forceDifferences.upload(staging.data());
     uploadShareForces();
 }
 

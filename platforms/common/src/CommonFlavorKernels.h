@@ -8,6 +8,7 @@
 #include "HardWall.h"
 #include "HostFrozenStage.h"
 #include "HostStateMirror.h"
+#include "Mixed4Staging.h"
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
 #include "StepHistory.h"
@@ -174,13 +175,13 @@ private:
     HostFrozenStage frozenStage;
     HardWall hardWall;
     // With host constraints: the projector, the positions after a stiff flow before their correction, per pass the
-    // scales of that correction, the share forces on the device (system order) and their upload buffers.
+    // scales of that correction, the share forces on the device (system order).
     std::unique_ptr<ConstraintProjector> projector;
     std::vector<OpenMM::Vec3> unconstrained;
     std::vector<ConstraintProjector::CorrectionScales> correctionScales;
     OpenMM::ComputeArray shareForces;
-    std::vector<OpenMM::mm_double4> shareDouble;
-    std::vector<OpenMM::mm_float4> shareFloat;
+    // The host side of the history's and the share forces' transfers (scratch, so also for a const checkpoint).
+    mutable Mixed4Staging staging;
     int fusedSlot = -1;
     double fusedStep = 0.0;
 };

@@ -6,12 +6,8 @@ using namespace OpenMM;
 using std::vector;
 
 HostFrozenStage::HostFrozenStage(HostStateMirror& state, const ParticleTable& particles)
-    : state(state), particles(particles), doubles(state.usesDoubles()), forceValues(particles.numParticles) {
-    if (doubles)
-        forcesDouble.resize(particles.numParticles);
-    else
-        forcesFloat.resize(particles.numParticles);
-}
+    : state(state), particles(particles), forceValues(particles.numParticles),
+      forcesDownloaded(state.usesDoubles(), particles.numParticles) {}
 
 void HostFrozenStage::setDistances(std::shared_ptr<FrozenDistances> newDistances) {
     distances = std::move(newDistances);
@@ -57,15 +53,8 @@ void HostFrozenStage::run(const SubFlow& flow, const ComputeArray* forces, doubl
 
 void HostFrozenStage::download(const ComputeArray* forces) {
     // One wait for the forces, positions and velocities together.
-    void* target = doubles ? (void*)forcesDouble.data() : (void*)forcesFloat.data();
-    state.download(true, true, forces, forces != nullptr ? target : nullptr);
-    if (forces == nullptr)
-        return;
+    state.download(true, true, forces, forces != nullptr ? forcesDownloaded.data() : nullptr);
     // Force slots are already in the System's order.
-    if (doubles)
-        for (size_t i = 0; i < forceValues.size(); ++i)
-            forceValues[i] = Vec3(forcesDouble[i].x, forcesDouble[i].y, forcesDouble[i].z);
-    else
-        for (size_t i = 0; i < forceValues.size(); ++i)
-            forceValues[i] = Vec3(forcesFloat[i].x, forcesFloat[i].y, forcesFloat[i].z);
+    if (forces != nullptr)
+        forcesDownloaded.toVec3(forceValues);
 }

@@ -4,6 +4,7 @@
 #include "FrozenDistances.h"
 #include "FrozenFlowTask.h"
 #include "HostStateMirror.h"
+#include "Mixed4Staging.h"
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
 #include "StiffModes.h"
@@ -67,7 +68,6 @@ private:
     void download(const OpenMM::ComputeArray* forces);
     HostStateMirror& state;
     const ParticleTable& particles;
-    const bool doubles;
     std::shared_ptr<FrozenDistances> distances;
     std::shared_ptr<const StiffModes> modes;
     std::unique_ptr<FrozenFlowTask> modeTask;
@@ -75,8 +75,7 @@ private:
     // A kick's forces in the System's particle order.
     std::vector<OpenMM::Vec3> forceValues;
     // The force slot as downloaded: double or single precision as the platform keeps it.
-    std::vector<OpenMM::mm_double4> forcesDouble;
-    std::vector<OpenMM::mm_float4> forcesFloat;
+    Mixed4Staging forcesDownloaded;
 };
 
 } // namespace FlavorPlugin

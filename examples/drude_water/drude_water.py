@@ -10,6 +10,7 @@ import itertools
 import json
 import math
 import os
+import re
 import textwrap
 
 import matplotlib
@@ -361,7 +362,11 @@ def plot(data, path):
             "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
             ") against DrudeLangevinIntegrator (black; with the hard wall setMaxDrudeDistance(%g nm): purple), "
             "reference DrudeLangevin H = %g fs" % (WALL_NM, reference["step_fs"]))
-    fig.suptitle(textwrap.fill(what, 190) + "\n" + textwrap.fill(verdict(runs, data["reference"]), 190) +
+    def fill(text):
+        # A step ("H = 1 fs") stays on one line: textwrap breaks only at ASCII whitespace.
+        return textwrap.fill(re.sub(r"H = ([0-9.]+) fs", "H\u00a0=\u00a0\\1\u00a0fs", text), 190)
+
+    fig.suptitle(fill(what) + "\n" + fill(verdict(runs, data["reference"])) +
                  "\nDrude modes at 1 K, 20/ps; error bars ±1 s.e. of block means", fontsize=11)
     fig.tight_layout(rect=(0, 0.05, 1, 0.92))
     reporting.save_figure(fig, path, 110)

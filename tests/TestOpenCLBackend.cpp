@@ -399,6 +399,8 @@ TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
         {"filtered/middle", [](S& s) { s.setThermostatPlacement(S::Middle); }},
         {"warped/middle", [](S& s) { s.setSplitting(S::Warped); }},
         {"warped", [](S& s) { s.setThermostatPlacement(S::Throughout); }},
+        // Slowed below the warped frequency, with scaled kicks (the limit acts where the warped turn exceeds 0.5).
+        {"warped, phase limited", [](S& s) { s.setMaxWarpedPhase(0.5); }},
     };
     expectSettingsFollowReference(sims, "SIM", settings, chains);
 }
@@ -509,6 +511,7 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
              s.setSplitting(S::Warped);
              s.setThermostatPlacement(S::Middle);
          }},
+        {"warped/middle, phase limited", [](S& s) { s.setMaxWarpedPhase(0.5); }},
     };
     SideBySide<S> sims(*system, [] {
         S* s = new S(300.0, 0.0, 0.02, StiffMask);

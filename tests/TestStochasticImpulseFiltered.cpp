@@ -1,16 +1,20 @@
 // The splittings without the impulse bias, Filtered and Warped: a constant soft force gives every stiff mode its exact
 // mean displacement (where Strang gives (omega H/2) cot(omega H/2) of it), second order on a smooth problem, no
 // resonance spike at omega H = 2 pi on the FPU chain, processed velocities (exact for a steadily changing force,
-// forgotten when the state is set), and each one's stability threshold under a soft force that is stiff itself.
+// forgotten when the state is set), each one's stability threshold under a soft force that is stiff itself, and the
+// Warped phase limit (setMaxWarpedPhase): the exact mean and processed velocities kept, stable past Warped's own limit.
 
+#include "ExpectRejected.h"
 #include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
 #include "openmm/CustomCompoundBondForce.h"
+#include "openmm/serialization/XmlSerializer.h"
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <sstream>
 #include <string>
 
 using namespace FlavorPlugin;
@@ -33,6 +37,24 @@ std::string nameOf(StochasticImpulseIntegrator::Splitting splitting) {
            : splitting == StochasticImpulseIntegrator::Warped ? "Warped"
                                                               : "Strang";
 }
+
+/** A bias-free step: Filtered, Warped, or Warped with its phase per step limited (setMaxWarpedPhase). */
+struct BiasFreeStep {
+    StochasticImpulseIntegrator::Splitting splitting;
+    double maxWarpedPhase;
+    std::string name() const {
+        return nameOf(splitting) + (maxWarpedPhase > 0 ? " limited to " + std::to_string(maxWarpedPhase) : "");
+    }
+    void configure(StochasticImpulseIntegrator& integrator) const {
+        integrator.setSplitting(splitting);
+        integrator.setMaxWarpedPhase(maxWarpedPhase);
+    }
+};
+
+// The limit 1.2 is below the warped turn at omega H > 1.3 (H > 1.3 fs for a Drude pair), so it acts at H = 2 fs.
+const BiasFreeStep BiasFreeSteps[] = {{StochasticImpulseIntegrator::Filtered, 0.0},
+                                      {StochasticImpulseIntegrator::Warped, 0.0},
+                                      {StochasticImpulseIntegrator::Warped, 1.2}};
 
 /** The warped xi~ of omega H = xi without friction: xi~ tan(xi~/2) = xi^2/2 (bisection on (0, pi)). */
 double warpedTurn(double xi) {
@@ -137,6 +159,32 @@ TEST_P(ImpulseFiltered, ConstantSoftForceGivesTheExactMeanDisplacement) {
             // Processed velocities where the warped mode turns by less than 0.9 pi (xi below about 6).
             if (warpedTurn(xi) < 0.85 * Pi) {
                 EXPECT_LT(converged.second, 1e-9) << "Warped with friction, omega H = " << xi;
+            }
+        }
+        for (double maxPhase : {0.5, 1.2, 3.0}) {
+            // Warped with its phase per step limited: where the limit acts, the slowed flow's kicks are scaled to keep
+            // the exact mean.  The same fixed point, converged with friction, and processed velocities (the limited
+            // mode turns by less than 0.9 pi).
+            SCOPED_TRACE("Warped limited to " + std::to_string(maxPhase));
+            StochasticImpulseIntegrator limited(0.0, 0.0, H, StiffMask);
+            limited.setSplitting(StochasticImpulseIntegrator::Warped);
+            limited.setMaxWarpedPhase(maxPhase);
+            const auto drift = driftFrom(p, limited, platform(), properties(), exact, exact, omega, 30);
+            EXPECT_LT(drift.first, 1e-10) << "no friction, omega H = " << xi;
+            EXPECT_LT(drift.second, 1e-10) << "no friction, omega H = " << xi;
+            // Friction omega/5 in a mode slowed to omega~ (damping ratio 0.1 omega/omega~, overdamped where the limit
+            // slows it below omega/20): amplitudes decay at least as exp(-omega~ t/10) below that, and as
+            // exp(-omega~^2 t/(0.2 omega)) above it; enough steps for exp(-28).
+            StochasticImpulseIntegrator damped(0.0, 0.2 * omega, H, StiffMask);
+            damped.setSplitting(StochasticImpulseIntegrator::Warped);
+            damped.setMaxWarpedPhase(maxPhase);
+            const double slowest = std::min(warpedTurn(xi), maxPhase);
+            const double rate = slowest > 0.05 * xi ? 0.1 * slowest : slowest * slowest / (0.2 * xi);
+            const int steps = (int)std::ceil(28 / rate);
+            const auto converged = driftFrom(p, damped, platform(), properties(), Vec3(), exact, omega, steps);
+            EXPECT_LT(converged.first, 1e-9) << "with friction, omega H = " << xi;
+            if (std::min(warpedTurn(xi), maxPhase) < 0.85 * Pi) {
+                EXPECT_LT(converged.second, 1e-9) << "with friction, omega H = " << xi;
             }
         }
         if (std::abs(std::remainder(xi, Pi)) > 1e-12) {
@@ -312,11 +360,11 @@ TEST_P(ImpulseFiltered, SteadilyGrowingSoftForceGivesTheExactVelocity) {
     pull->addGlobalParameter("c", coupling);
     pull->addBond({0, 1});
     system.addForce(pull);
-    for (auto splitting : BiasFree)
+    for (const BiasFreeStep& variant : BiasFreeSteps)
         for (double H : {0.001, 0.002, 0.0025}) {
-            SCOPED_TRACE(nameOf(splitting) + ", H = " + std::to_string(H));
+            SCOPED_TRACE(variant.name() + ", H = " + std::to_string(H));
             StochasticImpulseIntegrator integrator(0.0, 0.0, H, StiffMask);
-            integrator.setSplitting(splitting);
+            variant.configure(integrator);
             integrator.setStiffModeTemperature(0.0);
             integrator.setStiffModeFriction(gamma);
             Context context(system, integrator, platform(), properties());
@@ -326,8 +374,14 @@ TEST_P(ImpulseFiltered, SteadilyGrowingSoftForceGivesTheExactVelocity) {
             const vector<Vec3> q = positionsOf(context), v = velocitiesOf(context);
             const Vec3 exactV = growth / k, dv = v[0] - exactV;
             EXPECT_LT(std::sqrt(dv.dot(dv)), 1e-6 * std::sqrt(exactV.dot(exactV)));
-            // Positions: within 1% of a step's change of F/k.
-            const Vec3 exactX = (q[1] * coupling - growth * (gamma * mass / k)) / k, dx = q[0] - exactX;
+            // Positions: within 1% of a step's change of F/k, behind F/k by the friction lag gamma/omega_f^2 of the
+            // force's rate, omega_f the flow's frequency (for a steadily growing force a mode flowing at omega~ with
+            // kicks keeping the static response 1/omega^2 sits (omega/omega~)^2 farther behind than the true one).
+            const double turn = variant.splitting == StochasticImpulseIntegrator::Filtered ? omega * H
+                                : variant.maxWarpedPhase > 0 ? std::min(warpedTurn(omega * H), variant.maxWarpedPhase)
+                                                             : warpedTurn(omega * H);
+            const double flowOmega = turn / H;
+            const Vec3 exactX = (q[1] * coupling - growth * (gamma / (flowOmega * flowOmega))) / k, dx = q[0] - exactX;
             EXPECT_LT(std::sqrt(dx.dot(dx)), 0.01 * H * std::sqrt(exactV.dot(exactV)));
         }
 }
@@ -348,11 +402,11 @@ TEST_P(ImpulseFiltered, SettingTheStateStartsTheNextStepAfresh) {
     soft->addParticle(0);
     system.addForce(soft);
     const Vec3 q(0.05, -0.02, 0.03), v(1.0, 2.0, -0.5);
-    for (auto splitting : BiasFree) {
-        SCOPED_TRACE(nameOf(splitting));
+    for (const BiasFreeStep& variant : BiasFreeSteps) {
+        SCOPED_TRACE(variant.name());
         StochasticImpulseIntegrator used(0.0, 0.0, 0.005, StiffMask), fresh(0.0, 0.0, 0.005, StiffMask);
-        used.setSplitting(splitting);
-        fresh.setSplitting(splitting);
+        variant.configure(used);
+        variant.configure(fresh);
         Context usedContext(system, used, platform(), properties());
         Context freshContext(system, fresh, platform(), properties());
         usedContext.setPositions({Vec3(0.1, 0.0, 0.0)});
@@ -428,4 +482,52 @@ TEST_P(ImpulseFiltered, ASoftForceStiffAlongAModeIsStableExactlyBelowItsThreshol
                 EXPECT_GE(largest, 1.0);
         }
     }
+    // Warped with its phase limited to maxPhase: (1 + r) sin^2(min(xi~, maxPhase)/2) < 1, whatever omega H is.  The
+    // limiting phase for r = 0.3 is 2 asin(1/sqrt(1.3)) = 2.140: a limit 2% below it holds at 1.02, 2 and 4 times
+    // Warped's own threshold in omega H; a limit 2% above grows there.
+    const double limitingPhase = 2 * std::asin(1 / std::sqrt(1 + r));
+    for (double phaseFactor : {0.98, 1.02})
+        for (double stepFactor : {1.02, 2.0, 4.0}) {
+            SCOPED_TRACE("Warped limited to " + std::to_string(phaseFactor) + " of " + std::to_string(limitingPhase) +
+                         " at omega H = " + std::to_string(stepFactor * warpedLimit));
+            StochasticImpulseIntegrator integrator(0.0, 0.0, stepFactor * warpedLimit / omega, StiffMask);
+            integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+            integrator.setMaxWarpedPhase(phaseFactor * limitingPhase);
+            Context context(system, integrator, platform(), properties());
+            context.setPositions({Vec3(1e-3, 0, 0)});
+            double largest = 0;
+            for (int step = 0; step < 200 && largest < 1.0; ++step) {
+                integrator.step(1);
+                largest = std::max(largest, std::abs(positionsOf(context)[0][0]));
+            }
+            if (phaseFactor < 1)
+                EXPECT_LT(largest, 20 * 1e-3);
+            else
+                EXPECT_GE(largest, 1.0);
+        }
+}
+
+TEST_P(ImpulseFiltered, TheWarpedPhaseLimitIsCheckedDescribedAndSerialized) {
+    TetheredParticle p(1036.0);
+    StochasticImpulseIntegrator integrator(0.0, 0.0, 0.003, StiffMask);
+    EXPECT_EQ(0.0, integrator.getMaxWarpedPhase());
+    for (double bad : {-0.5, Pi, 4.0, std::nan("")})
+        expectRejected([&] { integrator.setMaxWarpedPhase(bad); }, {"maxWarpedPhase", "between 0 and pi"});
+    EXPECT_EQ(0.0, integrator.getMaxWarpedPhase());
+    integrator.setMaxWarpedPhase(2.05);
+    EXPECT_EQ(2.05, integrator.getMaxWarpedPhase());
+    // Only Warped has a warped frequency to limit: another splitting is rejected when a step is taken, and the
+    // Context takes steps once the splitting is Warped.
+    Context context(p.system, integrator, platform(), properties());
+    context.setPositions({p.equilibrium()});
+    expectRejected([&] { integrator.step(1); }, {"maxWarpedPhase = 2.05", "splitting = 1", "Warped (4)"});
+    EXPECT_EQ(0, context.getState(State::Positions).getStepCount());
+    integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+    integrator.step(2);
+    EXPECT_EQ(2, context.getState(State::Positions).getStepCount());
+    EXPECT_NE(std::string::npos, integrator.describeStep().find("ω̃H ≤ 2.05")) << integrator.describeStep();
+    std::stringstream buffer;
+    XmlSerializer::serialize<Integrator>(&integrator, "Integrator", buffer);
+    std::unique_ptr<Integrator> copy(XmlSerializer::deserialize<Integrator>(buffer));
+    EXPECT_EQ(2.05, dynamic_cast<StochasticImpulseIntegrator&>(*copy).getMaxWarpedPhase());
 }

@@ -139,6 +139,8 @@ class SelfConsistent:
 
 
 WALL_NM = 0.02  # DrudeLangevinIntegrator.setMaxDrudeDistance of the "DrudeLangevinWall" peers (the hard wall)
+# setMaxWarpedPhase of the "WarpedMiddleLimited" peers: the phase per step that Warped has at 2.5 fs (--max-warped-phase).
+MAX_WARPED_PHASE = 2.05
 
 
 def make_integrator(kind, step_fs, seed):
@@ -153,11 +155,16 @@ def make_integrator(kind, step_fs, seed):
         return integrator
     integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, step_fs * unit.femtosecond,
                                              {DRUDE_GROUP})
-    # "WarpedMiddle", "FilteredMiddle": the splitting with the zero modes' thermostat placed as LangevinMiddle's.
+    # "WarpedMiddle", "FilteredMiddle": the splitting with the zero modes' thermostat placed as LangevinMiddle's;
+    # "WarpedMiddleLimited": WarpedMiddle with its phase per step limited (setMaxWarpedPhase).
+    limited = kind.endswith("Limited")
+    kind = kind[:-len("Limited")] if limited else kind
     middle = kind.endswith("Middle")
     integrator.setSplitting(getattr(StochasticImpulseIntegrator, kind[:-len("Middle")] if middle else kind))
     if middle:
         integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
+    if limited:
+        integrator.setMaxWarpedPhase(MAX_WARPED_PHASE)
     integrator.setStiffModeTemperature(1 * unit.kelvin)
     integrator.setStiffModeFriction(20 / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
@@ -290,7 +297,8 @@ def plot(data, path):
     ticks = [f"{kind_label(runs[lb]['integrator'])}\nH = {runs[lb]['step_fs']:g} fs" +
              ("\n(blew up)" if lb in blown else "") for lb in labels]
     colors = {"DrudeLangevin": "black", "DrudeLangevinWall": "tab:purple", "Strang": "tab:blue", "Filtered": "tab:red",
-              "Warped": "tab:green", "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive"}
+              "Warped": "tab:green", "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive",
+              "WarpedMiddleLimited": "tab:cyan"}
     fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
     for ax, (key, title) in zip(axes.flat, OBSERVABLES):
         band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
@@ -356,7 +364,8 @@ def plot(data, path):
                                             120), fontsize=9, color="tab:red", va="bottom")
     fig.legend(handles=[band], loc="lower right", fontsize=9, frameon=False)
     kind_names = {"Strang": "Strang", "Filtered": "Filtered", "Warped": "Warped",
-                  "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement"}
+                  "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement",
+                  "WarpedMiddleLimited": "WarpedMiddle with ω̃H ≤ %g" % data["parameters"].get("max_warped_phase", 0)}
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
     what = (f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
             "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
@@ -668,6 +677,7 @@ def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=()):
 
 
 def main():
+    global MAX_WARPED_PHASE
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
     repo_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -695,10 +705,13 @@ def main():
     parser.add_argument("--seed", type=int, default=0,
                         help="added to every random seed: independent replicas of a run (default 0)")
     parser.add_argument("--splittings", nargs="+",
-                        choices=["Strang", "Filtered", "Warped", "FilteredMiddle", "WarpedMiddle"],
+                        choices=["Strang", "Filtered", "Warped", "FilteredMiddle", "WarpedMiddle",
+                                 "WarpedMiddleLimited"],
                         default=["Strang", "Filtered", "Warped"],
                         help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
                              "(default Strang Filtered Warped)")
+    parser.add_argument("--max-warped-phase", type=float, default=MAX_WARPED_PHASE,
+                        help="setMaxWarpedPhase (radians) of the WarpedMiddleLimited peers (default %(default)g)")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     parser.add_argument("--table", metavar="JSON", nargs="+",
                         help="only print the markdown table of an earlier run's JSON (and of its interleaved_timing.json)")
@@ -716,6 +729,7 @@ def main():
         return
     if args.seed < 0:
         parser.error("--seed must be non-negative (got %d)" % args.seed)
+    MAX_WARPED_PHASE = args.max_warped_phase
     if args.filter_bias:
         os.makedirs(args.out, exist_ok=True)
         filter_bias(args.out)
@@ -775,7 +789,7 @@ def main():
         run["speedup_over_DrudeLangevin_1fs"] = run["ns_per_day"] / completed["DrudeLangevin_1fs"]["ns_per_day"]
     data = {"scene": "drude_water", "model": "SWM4-NDP (swm4ndp.xml), rigid water, PME", "platform": "CPU, 2 threads",
             "parameters": dict(settings, box_nm=box, temperature_K=300, friction_per_ps=5,
-                               drude_temperature_K=1, drude_friction_per_ps=20),
+                               drude_temperature_K=1, drude_friction_per_ps=20, max_warped_phase=MAX_WARPED_PHASE),
             "criterion": "within_error_of_reference: |run - reference| <= 2 sqrt(se_run^2 + se_ref^2)",
             "reference": reference_label, "g_oo_r_nm": (0.5 * (edges[1:] + edges[:-1])).tolist(), "runs": runs}
     data["quick"] = args.quick

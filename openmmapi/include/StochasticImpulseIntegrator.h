@@ -173,6 +173,23 @@ public:
      */
     void setThermostatPlacement(ThermostatPlacement placement);
     /**
+     * Get the largest angle (in radians) a stiff mode of the Warped splitting turns per step, 0 (the default) for no
+     * limit.  See setMaxWarpedPhase().
+     */
+    double getMaxWarpedPhase() const { return maxWarpedPhase; }
+    /**
+     * Limit the angle omega~ H (in radians) that each stiff mode of the Warped splitting turns per step.  A mode whose
+     * warped frequency turns farther flows at omega~ = maxWarpedPhase/H instead, and the half kicks along it are
+     * scaled so that a constant soft force keeps the exact mean displacement f/omega^2.  Any such step is symmetric
+     * and, with a soft stiffness r k along the mode, stable while (1 + r) sin^2(omega~ H/2) < 1: the limit keeps the
+     * stability that the warp has at a shorter step (for SWM4-NDP water, whose Drude-Drude coupling reaches r = 0.5-
+     * 0.66, the 2.05 that Warped has at 2.5 fs) at longer steps.  The price is a slower stiff mode: it follows a
+     * soft force that changes at frequency Omega as a spring of frequency about omega~ would, so the lag grows as
+     * (Omega/omega~)^2.  It must be 0 (no limit) or between 0 and pi; only the Warped splitting takes a nonzero
+     * value (checked when a step is taken).  docs/sim_drude.md section 6 measures it.
+     */
+    void setMaxWarpedPhase(double phase);
+    /**
      * Get the hard wall of the stiff pairs (in nm), 0 (the default) for none.  See setMaxDrudeDistance().
      */
     double getMaxDrudeDistance() const { return maxDrudeDistance; }
@@ -308,6 +325,7 @@ private:
     int randomNumberSeed;
     bool metropolis = false;
     double maxDrudeDistance = 0.0;
+    double maxWarpedPhase = 0.0;
     // The kernel's life cycle with the Context (StepKernelBinding), and its implementation.
     StepKernelBinding binding;
     IntegrateStochasticImpulseStepKernel* stepKernel;

@@ -275,6 +275,7 @@ ImpulseParameters FlavorPlugin::impulseParameters(const StochasticImpulseIntegra
     p.stiffBath = Bath{BOLTZ * integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()};
     p.metropolis = integrator.getMetropolis();
     p.maxDrudeDistance = integrator.getMaxDrudeDistance();
+    p.maxWarpedPhase = integrator.getMaxWarpedPhase();
     return p;
 }
 
@@ -308,6 +309,7 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
             const bool warped = p.splitting == StochasticImpulseIntegrator::Warped;
             f.response = warped ? SubFlow::KickResponse::Plain : SubFlow::KickResponse::Scaled;
             f.frequency = warped ? SubFlow::StiffFrequency::Warped : SubFlow::StiffFrequency::Exact;
+            f.maxPhase = warped ? p.maxWarpedPhase : 0.0;
             if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle)
                 f.zeroModes = SubFlow::ZeroModeFlow::Middle;
         }

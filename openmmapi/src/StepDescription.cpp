@@ -97,6 +97,8 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
                 out << halfKick << " ";
             out << exact << h;
             baths = "E: zero modes " + describeBath(flow.bath) + ", stiff modes " + describeBath(flow.stiffBath);
+            if (flow.maxPhase > 0.0)
+                baths += ", ω̃H ≤ " + formatNumber(flow.maxPhase) + " with kicks keeping the exact mean";
             break;
         case SubFlow::FilteredKick:
             out << halfKick;

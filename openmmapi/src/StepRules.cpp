@@ -51,6 +51,12 @@ void FlavorPlugin::validateSplitting(StochasticImpulseIntegrator::Splitting spli
 void FlavorPlugin::validateImpulseStep(const ImpulseParameters& p) {
     validateSplitting(p.splitting, p.bath.friction, "friction");
     validateSplitting(p.splitting, p.stiffBath.friction, "stiffModeFriction");
+    if (p.maxWarpedPhase != 0.0 && p.splitting != StochasticImpulseIntegrator::Warped)
+        throw OpenMM::OpenMMException(
+            "StochasticImpulseIntegrator: maxWarpedPhase = " + formatNumber(p.maxWarpedPhase) +
+            " is not allowed with splitting = " + std::to_string((int)p.splitting) +
+            " (it limits the warped frequency); allowed: 0 with every splitting, a phase "
+            "between 0 and pi with Warped (4)");
     if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle &&
         p.splitting != StochasticImpulseIntegrator::Filtered && p.splitting != StochasticImpulseIntegrator::Warped)
         throw OpenMM::OpenMMException("StochasticImpulseIntegrator: thermostatPlacement = Middle (1) is not allowed "

@@ -8,6 +8,7 @@
 #include "openmm/Force.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
+#include <cmath>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -65,6 +66,14 @@ void StochasticImpulseIntegrator::setStiffModeFriction(double coeff) {
 void StochasticImpulseIntegrator::setMaxDrudeDistance(double distance) {
     requireNonNegative(Owner, "maxDrudeDistance", distance, "nm");
     maxDrudeDistance = distance;
+}
+
+void StochasticImpulseIntegrator::setMaxWarpedPhase(double phase) {
+    // Written so that NaN fails too.
+    if (!(phase == 0.0 || (phase > 0.0 && phase < M_PI)))
+        throwInvalidParameter(Owner, "maxWarpedPhase", formatNumber(phase),
+                              "maxWarpedPhase must be 0 (no limit) or an angle between 0 and pi radians");
+    maxWarpedPhase = phase;
 }
 
 void StochasticImpulseIntegrator::setStiffGroups(int groups) {

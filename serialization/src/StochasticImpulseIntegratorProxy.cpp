@@ -13,9 +13,10 @@ StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
 
 void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
-    // Version 4 added the Metropolis adjustment and the hard wall, each written only where it is on: without them the
-    // document is the version 3 one, which older builds read.
-    node.setIntProperty("version", integrator.getMetropolis() || integrator.getMaxDrudeDistance() > 0.0 ? 4 : 3);
+    // Version 4 added the Metropolis adjustment and the hard wall, version 5 the Warped phase limit, each written only
+    // where it is on: without them the document is the version 3 one, which older builds read.
+    const bool version4 = integrator.getMetropolis() || integrator.getMaxDrudeDistance() > 0.0;
+    node.setIntProperty("version", integrator.getMaxWarpedPhase() > 0.0 ? 5 : version4 ? 4 : 3);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
@@ -35,13 +36,15 @@ void StochasticImpulseIntegratorProxy::serialize(const void* object, Serializati
         node.setBoolProperty("metropolis", true);
     if (integrator.getMaxDrudeDistance() > 0.0)
         node.setDoubleProperty("maxDrudeDistance", integrator.getMaxDrudeDistance());
+    if (integrator.getMaxWarpedPhase() > 0.0)
+        node.setDoubleProperty("maxWarpedPhase", integrator.getMaxWarpedPhase());
 }
 
 void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version < 1 || version > 4)
+    if (version < 1 || version > 5)
         throw OpenMMException("StochasticImpulseIntegrator: unsupported serialization version " +
-                              std::to_string(version) + "; this library reads versions 1 to 4");
+                              std::to_string(version) + "; this library reads versions 1 to 5");
     auto integrator = std::make_unique<StochasticImpulseIntegrator>(
         node.getDoubleProperty("temperature"), node.getDoubleProperty("friction"), node.getDoubleProperty("stepSize"),
         node.getIntProperty("stiffGroups"));
@@ -60,5 +63,7 @@ void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& nod
         integrator->setMetropolis(node.getBoolProperty("metropolis"));
     if (version >= 4 && node.hasProperty("maxDrudeDistance"))
         integrator->setMaxDrudeDistance(node.getDoubleProperty("maxDrudeDistance"));
+    if (version >= 5 && node.hasProperty("maxWarpedPhase"))
+        integrator->setMaxWarpedPhase(node.getDoubleProperty("maxWarpedPhase"));
     return integrator.release();
 }

@@ -1,6 +1,6 @@
-"""The stiff modes' own bath, the Filtered and Warped splittings and the thermostat placement from Python: Quantities
-in and out, defaults that follow the integrator, rejected values that leave the old ones, and XmlSerializer round
-trips."""
+"""The stiff modes' own bath, the Filtered and Warped splittings, the Warped phase limit, the hard wall and the
+thermostat placement from Python: Quantities in and out, defaults that follow the integrator, rejected values that
+leave the old ones, and XmlSerializer round trips."""
 import math
 
 import conftest
@@ -118,3 +118,39 @@ def test_middle_with_strang_is_rejected_when_stepping_and_the_context_stays_usab
     integrator.setSplitting(StochasticImpulseIntegrator.Filtered)
     integrator.step(2)
     assert context.getState().getStepCount() == 2
+
+
+def test_the_warped_phase_limit_takes_radians_is_checked_and_serialized():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.003, {conftest.STIFF_GROUP})
+    assert integrator.getMaxWarpedPhase() == 0.0 * unit.radian
+    integrator.setMaxWarpedPhase(2.05)
+    assert integrator.getMaxWarpedPhase() == 2.05 * unit.radian
+    integrator.setMaxWarpedPhase(90 * unit.degree)
+    assert integrator.getMaxWarpedPhase().value_in_unit(unit.radian) == pytest.approx(math.pi / 2, rel=1e-15)
+    with pytest.raises(openmm.OpenMMException, match="maxWarpedPhase = 4 is not allowed.*between 0 and pi"):
+        integrator.setMaxWarpedPhase(4.0)
+    with pytest.raises(TypeError, match="maxWarpedPhase"):
+        integrator.setMaxWarpedPhase(1.0 * unit.nanometer)
+    assert integrator.getMaxWarpedPhase().value_in_unit(unit.radian) == pytest.approx(math.pi / 2, rel=1e-15)
+    integrator.setMaxWarpedPhase(2.05)
+    copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
+    assert copy.getMaxWarpedPhase() == 2.05 * unit.radian
+    # Only the Warped splitting has a warped frequency to limit: Strang is rejected at the step, then Warped steps.
+    context = openmm.Context(conftest.build_fpu_system(), integrator, openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions(conftest.fpu_positions())
+    with pytest.raises(openmm.OpenMMException, match=r"maxWarpedPhase = 2.05 is not allowed with splitting = 1"):
+        integrator.step(1)
+    integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+    integrator.step(2)
+    assert context.getState().getStepCount() == 2
+    assert "ω̃H ≤ 2.05" in integrator.describeStep()
+
+
+def test_the_hard_wall_takes_lengths():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {1})
+    integrator.setMaxDrudeDistance(0.2 * unit.angstrom)
+    assert integrator.getMaxDrudeDistance().value_in_unit(unit.nanometer) == pytest.approx(0.02, rel=1e-15)
+    integrator.setMaxDrudeDistance(0.03)
+    assert integrator.getMaxDrudeDistance() == 0.03 * unit.nanometer
+    with pytest.raises(TypeError, match="maxDrudeDistance"):
+        integrator.setMaxDrudeDistance(1.0 * unit.picosecond)

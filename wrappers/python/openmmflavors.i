@@ -152,6 +152,12 @@ from openmmflavors import _warnings as _flavorsWarnings
     _flavorsWarnings.stepChanged(self)
     coeff = _stripUnits(coeff, unit.picosecond**-1, "stiffModeFriction")
 %}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setMaxDrudeDistance %{
+    distance = _stripUnits(distance, unit.nanometer, "maxDrudeDistance")
+%}
+%pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setMaxWarpedPhase %{
+    phase = _stripUnits(phase, unit.radian, "maxWarpedPhase")
+%}
 %pythonprepend FlavorPlugin::StochasticImpulseIntegrator::setStiffGroups %{
     groups = _groupMask(groups, "stiffGroups")
 %}
@@ -168,6 +174,12 @@ from openmmflavors import _warnings as _flavorsWarnings
 %}
 %pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeFriction %{
     val = unit.Quantity(val, unit.picosecond**-1)
+%}
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getMaxDrudeDistance %{
+    val = unit.Quantity(val, unit.nanometer)
+%}
+%pythonappend FlavorPlugin::StochasticImpulseIntegrator::getMaxWarpedPhase %{
+    val = unit.Quantity(val, unit.radian)
 %}
 %pythonappend FlavorPlugin::StochasticImpulseIntegrator::getStiffModeFrequencies %{
     val = unit.Quantity(_numpy.array(val, dtype=float), unit.picosecond**-1)

@@ -320,6 +320,16 @@ inline double warpedFrequency(double omega, double gamma, double h) {
     return 0.5 * (low + high);
 }
 
+/**
+ * The frequency at which a stiff mode flows in a Warped step: warpedFrequency(omega, gamma, h), or maxPhase/h where
+ * that turns farther than maxPhase per step (maxPhase > 0; 0 for no limit).  A limited mode needs scaled kicks to
+ * keep the exact static response (StochasticImpulseIntegrator::setMaxWarpedPhase).
+ */
+inline double limitedWarpedFrequency(double omega, double gamma, double h, double maxPhase) {
+    const double warped = warpedFrequency(omega, gamma, h);
+    return maxPhase > 0.0 ? std::fmin(warped, maxPhase / h) : warped;
+}
+
 /** The exact Ornstein-Uhlenbeck flow of a velocity alone: v' = decay v + noise sqrt(kT/m) xi. */
 struct VelocityFlow {
     double decay, noise;

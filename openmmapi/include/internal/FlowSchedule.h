@@ -116,6 +116,8 @@ struct SubFlow {
     /** Mode flows: the bath of the stiff modes. */
     Bath stiffBath = {};
     StiffFrequency frequency = StiffFrequency::Exact;
+    /** Warped frequency: the largest angle omega~ h (radians) a stiff mode turns, 0 for no limit. */
+    double maxPhase = 0.0;
     ZeroModeFlow zeroModes = ZeroModeFlow::Exact;
     KickResponse response = KickResponse::None;
     FrozenSet frozen = FrozenSet::None;
@@ -133,8 +135,9 @@ struct SubFlow {
     StepLength length = {};
     bool operator==(const SubFlow& o) const {
         return kind == o.kind && h == o.h && groups == o.groups && bath == o.bath && stiffBath == o.stiffBath &&
-               frequency == o.frequency && zeroModes == o.zeroModes && response == o.response && frozen == o.frozen &&
-               clocked == o.clocked && clock == o.clock && distance == o.distance;
+               frequency == o.frequency && maxPhase == o.maxPhase && zeroModes == o.zeroModes &&
+               response == o.response && frozen == o.frozen && clocked == o.clocked && clock == o.clock &&
+               distance == o.distance;
     }
     bool operator!=(const SubFlow& o) const { return !(*this == o); }
 };
@@ -210,11 +213,13 @@ struct ImpulseParameters {
     bool metropolis = false;
     /** The hard wall of the stiff pairs (nm), 0 for none (StochasticImpulseIntegrator::setMaxDrudeDistance). */
     double maxDrudeDistance = 0.0;
+    /** The Warped splitting's limit on omega~ H, 0 for none (StochasticImpulseIntegrator::setMaxWarpedPhase). */
+    double maxWarpedPhase = 0.0;
     bool operator==(const ImpulseParameters& o) const {
         return splitting == o.splitting && stepSize == o.stepSize && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && thermostatPlacement == o.thermostatPlacement &&
                bath == o.bath && stiffBath == o.stiffBath && metropolis == o.metropolis &&
-               maxDrudeDistance == o.maxDrudeDistance;
+               maxDrudeDistance == o.maxDrudeDistance && maxWarpedPhase == o.maxWarpedPhase;
     }
 };
 

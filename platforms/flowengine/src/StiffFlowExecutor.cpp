@@ -34,13 +34,15 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
             scales[p] = ConstraintProjector::stiffFlowScales(flow);
             if (modes)
                 modes->computePropagator(flow.h, friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
-                                         propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow);
+                                         propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow,
+                                         flow.maxPhase);
         }
         if (modes && filtered) {
             const bool closing = flow.kind == SubFlow::FilteredKick;
             modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response,
-                                        middle, responses[p]);
-            modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, processing[p]);
+                                        flow.maxPhase, middle, responses[p]);
+            modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.maxPhase,
+                                             processing[p]);
         }
         if (flow.kind == SubFlow::HarmonicFlow && modes)
             modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,

@@ -24,11 +24,13 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
  * The flow of one mode over a step h as computePropagator describes it: the exact flow, or for h > 0 the Middle free
  * flow of a zero mode or the warped flow of a stiff mode (constant force scaled so that its equilibrium stays).
  */
-ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool warped, bool middleZeroModes) {
+ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool warped, bool middleZeroModes,
+                  double maxWarpedPhase) {
     if (middleZeroModes && omega == 0.0 && h > 0.0)
         return computeMiddleFreeFlow(gamma, h);
     if (warped && omega > 0.0 && h > 0.0) {
-        const double warpedOmega = warpedFrequency(omega, stiffGamma, h), scale = std::pow(warpedOmega / omega, 2);
+        const double warpedOmega = limitedWarpedFrequency(omega, stiffGamma, h, maxWarpedPhase);
+        const double scale = std::pow(warpedOmega / omega, 2);
         ModeFlow f = computeModeFlow(warpedOmega, stiffGamma, h);
         f.gx *= scale;
         f.gv *= scale;
@@ -40,7 +42,8 @@ ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool 
 } // namespace
 
 void StiffModes::computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
-                                   Propagator& propagator, bool warped, bool middleZeroModes) const {
+                                   Propagator& propagator, bool warped, bool middleZeroModes,
+                                   double maxWarpedPhase) const {
     bool hasStiffModes = false;
     for (const Component& comp : components)
         hasStiffModes = hasStiffModes || comp.stiff;
@@ -65,7 +68,7 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
         vector<double> modeThermalScale(D);
         for (int k = 0; k < D; ++k) {
             const double w = omega[comp.firstMode + C * k];
-            flows[k] = stepFlow(w, gamma, stiffGamma, h, warped, middleZeroModes);
+            flows[k] = stepFlow(w, gamma, stiffGamma, h, warped, middleZeroModes, maxWarpedPhase);
             modeThermalScale[k] = w > 0.0 ? stiffThermalScale : thermalScale;
         }
         double* out = &propagator.data[propagator.offset[c]];
@@ -129,15 +132,19 @@ struct FilteredModeKicks {
     double lambda, beta;
 };
 
-FilteredModeKicks filteredModeKicks(double w, double gamma, double h, SubFlow::KickResponse kickResponse) {
+FilteredModeKicks filteredModeKicks(double w, double gamma, double h, SubFlow::KickResponse kickResponse,
+                                    double maxWarpedPhase) {
     FilteredModeKicks kicks;
     // Plain kicks go with the warped flow, which has the exact static response.
     const bool warped = kickResponse == SubFlow::KickResponse::Plain;
-    const double flowW = warped ? warpedFrequency(w, gamma, h) : w;
+    const double flowW = warped ? limitedWarpedFrequency(w, gamma, h, maxWarpedPhase) : w;
+    const bool plain = warped && flowW == warpedFrequency(w, gamma, h);
     const ModeFlow& f = kicks.flow = computeModeFlow(flowW, gamma, h);
-    // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2; the
-    // warped flow has it with plain kicks.
-    const double a = kicks.halfKick = warped ? 0.5 * h : 0.5 * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
+    // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2 (with
+    // g, the flow's own constant-force response, scaled to the true potential's minimum where the flow is slowed);
+    // the warped flow has it with plain kicks.
+    const double scale = std::pow(flowW / w, 2);
+    const double a = kicks.halfKick = plain ? 0.5 * h : 0.5 * scale * ((1.0 - f.vv) * f.gx / f.xv + f.gv);
     kicks.lambda = kicks.beta = 0.0;
     if (flowW * h >= ProcessingLimit)
         return kicks;
@@ -175,13 +182,13 @@ void StiffModes::fillModeResponses(ForceResponse& response,
 }
 
 void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
-                                      SubFlow::KickResponse kickResponse, bool middleZeroModes,
+                                      SubFlow::KickResponse kickResponse, double maxWarpedPhase, bool middleZeroModes,
                                       ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (w > 0.0) {
             // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one of the
             // next step puts back.
-            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse);
+            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, maxWarpedPhase);
             const double opening = kicks.halfKick + kicks.lambda;
             out[0] = closing ? 0.0 : opening * kicks.flow.xv;
             out[1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
@@ -199,11 +206,12 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
 }
 
 void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing,
-                                           SubFlow::KickResponse kickResponse, ForceResponse& response) const {
+                                           SubFlow::KickResponse kickResponse, double maxWarpedPhase,
+                                           ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (!(w > 0.0))
             return;
-        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse);
+        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, maxWarpedPhase);
         out[0] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
         out[1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
     });

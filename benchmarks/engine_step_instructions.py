@@ -5,7 +5,8 @@ valgrind's callgrind (load-independent), CPU platform with one thread:
   - villin: the protein recipe (FlavorIntegrator, ArtificialProjected, Middle placement, delta = 2.5 fs, tau = 1 fs,
     bonds and the angles of non-planar centres frozen; examples/villin, 8,867 atoms with PME);
   - drude_water: StochasticImpulseIntegrator, Warped splitting with the Middle placement at H = 2.5 fs, cold Drude
-    bath (examples/drude_water, 256 SWM4-NDP molecules with PME);
+    bath (examples/drude_water, 256 SWM4-NDP molecules with PME), and drude_water_dl, DrudeLangevinIntegrator at 1 fs
+    on the same system from the same state (the peer its speed is compared with);
   - flexible_water: the flexible-water recipe (FlavorIntegrator, ArtificialProjected, Middle placement, delta = 6 fs,
     tau = 0.5 fs, O-H bonds and H-O-H angles frozen; examples/flexible_water, 501 TIP3P molecules with PME), and
     flexible_water_lm, LangevinMiddleIntegrator at 2 fs on the same system from the same state, the step it is
@@ -37,12 +38,12 @@ import sys
 from flavorbench import _config
 from flavorbench.callgrind import per_step, require_valgrind, scene_module
 
-SCENES = {"villin": (3, 9), "drude_water": (10, 40), "flexible_water": (3, 11), "flexible_water_lm": (3, 11),
-          "drude_protein": (3, 9), "drude_protein_dl": (3, 9)}
+SCENES = {"villin": (3, 9), "drude_water": (10, 40), "drude_water_dl": (10, 40), "flexible_water": (3, 11),
+          "flexible_water_lm": (3, 11), "drude_protein": (3, 9), "drude_protein_dl": (3, 9)}
 # Scenes that start from another scene's saved state.
-STATE_OF = {"flexible_water_lm": "flexible_water", "drude_protein_dl": "drude_protein"}
+STATE_OF = {"flexible_water_lm": "flexible_water", "drude_protein_dl": "drude_protein", "drude_water_dl": "drude_water"}
 # Each scene's step (fs), for the instructions per simulated ps.
-STEP_FS = {"villin": 2.5, "drude_water": 2.5, "flexible_water": 6.0, "flexible_water_lm": 2.0, "drude_protein": 2.0,
+STEP_FS = {"villin": 2.5, "drude_water": 2.5, "drude_water_dl": 1.0, "flexible_water": 6.0, "flexible_water_lm": 2.0, "drude_protein": 2.0,
            "drude_protein_dl": 1.0}
 # The frozen stage's functions (FrozenDistances.cpp and its solver).
 FROZEN_STAGE = ("FrozenDistances", "SparseLDLT", "assembleB")
@@ -70,14 +71,16 @@ def make_villin():
     return name, system, factory, start
 
 
-def make_drude_water():
+def make_drude_water(kind="WarpedMiddle"):
     drude_water = scene_module("drude_water")
     system, _, positions, _ = drude_water.build_water(256)
 
     def start():
         return drude_water.equilibrated_state(system, positions, 1.0, 100, 1, threads=1)
 
-    return "SIM WarpedMiddle H=2.5 fs", system, lambda: drude_water.make_integrator("WarpedMiddle", 2.5, 5), start
+    if kind == "DrudeLangevin":
+        return "DrudeLangevin 1 fs", system, lambda: drude_water.make_integrator(kind, 1.0, 5), start
+    return "SIM WarpedMiddle H=2.5 fs", system, lambda: drude_water.make_integrator(kind, 2.5, 5), start
 
 
 def flexible_water_system():
@@ -133,7 +136,8 @@ def make_drude_protein(kind):
             lambda: drude_protein.equilibrated(unsplit, positions, 1, 0.2))
 
 
-MAKERS = {"villin": make_villin, "drude_water": make_drude_water, "flexible_water": make_flexible_water,
+MAKERS = {"villin": make_villin, "drude_water": make_drude_water,
+          "drude_water_dl": lambda: make_drude_water("DrudeLangevin"), "flexible_water": make_flexible_water,
           "flexible_water_lm": make_flexible_water_lm, "drude_protein": lambda: make_drude_protein("WarpedMiddle"),
           "drude_protein_dl": lambda: make_drude_protein("DrudeLangevin")}
 

@@ -124,7 +124,8 @@ class SelfConsistent:
         return analysis.displacements(x)
 
 
-def make_integrator(kind, step_fs, seed):
+def make_integrator(kind, step_fs, seed, max_warped_phase=0.0):
+    """DrudeLangevin, or the SIM ("WarpedMiddle"; max_warped_phase > 0: setMaxWarpedPhase, radians)."""
     if kind == "DrudeLangevin":
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
                                                     20 / unit.picosecond, step_fs * unit.femtosecond)
@@ -135,6 +136,7 @@ def make_integrator(kind, step_fs, seed):
         integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
         integrator.setStiffModeTemperature(1 * unit.kelvin)
         integrator.setStiffModeFriction(20 / unit.picosecond)
+        integrator.setMaxWarpedPhase(max_warped_phase)
     integrator.setRandomNumberSeed(seed)
     return integrator
 
@@ -151,13 +153,13 @@ def equilibrated(system, positions, seed, ps):
 
 
 def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm=0.0, induced_groups=None,
-            extra=None):
+            extra=None, max_warped_phase=0.0):
     """One peer from the common state: burn-in, then the production's block averages.  induced_groups: name -> pair
     indices, each reported as induced_ratio_<name> beside all pairs'; extra(frame) -> {name: value} more observables
-    per frame (default: the ions' induced ratio, nothing more)."""
+    per frame (default: the ions' induced ratio, nothing more); max_warped_phase: the SIM's setMaxWarpedPhase."""
     if induced_groups is None:
         induced_groups = {"ions": analysis.ion_pairs}
-    integrator = make_integrator(kind, step_fs, seed)
+    integrator = make_integrator(kind, step_fs, seed, max_warped_phase)
     if wall_nm > 0:
         integrator.setMaxDrudeDistance(wall_nm)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})

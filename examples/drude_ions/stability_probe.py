@@ -24,8 +24,8 @@ from drude_ions import SPRING_GROUP, Analysis, build, equilibrated, make_integra
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
 
 
-def probe(separated, state, analysis, step_fs, wall_nm, seed, ps, frames):
-    integrator = make_integrator("WarpedMiddle", step_fs, seed)
+def probe(separated, state, analysis, step_fs, wall_nm, seed, ps, frames, max_warped_phase=0.0):
+    integrator = make_integrator("WarpedMiddle", step_fs, seed, max_warped_phase)
     integrator.setMaxDrudeDistance(wall_nm)
     context = openmm.Context(separated, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)

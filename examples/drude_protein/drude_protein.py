@@ -6,7 +6,8 @@ DrudeLangevinIntegrator at 0.5 fs (the reference) and at 1 fs with the same wall
 equilibrated state in one process, on the CPU platform.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/drude_protein.py [--quick] [--out DIR] \\
-        [--production PS] [--burn-in PS] [--sim-steps 2 2.5] [--wall NM] [--wall-peers 1] [--seed N]
+        [--production PS] [--burn-in PS] [--sim-steps 2 2.5] [--wall NM] [--wall-peers 1] [--seed N] \\
+        [--max-warped-phase RAD] [--no-reference]
 
 Writes drude_protein.json to --out.  Observables (block averages; error = standard error of the block means):
 temperatures of the peptide and of the water (centres of mass of the Drude pairs and the other massive particles),
@@ -163,6 +164,10 @@ def main():
     parser.add_argument("--wall-peers", type=float, nargs="*", default=[1.0], metavar="FS",
                         help="DrudeLangevin at these steps (fs) with the same --wall (default 1)")
     parser.add_argument("--seed", type=int, default=1, help="random seed of the run (default 1)")
+    parser.add_argument("--max-warped-phase", type=float, default=0.0,
+                        help="setMaxWarpedPhase of the SIM runs in radians (default 0: no limit)")
+    parser.add_argument("--no-reference", action="store_true",
+                        help="only the SIM runs (to set beside the reference of a run with the same --seed)")
     args = parser.parse_args()
     if args.quick:
         waters, cutoff, equilibration_ps = 80, 0.55, 0.05
@@ -202,11 +207,13 @@ def main():
 
     runs = []
 
-    def run(run_system, kind, step_fs, seed, wall):
+    def run(run_system, kind, step_fs, seed, wall, max_warped_phase=0.0):
         """A run, or the record of its failure (a step too large blows up)."""
         geometry.frames = {"bonds": [], "angles": []}
         try:
-            result = run_one(run_system, state, analysis, scf, kind, step_fs, settings, seed, wall, groups, extra)
+            result = run_one(run_system, state, analysis, scf, kind, step_fs, settings, seed, wall, groups, extra,
+                             max_warped_phase)
+            result["max_warped_phase"] = max_warped_phase
             result["force_evaluations_per_ps"] = 1000.0 / step_fs
             result["bond_width_nm"] = geometry.spread(geometry.frames["bonds"], settings["blocks"])
             result["angle_width_deg"] = geometry.spread(geometry.frames["angles"], settings["blocks"])
@@ -215,11 +222,12 @@ def main():
             runs.append({"integrator": kind, "step_fs": step_fs, "wall_nm": wall, "failed": str(e)})
         print(f"{kind} {step_fs} fs (wall {wall:g} nm) done", flush=True)
 
-    run(system, "DrudeLangevin", args.reference_step, args.seed + 2, 0.0)
-    for step_fs in args.wall_peers:
-        run(system, "DrudeLangevin", step_fs, args.seed + 4, args.wall)
+    if not args.no_reference:
+        run(system, "DrudeLangevin", args.reference_step, args.seed + 2, 0.0)
+        for step_fs in args.wall_peers:
+            run(system, "DrudeLangevin", step_fs, args.seed + 4, args.wall)
     for step_fs in args.sim_steps:
-        run(separated, "WarpedMiddle", step_fs, args.seed + 3, args.wall)
+        run(separated, "WarpedMiddle", step_fs, args.seed + 3, args.wall, args.max_warped_phase)
 
     names = [("t_peptide", "T peptide (K)"), ("t_water", "T water (K)"), ("t_drude", "T Drude (K)"),
              ("induced_ratio_peptide", "ind/SCF peptide"), ("induced_ratio_water", "ind/SCF water"),
@@ -227,7 +235,7 @@ def main():
              ("phi_deg", "phi (deg)"), ("extended", "extended"), ("pe_per_pair", "PE/pair"),
              ("ns_per_day", "ns/day")]
     print_runs(runs, names, width=22)
-    reference = runs[0] if "failed" not in runs[0] else None
+    reference = runs[0] if not args.no_reference and "failed" not in runs[0] else None
     for record in runs:
         if "failed" in record:
             continue

@@ -5,7 +5,7 @@ System as it is and, with --thole-off, on one whose Thole-screened pairs have no
 exception (the wall's check that no pair ends a step past twice the wall), a NaN energy or a Drude frame above 10 K.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/step_limit_probe.py [--seeds 1 2] \
-        [--steps 2 2.25 2.5] [--ps 3] [--thole-off] [--quick] [--out DIR]
+        [--steps 2 2.25 2.5] [--ps 3] [--thole-off] [--max-warped-phase RAD] [--quick] [--out DIR]
 
 Writes step_limit_probe.json to --out and a Markdown table to stdout."""
 import argparse
@@ -31,6 +31,8 @@ def main():
     parser.add_argument("--steps", type=float, nargs="+", default=[2.0, 2.25, 2.5])
     parser.add_argument("--ps", type=float, default=3.0, help="ps of SIM per run")
     parser.add_argument("--thole-off", action="store_true", help="the screened pairs' interaction off (diagnostic)")
+    parser.add_argument("--max-warped-phase", type=float, default=0.0,
+                        help="setMaxWarpedPhase of the SIM in radians (default 0: no limit)")
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
     parser.add_argument("--out", default=os.path.join(HERE, "..", "..", "results", "drude_protein"))
     args = parser.parse_args()
@@ -51,7 +53,7 @@ def main():
     for seed in args.seeds:
         state = equilibrated(system, positions, seed, equilibrate_ps)
         for step_fs in args.steps:
-            run = probe(separated, state, analysis, step_fs, WALL_NM, seed + 3, args.ps, 30)
+            run = probe(separated, state, analysis, step_fs, WALL_NM, seed + 3, args.ps, 30, args.max_warped_phase)
             runs.append(run)
             print(f"seed {seed} H = {step_fs:g} fs: {run['failed'] or 'held'} ({time.time() - begin:.0f} s)",
                   file=sys.stderr, flush=True)

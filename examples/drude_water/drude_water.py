@@ -619,9 +619,9 @@ def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
         json.dump(report, f, indent=1)
 
 
-def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=()):
-    """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs and Warped at 2.5 fs (both placements) on the
-    scene's system, with 1 and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which
+def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=(), limited_steps=()):
+    """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs, Warped at 2.5 fs (both placements) and
+    WarpedMiddleLimited at limited_steps (fs) on the scene's system, with 1 and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which
     every Context steps `picoseconds` in turn, so that a change of the machine's load hits them alike.  Writes
     interleaved_timing.json with each round's ns/day and, per thread count, each SIM's median ratio to DrudeLangevin
     over the rounds."""
@@ -630,6 +630,7 @@ def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=()):
     state = equilibrated_state(system, positions, 1.0, 1000, 1)
     peers = [("DrudeLangevin", 1.0)] + [("DrudeLangevinWall", h) for h in wall_steps]
     peers += [("Filtered", 2.0), ("Warped", 2.5), ("WarpedMiddle", 2.5)]
+    peers += [("WarpedMiddleLimited", h) for h in limited_steps]
     names = [f"{kind} {step_fs:g} fs" for kind, step_fs in peers]
     report = {"system": "256 SWM4-NDP molecules, rigid, PME", "ps_per_round": picoseconds, "threads": {},
               "wall_nm": WALL_NM}
@@ -710,6 +711,8 @@ def main():
                         default=["Strang", "Filtered", "Warped"],
                         help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
                              "(default Strang Filtered Warped)")
+    parser.add_argument("--limited-steps", type=float, nargs="*", default=[], metavar="FS",
+                        help="--interleaved-timing: WarpedMiddleLimited peers at these steps (fs)")
     parser.add_argument("--max-warped-phase", type=float, default=MAX_WARPED_PHASE,
                         help="setMaxWarpedPhase (radians) of the WarpedMiddleLimited peers (default %(default)g)")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
@@ -742,7 +745,8 @@ def main():
         if args.interleaved_timing < 1:
             parser.error("--interleaved-timing needs at least 1 round (got %d)" % args.interleaved_timing)
         os.makedirs(args.out, exist_ok=True)
-        interleaved_timing(args.out, args.interleaved_timing, wall_steps=args.wall_steps)
+        interleaved_timing(args.out, args.interleaved_timing, wall_steps=args.wall_steps,
+                           limited_steps=args.limited_steps)
         return
     if args.constraint_cost:
         os.makedirs(args.out, exist_ok=True)

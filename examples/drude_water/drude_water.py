@@ -284,6 +284,94 @@ def verdict(runs, reference_label):
     return text
 
 
+def seed_summary(paths, out):
+    """Pools scene runs of several seeds (their drude_water.json): per peer and observable the mean over the seeds ±
+    its standard error over the seeds, and t, the difference from the reference's mean in their combined standard
+    errors.  Writes seed_summary.json and seed_summary.png (each observable against H, the reference as a band of
+    ± 2 s.e.) to out and prints the Markdown table."""
+    loaded = []
+    for path in paths:
+        with open(path) as f:
+            loaded.append(json.load(f))
+    reference_label = loaded[0]["reference"]
+    labels = list(dict.fromkeys(label for data in loaded for label in data["runs"]))
+
+    def completed(label):
+        return [d["runs"][label] for d in loaded if label in d["runs"] and "failed" not in d["runs"][label]]
+
+    def pooled(label, key):
+        values = np.array([run[key][0] for run in completed(label)])
+        error = values.std(ddof=1) / math.sqrt(len(values)) if len(values) > 1 else float("nan")
+        return float(values.mean()), float(error), len(values)
+
+    summary = {"files": [os.path.relpath(p) for p in paths], "reference": reference_label,
+               "max_warped_phase": loaded[0]["parameters"].get("max_warped_phase"), "runs": {}}
+    for label in labels:
+        runs = [d["runs"][label] for d in loaded if label in d["runs"]]
+        entry = {"integrator": runs[0]["integrator"], "step_fs": runs[0]["step_fs"],
+                 "failed": sum(1 for r in runs if "failed" in r), "of": len(runs)}
+        if completed(label):
+            ratios = [d["runs"][label]["ns_per_day"] / d["runs"]["DrudeLangevin_1fs"]["ns_per_day"] for d in loaded
+                      if label in d["runs"] and "failed" not in d["runs"][label] and "DrudeLangevin_1fs" in d["runs"]]
+            entry["ns_per_day_over_DrudeLangevin_1fs"] = float(np.mean(ratios)) if ratios else None
+            for key, _ in OBSERVABLES:
+                mean, error, n = pooled(label, key)
+                entry[key] = [mean, error, n]
+                if label != reference_label:
+                    ref_mean, ref_error, _ = pooled(reference_label, key)
+                    entry[key + "_t"] = (mean - ref_mean) / math.hypot(error, ref_error)
+        summary["runs"][label] = entry
+    with open(os.path.join(out, "seed_summary.json"), "w") as f:
+        json.dump(summary, f, indent=1)
+    formats = {"induced_ratio": "%.4f ± %.4f", "dipole": "%.3f ± %.3f", "pe_per_molecule": "%.2f ± %.2f",
+               "g_oo_peak": "%.3f ± %.3f", "t_com": "%.1f ± %.1f", "t_drude": "%.3f ± %.3f"}
+    lines = ["| integrator | H (fs) | × DL 1 fs (sequential) | " + " | ".join(SHORT_NAMES[k] for k, _ in OBSERVABLES) +
+             " |", "|---" * (3 + len(OBSERVABLES)) + "|"]
+    for label, entry in summary["runs"].items():
+        if entry["failed"] == entry["of"]:
+            lines.append(f"| {kind_label(entry['integrator'])} | {entry['step_fs']:g} | failed in every run |" +
+                         " |" * len(OBSERVABLES))
+            continue
+        cells = [formats[k] % tuple(entry[k][:2]) + (f" ({entry[k + '_t']:+.1f})" if k + "_t" in entry else "")
+                 for k, _ in OBSERVABLES]
+        speed = entry.get("ns_per_day_over_DrudeLangevin_1fs")
+        lines.append(f"| {kind_label(entry['integrator'])} | {entry['step_fs']:g} | " +
+                     (f"{speed:.2f}" if speed else "—") + " | " + " | ".join(cells) + " |")
+    print("\n".join(lines))
+    plot_seed_summary(summary, len(loaded), loaded[0]["parameters"]["molecules"],
+                      os.path.join(out, "seed_summary.png"))
+
+
+def plot_seed_summary(summary, seeds, molecules, path):
+    """Each observable against H: the reference as a band of ± 2 s.e., every other peer as its seed means ± s.e."""
+    fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
+    reference_label = summary["reference"]
+    reference = summary["runs"][reference_label]
+    others = {label: e for label, e in summary["runs"].items() if label != reference_label and "t_com" in e}
+    kinds = list(dict.fromkeys(e["integrator"] for e in others.values()))
+    styles = {"DrudeLangevin": ("s", "black"), "DrudeLangevinWall": ("D", "tab:purple")}
+    for ax, (key, name) in zip(axes.flat, OBSERVABLES):
+        mean, error = reference[key][:2]
+        ax.axhspan(mean - 2 * error, mean + 2 * error, color="0.85",
+                   label=f"DrudeLangevin H = {reference['step_fs']:g} fs (reference), mean ± 2 s.e.")
+        for kind in kinds:
+            points = sorted((e["step_fs"], e[key][0], e[key][1]) for e in others.values() if e["integrator"] == kind)
+            h, y, err = zip(*points)
+            marker, color = styles.get(kind, ("o", "tab:cyan"))
+            label = kind_label(kind) + (f" with ω̃H ≤ {summary['max_warped_phase']:g}" if kind.endswith("Limited")
+                                        else "") + ", mean ± s.e."
+            ax.errorbar(h, y, yerr=err, fmt=marker + "-", capsize=3, color=color, label=label)
+        ax.set_xlabel("step H (fs)")
+        ax.set_ylabel(name)
+    handles, names = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="lower center", ncol=3, fontsize=9, frameon=False)
+    fig.suptitle(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): the SIM past Warped's step against "
+                 f"DrudeLangevin, over {seeds} seeds", fontsize=11)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def kind_label(kind):
     """A peer's kind as the charts name it."""
     return "DrudeLangevin + wall" if kind == "DrudeLangevinWall" else kind
@@ -715,10 +803,16 @@ def main():
                         help="--interleaved-timing: WarpedMiddleLimited peers at these steps (fs)")
     parser.add_argument("--max-warped-phase", type=float, default=MAX_WARPED_PHASE,
                         help="setMaxWarpedPhase (radians) of the WarpedMiddleLimited peers (default %(default)g)")
+    parser.add_argument("--seed-summary", metavar="JSON", nargs="+",
+                        help="only pool the drude_water.json of runs with several seeds into --out (table and chart)")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
     parser.add_argument("--table", metavar="JSON", nargs="+",
                         help="only print the markdown table of an earlier run's JSON (and of its interleaved_timing.json)")
     args = parser.parse_args()
+    if args.seed_summary:
+        os.makedirs(args.out, exist_ok=True)
+        seed_summary(args.seed_summary, args.out)
+        return
     if args.table:
         loaded = []
         for path in args.table:
@@ -793,7 +887,8 @@ def main():
         run["speedup_over_DrudeLangevin_1fs"] = run["ns_per_day"] / completed["DrudeLangevin_1fs"]["ns_per_day"]
     data = {"scene": "drude_water", "model": "SWM4-NDP (swm4ndp.xml), rigid water, PME", "platform": "CPU, 2 threads",
             "parameters": dict(settings, box_nm=box, temperature_K=300, friction_per_ps=5,
-                               drude_temperature_K=1, drude_friction_per_ps=20, max_warped_phase=MAX_WARPED_PHASE),
+                               drude_temperature_K=1, drude_friction_per_ps=20, max_warped_phase=MAX_WARPED_PHASE,
+                               seed=args.seed),
             "criterion": "within_error_of_reference: |run - reference| <= 2 sqrt(se_run^2 + se_ref^2)",
             "reference": reference_label, "g_oo_r_nm": (0.5 * (edges[1:] + edges[:-1])).tolist(), "runs": runs}
     data["quick"] = args.quick

@@ -33,12 +33,13 @@ def test_drude_protein_quick(tmp_path):
 def test_step_limit_probe_quick(tmp_path):
     """The --quick probe runs the SIM on the peptide as it is and with the Thole screening off, one record per run."""
     script = os.path.join(REPO_ROOT, "examples", "drude_protein", "step_limit_probe.py")
-    for extra in ((), ("--thole-off",)):
+    for extra in ((), ("--thole-off",), ("--max-warped-phase", "1.77", "--steps", "2.5")):
         result = conftest.run_quick(script, tmp_path, extra=extra)
         assert result.returncode == 0, result.stderr[-3000:]
         with open(tmp_path / "step_limit_probe.json") as f:
             data = json.load(f)
-        assert data["args"]["thole_off"] == bool(extra)
+        assert data["args"]["thole_off"] == ("--thole-off" in extra)
+        assert data["args"]["max_warped_phase"] == (1.77 if "--max-warped-phase" in extra else 0.0)
         assert len(data["runs"]) == 1
         run = data["runs"][0]
         assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run

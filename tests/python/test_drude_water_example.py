@@ -5,6 +5,7 @@ import math
 import os
 
 import conftest
+import pytest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "drude_water", "drude_water.py")
@@ -43,6 +44,31 @@ def test_drude_water_quick(tmp_path):
     for label in ("DrudeLangevin_0.5fs", "Filtered_2fs", "Warped_2fs"):
         assert abs(runs[label]["induced_ratio"][0] - 1) < 0.05, label
         assert runs[label]["t_drude"][0] < 20, label
+
+
+def test_seed_summary_pools_the_stored_phase_limit_runs(tmp_path):
+    """--seed-summary on the scene's stored runs: the pooled mean and standard error over the seeds, recomputed here
+    from the JSON files, and the chart."""
+    stored = os.path.join(REPO_ROOT, "examples", "drude_water", "results", "phase_limit")
+    paths = sorted(os.path.join(stored, name) for name in os.listdir(stored) if name.startswith("seed3"))
+    assert len(paths) == 4
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-summary", *paths))
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert (tmp_path / "seed_summary.png").stat().st_size > 10000
+    with open(tmp_path / "seed_summary.json") as f:
+        summary = json.load(f)
+    runs = []
+    for path in paths:
+        with open(path) as f:
+            runs.append(json.load(f)["runs"])
+    for label in ("DrudeLangevin_0.125fs", "WarpedMiddleLimited_3fs"):
+        values = [r[label]["dipole"][0] for r in runs]
+        mean = sum(values) / len(values)
+        error = math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1) / len(values))
+        assert summary["runs"][label]["dipole"] == [pytest.approx(mean), pytest.approx(error), 4]
+    ref, run = summary["runs"]["DrudeLangevin_0.125fs"]["dipole"], summary["runs"]["WarpedMiddleLimited_3fs"]
+    assert run["dipole_t"] == pytest.approx((run["dipole"][0] - ref[0]) / math.hypot(run["dipole"][1], ref[1]))
+    assert "| WarpedMiddleLimited | 4 |" in result.stdout
 
 
 def test_a_negative_seed_offset_is_rejected(tmp_path):

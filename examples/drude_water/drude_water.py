@@ -144,7 +144,7 @@ MAX_WARPED_PHASE = 2.05
 
 
 def make_integrator(kind, step_fs, seed):
-    if kind in ("DrudeLangevin", "DrudeLangevinWall"):
+    if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy"):
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
                                                     20 / unit.picosecond, step_fs * unit.femtosecond)
         if kind == "DrudeLangevinWall":
@@ -169,6 +169,34 @@ def make_integrator(kind, step_fs, seed):
     integrator.setStiffModeFriction(20 / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
     return integrator
+
+
+# ONE_4PI_EPS0 in kJ nm/mol/e^2: a Drude spring's constant is ONE_4PI_EPS0 q^2/alpha.
+ONE_4PI_EPS0 = 138.935456
+# The step of the "DrudeLangevinHeavy" peers (fs): DrudeLangevin on heavier Drude particles.
+HEAVY_DRUDE_STEP_FS = 0.5
+
+
+def heavy_drude_system(system, sim_step_fs, max_phase):
+    """The System with each Drude particle as heavy as the phase-limited SIM at sim_step_fs makes it act: its pair's
+    relative motion gets the reduced mass k/omega_d^2, omega_d = 2 sin(max_phase/2)/H (docs/sim_drude.md section 6),
+    the pair's total mass kept.  Returns the copy and the Drude mass (amu)."""
+    heavy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
+    drude = next(f for f in heavy.getForces() if isinstance(f, openmm.DrudeForce))
+    omega_d = 2 * math.sin(0.5 * max_phase) / (sim_step_fs * 1e-3)
+    masses = set()
+    for i in range(drude.getNumParticles()):
+        particle, core, _, _, _, charge, alpha, _, _ = drude.getParticleParameters(i)
+        k = ONE_4PI_EPS0 * charge.value_in_unit(unit.elementary_charge)**2 / alpha.value_in_unit(unit.nanometer**3)
+        total = (heavy.getParticleMass(particle) + heavy.getParticleMass(core)).value_in_unit(unit.dalton)
+        reduced = k / omega_d**2
+        if 4 * reduced >= total:
+            raise ValueError(f"no Drude mass gives the reduced mass {reduced:.3g} amu of a {total:.3g}-amu pair")
+        mass = 0.5 * (total - math.sqrt(total * total - 4 * total * reduced))
+        heavy.setParticleMass(particle, mass)
+        heavy.setParticleMass(core, total - mass)
+        masses.add(round(mass, 6))
+    return heavy, max(masses)
 
 
 def equilibrated_state(system, positions, step_fs, steps, seed, threads=2):
@@ -308,8 +336,11 @@ def seed_summary(paths, out):
                "max_warped_phase": loaded[0]["parameters"].get("max_warped_phase"), "runs": {}}
     for label in labels:
         runs = [d["runs"][label] for d in loaded if label in d["runs"]]
-        entry = {"integrator": runs[0]["integrator"], "step_fs": runs[0]["step_fs"],
+        # DrudeLangevinHeavy peers stand at the SIM step whose Drude mass they have.
+        entry = {"integrator": runs[0]["integrator"], "step_fs": runs[0].get("emulates_fs", runs[0]["step_fs"]),
                  "failed": sum(1 for r in runs if "failed" in r), "of": len(runs)}
+        if "drude_mass_amu" in runs[0]:
+            entry["drude_mass_amu"] = runs[0]["drude_mass_amu"]
         if completed(label):
             ratios = [d["runs"][label]["ns_per_day"] / d["runs"]["DrudeLangevin_1fs"]["ns_per_day"] for d in loaded
                       if label in d["runs"] and "failed" not in d["runs"][label] and "DrudeLangevin_1fs" in d["runs"]]
@@ -335,7 +366,8 @@ def seed_summary(paths, out):
         cells = [formats[k] % tuple(entry[k][:2]) + (f" ({entry[k + '_t']:+.1f})" if k + "_t" in entry else "")
                  for k, _ in OBSERVABLES]
         speed = entry.get("ns_per_day_over_DrudeLangevin_1fs")
-        lines.append(f"| {kind_label(entry['integrator'])} | {entry['step_fs']:g} | " +
+        heavy = f", m_D = {entry['drude_mass_amu']:.2f} amu, as the SIM at" if "drude_mass_amu" in entry else ""
+        lines.append(f"| {kind_label(entry['integrator'])}{heavy} | {entry['step_fs']:g} | " +
                      (f"{speed:.2f}" if speed else "—") + " | " + " | ".join(cells) + " |")
     print("\n".join(lines))
     plot_seed_summary(summary, len(loaded), loaded[0]["parameters"]["molecules"],
@@ -349,7 +381,8 @@ def plot_seed_summary(summary, seeds, molecules, path):
     reference = summary["runs"][reference_label]
     others = {label: e for label, e in summary["runs"].items() if label != reference_label and "t_com" in e}
     kinds = list(dict.fromkeys(e["integrator"] for e in others.values()))
-    styles = {"DrudeLangevin": ("s", "black"), "DrudeLangevinWall": ("D", "tab:purple")}
+    styles = {"DrudeLangevin": ("s", "black"), "DrudeLangevinWall": ("D", "tab:purple"),
+              "DrudeLangevinHeavy": ("^", "tab:brown")}
     for ax, (key, name) in zip(axes.flat, OBSERVABLES):
         mean, error = reference[key][:2]
         ax.axhspan(mean - 2 * error, mean + 2 * error, color="0.85",
@@ -359,6 +392,7 @@ def plot_seed_summary(summary, seeds, molecules, path):
             h, y, err = zip(*points)
             marker, color = styles.get(kind, ("o", "tab:cyan"))
             label = kind_label(kind) + (f" with ω̃H ≤ {summary['max_warped_phase']:g}" if kind.endswith("Limited")
+                                        else ", Drude mass as the SIM's at H" if kind.endswith("Heavy")
                                         else "") + ", mean ± s.e."
             ax.errorbar(h, y, yerr=err, fmt=marker + "-", capsize=3, color=color, label=label)
         ax.set_xlabel("step H (fs)")
@@ -374,7 +408,8 @@ def plot_seed_summary(summary, seeds, molecules, path):
 
 def kind_label(kind):
     """A peer's kind as the charts name it."""
-    return "DrudeLangevin + wall" if kind == "DrudeLangevinWall" else kind
+    return {"DrudeLangevinWall": "DrudeLangevin + wall",
+            "DrudeLangevinHeavy": "DrudeLangevin %g fs, heavier Drudes" % HEAVY_DRUDE_STEP_FS}.get(kind, kind)
 
 
 def plot(data, path):
@@ -383,10 +418,11 @@ def plot(data, path):
     labels = list(runs)
     blown = {lb for lb in labels if blew_up(runs[lb], reference)}
     ticks = [f"{kind_label(runs[lb]['integrator'])}\nH = {runs[lb]['step_fs']:g} fs" +
+             (f"\nm_D = {runs[lb]['drude_mass_amu']:.2f} amu" if "drude_mass_amu" in runs[lb] else "") +
              ("\n(blew up)" if lb in blown else "") for lb in labels]
     colors = {"DrudeLangevin": "black", "DrudeLangevinWall": "tab:purple", "Strang": "tab:blue", "Filtered": "tab:red",
               "Warped": "tab:green", "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive",
-              "WarpedMiddleLimited": "tab:cyan"}
+              "WarpedMiddleLimited": "tab:cyan", "DrudeLangevinHeavy": "tab:brown"}
     fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
     for ax, (key, title) in zip(axes.flat, OBSERVABLES):
         band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
@@ -799,6 +835,9 @@ def main():
                         default=["Strang", "Filtered", "Warped"],
                         help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
                              "(default Strang Filtered Warped)")
+    parser.add_argument("--heavy-drudes", type=float, nargs="*", default=[], metavar="FS",
+                        help="DrudeLangevinHeavy peers: DrudeLangevin at %g fs on Drude particles as heavy as the "
+                             "WarpedMiddleLimited SIM at these steps (fs) makes them act" % HEAVY_DRUDE_STEP_FS)
     parser.add_argument("--limited-steps", type=float, nargs="*", default=[], metavar="FS",
                         help="--interleaved-timing: WarpedMiddleLimited peers at these steps (fs)")
     parser.add_argument("--max-warped-phase", type=float, default=MAX_WARPED_PHASE,
@@ -865,11 +904,20 @@ def main():
     peers += [(kind, h) for kind in (("Strang", "Filtered", "Warped") if args.quick else args.splittings)
               for h in settings["sim_steps"]]
     peers += [("DrudeLangevinWall", h) for h in args.wall_steps]
+    # DrudeLangevin on Drude particles as heavy as the phase-limited SIM at H makes them act (labelled by that H).
+    peers += [("DrudeLangevinHeavy", h) for h in args.heavy_drudes]
     for seed, (kind, step_fs) in enumerate(peers, start=10 + args.seed):
         label = f"{kind}_{step_fs:g}fs"
         counter = {}
         try:
-            runs[label] = run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter)
+            if kind == "DrudeLangevinHeavy":
+                heavy, mass = heavy_drude_system(system, step_fs, MAX_WARPED_PHASE)
+                heavy_analysis = Analysis(heavy)
+                runs[label] = run_one(heavy, state, heavy_analysis, scf, kind, HEAVY_DRUDE_STEP_FS, settings, edges,
+                                      seed, counter)
+                runs[label].update(emulates_fs=step_fs, drude_mass_amu=mass)
+            else:
+                runs[label] = run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter)
         except (openmm.OpenMMException, FloatingPointError, ValueError) as error:
             # The step it failed at: exact in the burn-in (one step at a time), else within the production frame.
             first, last = counter.get("steps", 0) + 1, counter.get("steps", 0) + counter.get("interval", 1)

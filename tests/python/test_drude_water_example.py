@@ -5,6 +5,8 @@ import math
 import os
 
 import conftest
+import openmm
+import openmm.unit as unit
 import pytest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -94,3 +96,26 @@ def test_step_end_velocity_variance_is_one_minus_omega_h_squared_over_six():
     for omega, h in [(40.0, 0.002), (150.0, 0.0025), (200.0, 0.002)]:
         assert abs(module.step_end_velocity_variance(omega, h) - (1 - (omega * h)**2 / 6)) < 2e-6
     assert abs(module.step_end_velocity_variance(0.0, 0.0025) - 1) < 1e-12
+
+
+def test_heavy_drudes_have_the_reduced_mass_of_the_phase_limited_sim():
+    # DrudeLangevinHeavy's System: every pair keeps its total mass and gets the reduced mass k/omega_d^2 with
+    # omega_d = 2 sin(phi/2)/H, k = ONE_4PI_EPS0 q^2/alpha from the DrudeForce; a mass no pair can have is refused.
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("drude_water", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    system, _, _, _ = module.build_water(8)
+    heavy, mass = module.heavy_drude_system(system, 3.5, 2.05)
+    drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
+    omega_d = 2 * math.sin(1.025) / 0.0035
+    for i in range(drude.getNumParticles()):
+        particle, core, _, _, _, charge, alpha, _, _ = drude.getParticleParameters(i)
+        k = 138.935456 * charge.value_in_unit(unit.elementary_charge)**2 / alpha.value_in_unit(unit.nanometer**3)
+        before = [system.getParticleMass(j).value_in_unit(unit.dalton) for j in (particle, core)]
+        after = [heavy.getParticleMass(j).value_in_unit(unit.dalton) for j in (particle, core)]
+        assert sum(after) == pytest.approx(sum(before), rel=1e-12)
+        assert after[0] * after[1] / sum(after) == pytest.approx(k / omega_d**2, rel=1e-10)
+        assert after[0] == pytest.approx(mass, abs=1e-6) and after[0] > before[0]
+    with pytest.raises(ValueError, match="no Drude mass gives the reduced mass"):
+        module.heavy_drude_system(system, 40.0, 2.05)

@@ -4,7 +4,7 @@ wall (StochasticImpulseIntegrator.setMaxDrudeDistance): independent starts, each
 temperature above 10 K in any frame.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/stability_probe.py [--seeds 1 2 3 4] \
-        [--steps 2 2.5] [--walls 0 0.02] [--ps 3] [--quick] [--out DIR]
+        [--steps 2 2.5] [--walls 0 0.02] [--ps 3] [--max-warped-phase RAD] [--quick] [--out DIR]
 
 Writes stability_probe.json to --out: per run its seed, step, wall, the step it failed at (or none), its hottest
 Drude frame and how many steps the wall acted in (pairs found past it, counted from the frames)."""
@@ -60,6 +60,8 @@ def main():
     parser.add_argument("--steps", type=float, nargs="+", default=[2.0, 2.5])
     parser.add_argument("--walls", type=float, nargs="+", default=[0.0, 0.02], help="nm; 0 = no wall")
     parser.add_argument("--ps", type=float, default=3.0, help="ps of SIM per run")
+    parser.add_argument("--max-warped-phase", type=float, default=0.0,
+                        help="setMaxWarpedPhase of the SIM in radians (default 0: no limit)")
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
     parser.add_argument("--out", default=os.path.join("results", "drude_ions"))
     args = parser.parse_args()
@@ -76,7 +78,7 @@ def main():
         state = equilibrated(system, positions, seed, equilibrate_ps)
         for step_fs in args.steps:
             for wall in args.walls:
-                run = probe(separated, state, analysis, step_fs, wall, seed + 3, args.ps, 30)
+                run = probe(separated, state, analysis, step_fs, wall, seed + 3, args.ps, 30, args.max_warped_phase)
                 runs.append(run)
                 print(f"seed {seed} H = {step_fs:g} fs wall {wall:g} nm: "
                       f"{run['failed'] or 'held'}; hottest Drude frame {run['hottest_drude_K']:.2f} K; "

@@ -370,8 +370,9 @@ def seed_summary(paths, out):
         lines.append(f"| {kind_label(entry['integrator'])}{heavy} | {entry['step_fs']:g} | " +
                      (f"{speed:.2f}" if speed else "—") + " | " + " | ".join(cells) + " |")
     print("\n".join(lines))
-    plot_seed_summary(summary, len(loaded), loaded[0]["parameters"]["molecules"],
-                      os.path.join(out, "seed_summary.png"))
+    counts = sorted({e["t_com"][2] for e in summary["runs"].values() if "t_com" in e})
+    seeds = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]}–{counts[-1]}"
+    plot_seed_summary(summary, seeds, loaded[0]["parameters"]["molecules"], os.path.join(out, "seed_summary.png"))
 
 
 def plot_seed_summary(summary, seeds, molecules, path):
@@ -400,7 +401,7 @@ def plot_seed_summary(summary, seeds, molecules, path):
     handles, names = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="lower center", ncol=3, fontsize=9, frameon=False)
     fig.suptitle(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): the SIM past Warped's step against "
-                 f"DrudeLangevin, over {seeds} seeds", fontsize=11)
+                 f"DrudeLangevin, over {seeds} seeds per peer", fontsize=11)
     fig.tight_layout(rect=(0, 0.06, 1, 0.96))
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -398,10 +398,13 @@ def plot_seed_summary(summary, seeds, molecules, path):
             ax.errorbar(h, y, yerr=err, fmt=marker + "-", capsize=3, color=color, label=label)
         ax.set_xlabel("step H (fs)")
         ax.set_ylabel(name)
+        ax.ticklabel_format(axis="y", useOffset=False)
     handles, names = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="lower center", ncol=3, fontsize=9, frameon=False)
-    fig.suptitle(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): the SIM past Warped's step against "
-                 f"DrudeLangevin, over {seeds} seeds per peer", fontsize=11)
+    compared = [kind_label(k) for k in kinds if k != "DrudeLangevin"]
+    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): " + " and ".join(compared) +
+                               f" against DrudeLangevin H = {reference['step_fs']:g} fs; mean ± s.e. over {seeds} "
+                               "seeds per peer", 130), fontsize=11)
     fig.tight_layout(rect=(0, 0.06, 1, 0.96))
     fig.savefig(path, dpi=110)
     plt.close(fig)

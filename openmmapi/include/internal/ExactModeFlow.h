@@ -321,13 +321,12 @@ inline double warpedFrequency(double omega, double gamma, double h) {
 }
 
 /**
- * The frequency at which a stiff mode flows in a Warped step: warpedFrequency(omega, gamma, h), or maxPhase/h where
- * that turns farther than maxPhase per step (maxPhase > 0; 0 for no limit).  A limited mode needs scaled kicks to
- * keep the exact static response (StochasticImpulseIntegrator::setMaxWarpedPhase).
+ * The frequency at which a stiff mode of warped frequency warpedOmega flows in a Warped step: warpedOmega, or
+ * maxPhase/h where that turns farther than maxPhase per step (maxPhase > 0; 0 for no limit).  A limited mode needs
+ * scaled kicks to keep the exact static response (StochasticImpulseIntegrator::setMaxWarpedPhase).
  */
-inline double limitedWarpedFrequency(double omega, double gamma, double h, double maxPhase) {
-    const double warped = warpedFrequency(omega, gamma, h);
-    return maxPhase > 0.0 ? std::fmin(warped, maxPhase / h) : warped;
+inline double phaseLimitedFrequency(double warpedOmega, double h, double maxPhase) {
+    return maxPhase > 0.0 ? std::fmin(warpedOmega, maxPhase / h) : warpedOmega;
 }
 
 /** The exact Ornstein-Uhlenbeck flow of a velocity alone: v' = decay v + noise sqrt(kT/m) xi. */

@@ -103,7 +103,7 @@ public:
      * force scaled by (omega~/omega)^2 so that its equilibrium stays where the true potential has it (the Warped
      * splitting).  middleZeroModes (h > 0): the zero modes flow as computeMiddleFreeFlow (the Middle thermostat
      * placement) instead of the exact free flow.  maxWarpedPhase > 0 (warped only): a mode whose warped frequency
-     * turns farther per step flows at maxWarpedPhase/h (limitedWarpedFrequency), its constant force scaled likewise.
+     * turns farther per step flows at maxWarpedPhase/h (phaseLimitedFrequency), its constant force scaled likewise.
      */
     void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT, Propagator& propagator,
                            bool warped = false, bool middleZeroModes = false, double maxWarpedPhase = 0.0) const;

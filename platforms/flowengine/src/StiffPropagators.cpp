@@ -29,7 +29,7 @@ ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool 
     if (middleZeroModes && omega == 0.0 && h > 0.0)
         return computeMiddleFreeFlow(gamma, h);
     if (warped && omega > 0.0 && h > 0.0) {
-        const double warpedOmega = limitedWarpedFrequency(omega, stiffGamma, h, maxWarpedPhase);
+        const double warpedOmega = phaseLimitedFrequency(warpedFrequency(omega, stiffGamma, h), h, maxWarpedPhase);
         const double scale = std::pow(warpedOmega / omega, 2);
         ModeFlow f = computeModeFlow(warpedOmega, stiffGamma, h);
         f.gx *= scale;
@@ -137,8 +137,9 @@ FilteredModeKicks filteredModeKicks(double w, double gamma, double h, SubFlow::K
     FilteredModeKicks kicks;
     // Plain kicks go with the warped flow, which has the exact static response.
     const bool warped = kickResponse == SubFlow::KickResponse::Plain;
-    const double flowW = warped ? limitedWarpedFrequency(w, gamma, h, maxWarpedPhase) : w;
-    const bool plain = warped && flowW == warpedFrequency(w, gamma, h);
+    const double warpedW = warped ? warpedFrequency(w, gamma, h) : w;
+    const double flowW = warped ? phaseLimitedFrequency(warpedW, h, maxWarpedPhase) : w;
+    const bool plain = warped && flowW == warpedW;
     const ModeFlow& f = kicks.flow = computeModeFlow(flowW, gamma, h);
     // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2 (with
     // g, the flow's own constant-force response, scaled to the true potential's minimum where the flow is slowed);

@@ -22,6 +22,7 @@ import openmm  # noqa: E402
 import openmm.app as app  # noqa: E402
 import openmm.unit as unit  # noqa: E402
 from flavorbench import reporting  # noqa: E402
+from flavorbench.ensemble import mean_se  # noqa: E402
 from flavorbench.runners import KB as BOLTZ  # noqa: E402
 from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
@@ -171,8 +172,8 @@ def make_integrator(kind, step_fs, seed):
     return integrator
 
 
-# ONE_4PI_EPS0 in kJ nm/mol/e^2: a Drude spring's constant is ONE_4PI_EPS0 q^2/alpha.
-ONE_4PI_EPS0 = 138.935456
+# ONE_4PI_EPS0 in kJ nm/mol/e^2, as OpenMM has it: a Drude spring's constant is ONE_4PI_EPS0 q^2/alpha.
+ONE_4PI_EPS0 = 138.935457644382
 # The step of the "DrudeLangevinHeavy" peers (fs): DrudeLangevin on heavier Drude particles.
 HEAVY_DRUDE_STEP_FS = 0.5
 
@@ -275,6 +276,10 @@ def blew_up(run, reference):
             or abs(run["induced_ratio"][0] - reference["induced_ratio"][0]) > 0.5)
 
 
+# How the tables print each observable's value ± error.
+OBSERVABLE_FORMATS = {"induced_ratio": "%.4f ± %.4f", "dipole": "%.3f ± %.3f", "pe_per_molecule": "%.2f ± %.2f",
+                      "g_oo_peak": "%.3f ± %.3f", "t_com": "%.1f ± %.1f", "t_drude": "%.3f ± %.3f"}
+
 SHORT_NAMES = {"induced_ratio": "induced/SCF", "dipole": "dipole", "pe_per_molecule": "PE", "g_oo_peak": "g_OO peak",
                "t_com": "T_COM", "t_drude": "T_Drude"}
 
@@ -329,8 +334,8 @@ def seed_summary(paths, out):
 
     def pooled(label, key):
         values = np.array([run[key][0] for run in completed(label)])
-        error = values.std(ddof=1) / math.sqrt(len(values)) if len(values) > 1 else float("nan")
-        return float(values.mean()), float(error), len(values)
+        mean, error = mean_se(values)
+        return float(mean), float(error), len(values)
 
     summary = {"files": [os.path.relpath(p) for p in paths], "reference": reference_label,
                "max_warped_phase": loaded[0]["parameters"].get("max_warped_phase"), "runs": {}}
@@ -354,8 +359,6 @@ def seed_summary(paths, out):
         summary["runs"][label] = entry
     with open(os.path.join(out, "seed_summary.json"), "w") as f:
         json.dump(summary, f, indent=1)
-    formats = {"induced_ratio": "%.4f ± %.4f", "dipole": "%.3f ± %.3f", "pe_per_molecule": "%.2f ± %.2f",
-               "g_oo_peak": "%.3f ± %.3f", "t_com": "%.1f ± %.1f", "t_drude": "%.3f ± %.3f"}
     lines = ["| integrator | H (fs) | × DL 1 fs (sequential) | " + " | ".join(SHORT_NAMES[k] for k, _ in OBSERVABLES) +
              " |", "|---" * (3 + len(OBSERVABLES)) + "|"]
     for label, entry in summary["runs"].items():
@@ -363,7 +366,7 @@ def seed_summary(paths, out):
             lines.append(f"| {kind_label(entry['integrator'])} | {entry['step_fs']:g} | failed in every run |" +
                          " |" * len(OBSERVABLES))
             continue
-        cells = [formats[k] % tuple(entry[k][:2]) + (f" ({entry[k + '_t']:+.1f})" if k + "_t" in entry else "")
+        cells = [OBSERVABLE_FORMATS[k] % tuple(entry[k][:2]) + (f" ({entry[k + '_t']:+.1f})" if k + "_t" in entry else "")
                  for k, _ in OBSERVABLES]
         speed = entry.get("ns_per_day_over_DrudeLangevin_1fs")
         heavy = f", m_D = {entry['drude_mass_amu']:.2f} amu, as the SIM at" if "drude_mass_amu" in entry else ""
@@ -958,8 +961,6 @@ def markdown_table(data, interleaved=None):
     timing = (interleaved or {}).get("threads", {}).get("2", {})
     lines = ["| integrator | H (fs) | ns/day | interleaved ns/day (× DL 1 fs) | induced / SCF | dipole (D) | "
              "PE per molecule (kJ/mol) | g_OO first peak | T_COM (K) | T_Drude (K) | σ |", "|---" * 11 + "|"]
-    formats = {"induced_ratio": "%.4f ± %.4f", "dipole": "%.3f ± %.3f", "pe_per_molecule": "%.2f ± %.2f",
-               "g_oo_peak": "%.3f ± %.3f", "t_com": "%.1f ± %.1f", "t_drude": "%.3f ± %.3f"}
     for label, run in runs.items():
         name = kind_label(run["integrator"]) + (" %g nm" % WALL_NM if run["integrator"] == "DrudeLangevinWall" else "")
         timed = f"{run['integrator']} {run['step_fs']:g} fs"
@@ -979,7 +980,7 @@ def markdown_table(data, interleaved=None):
         sigma = "—" if run is reference else ", ".join(
             "%.1f" % (abs(run[k][0] - reference[k][0]) / math.hypot(run[k][1], reference[k][1])) for k in formats)
         lines.append(f"| {name} | {run['step_fs']:g} | {run['ns_per_day']:.1f} | {interleaved_text} | " +
-                     " | ".join((formats[k] % tuple(run[k])).replace("-", "−") for k in formats) + f" | {sigma} |")
+                     " | ".join((OBSERVABLE_FORMATS[k] % tuple(run[k])).replace("-", "−") for k in formats) + f" | {sigma} |")
     return "\n".join(lines)
 
 

@@ -978,9 +978,9 @@ def markdown_table(data, interleaved=None):
             lines.append(f"| {name} | {run['step_fs']:g} | {at}: {run['failed']} | {interleaved_text} |" + " |" * 7)
             continue
         sigma = "—" if run is reference else ", ".join(
-            "%.1f" % (abs(run[k][0] - reference[k][0]) / math.hypot(run[k][1], reference[k][1])) for k in formats)
+            "%.1f" % (abs(run[k][0] - reference[k][0]) / math.hypot(run[k][1], reference[k][1])) for k in OBSERVABLE_FORMATS)
         lines.append(f"| {name} | {run['step_fs']:g} | {run['ns_per_day']:.1f} | {interleaved_text} | " +
-                     " | ".join((OBSERVABLE_FORMATS[k] % tuple(run[k])).replace("-", "−") for k in formats) + f" | {sigma} |")
+                     " | ".join((OBSERVABLE_FORMATS[k] % tuple(run[k])).replace("-", "−") for k in OBSERVABLE_FORMATS) + f" | {sigma} |")
     return "\n".join(lines)
 
 

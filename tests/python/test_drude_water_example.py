@@ -119,3 +119,14 @@ def test_heavy_drudes_have_the_reduced_mass_of_the_phase_limited_sim():
         assert after[0] == pytest.approx(mass, abs=1e-6) and after[0] > before[0]
     with pytest.raises(ValueError, match="no Drude mass gives the reduced mass"):
         module.heavy_drude_system(system, 40.0, 2.05)
+
+
+def test_table_reprints_the_readme_rows_from_the_stored_runs(tmp_path):
+    results = os.path.join(REPO_ROOT, "examples", "drude_water", "results")
+    stored = [os.path.join(results, name) for name in ("hard_wall_peers.json", "hard_wall_interleaved_timing.json")]
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--table", *stored))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md")) as f:
+        readme = f.read()
+    rows = [line for line in result.stdout.splitlines() if line.startswith("| DrudeLangevin")]
+    assert rows and all(row in readme for row in rows)

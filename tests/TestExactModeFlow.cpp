@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
 #include <cstdio>
 #include <limits>
 #include <random>
@@ -499,4 +500,52 @@ TEST(ExactModeFlow, WarpedFrequencyGivesStrangTheExactStaticResponse) {
     const double omega = 1036.0;
     EXPECT_NEAR(std::tan(1.036) / 1.036,
                 1.0 / (strangStaticResponse(computeModeFlow(omega, 0.0, h), h) * omega * omega), 1e-12);
+}
+
+TEST(ExactModeFlow, WarpedFrictionScalingMatchesTheStepsInertia) {
+    // warpedInertiaScale: a Warped step (mode flowing at omega~ without friction, half kicks a keeping the exact static
+    // response, a = h/2 where the flow is the warped one) driven by f_n = cos(Omega n h) responds in its steady state
+    // with the amplitude (1/omega^2)/(1 - Omega^2/omega_d^2 + O(Omega^4)), omega_d^2 = scale omega^2.  The steady state
+    // is solved here from the step map: (e^(i theta) - Phi)(X) = Phi (0, a) + (0, a e^(i theta)), theta = Omega h.
+    const double h = 0.002, omega = 1036.0;
+    for (double flowPhase : {0.5, 1.2, 1.77, 2.05, 2.8}) {
+        const double flowOmega = flowPhase / h;
+        const ModeFlow f = computeModeFlow(flowOmega, 0.0, h);
+        const double a = (1.0 - f.vv) * f.gx / f.xv + f.gv; // Filtered's kappa h: the exact mean at this flow
+        const double aScaled = 0.5 * std::pow(flowOmega / omega, 2) * a;
+        const double theta = 1e-3;
+        const std::complex<double> z = std::polar(1.0, theta);
+        // [[z - xx, -xv], [-vx, z - vv]] X = (xv a, vv a + a z)
+        const std::complex<double> m00 = z - f.xx, m01 = -f.xv, m10 = -f.vx, m11 = z - f.vv;
+        const std::complex<double> b0 = f.xv * aScaled, b1 = f.vv * aScaled + aScaled * z;
+        const std::complex<double> x = (b0 * m11 - m01 * b1) / (m00 * m11 - m01 * m10);
+        const double Omega = theta / h;
+        const double inverseOmegaD2 = (1.0 - 1.0 / (omega * omega * x.real())) / (Omega * Omega);
+        EXPECT_NEAR(1.0, inverseOmegaD2 * warpedInertiaScale(omega, flowOmega, h) * omega * omega, 1e-5)
+            << "flow phase " << flowPhase;
+    }
+    // warpedMode: without scaling the friction is gamma and the frequencies are warpedFrequency, phase limited; with
+    // it the friction is gamma times the inertia scale of the flow that friction gives (a fixed point), and nothing
+    // changes without friction.
+    for (double H : {0.001, 0.002, 0.0025, 0.003, 0.004}) {
+        for (double maxPhase : {0.0, 1.77, 2.05}) {
+            for (double gamma : {0.0, 20.0, 200.0}) {
+                const std::string where = "H = " + std::to_string(H) + ", maxPhase = " + std::to_string(maxPhase) +
+                                          ", gamma = " + std::to_string(gamma);
+                const WarpedMode plain = warpedMode(omega, gamma, H, WarpedFlowSettings{maxPhase, false});
+                EXPECT_EQ(gamma, plain.gamma) << where;
+                EXPECT_EQ(warpedFrequency(omega, gamma, H), plain.warpedOmega) << where;
+                EXPECT_EQ(phaseLimitedFrequency(plain.warpedOmega, H, maxPhase), plain.flowOmega) << where;
+                const WarpedMode scaled = warpedMode(omega, gamma, H, WarpedFlowSettings{maxPhase, true});
+                const double flowOmega = phaseLimitedFrequency(warpedFrequency(omega, scaled.gamma, H), H, maxPhase);
+                EXPECT_NEAR(scaled.flowOmega, flowOmega, 1e-12 * flowOmega) << where;
+                EXPECT_NEAR(scaled.gamma, gamma * warpedInertiaScale(omega, flowOmega, H), 1e-12 * (gamma + 1.0))
+                    << where;
+                EXPECT_LT(scaled.gamma, gamma + 1e-300) << where; // slower than omega: lighter friction
+                if (gamma == 0.0) {
+                    EXPECT_EQ(plain.flowOmega, scaled.flowOmega) << where;
+                }
+            }
+        }
+    }
 }

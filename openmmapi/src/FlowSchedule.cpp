@@ -276,6 +276,7 @@ ImpulseParameters FlavorPlugin::impulseParameters(const StochasticImpulseIntegra
     p.metropolis = integrator.getMetropolis();
     p.maxDrudeDistance = integrator.getMaxDrudeDistance();
     p.maxWarpedPhase = integrator.getMaxWarpedPhase();
+    p.warpedFrictionScaling = integrator.getWarpedFrictionScaling();
     return p;
 }
 
@@ -309,7 +310,8 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
             const bool warped = p.splitting == StochasticImpulseIntegrator::Warped;
             f.response = warped ? SubFlow::KickResponse::Plain : SubFlow::KickResponse::Scaled;
             f.frequency = warped ? SubFlow::StiffFrequency::Warped : SubFlow::StiffFrequency::Exact;
-            f.maxPhase = warped ? p.maxWarpedPhase : 0.0;
+            if (warped)
+                f.warp = WarpedFlowSettings{p.maxWarpedPhase, p.warpedFrictionScaling};
             if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle)
                 f.zeroModes = SubFlow::ZeroModeFlow::Middle;
         }

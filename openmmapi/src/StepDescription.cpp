@@ -97,8 +97,10 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
                 out << halfKick << " ";
             out << exact << h;
             baths = "E: zero modes " + describeBath(flow.bath) + ", stiff modes " + describeBath(flow.stiffBath);
-            if (flow.maxPhase > 0.0)
-                baths += ", ω̃H ≤ " + formatNumber(flow.maxPhase) + " with kicks keeping the exact mean";
+            if (flow.warp.maxPhase > 0.0)
+                baths += ", ω̃H ≤ " + formatNumber(flow.warp.maxPhase) + " with kicks keeping the exact mean";
+            if (flow.warp.scaledFriction)
+                baths += ", stiff friction scaled by (2 sin(ω̃H/2)/ωH)²";
             break;
         case SubFlow::FilteredKick:
             out << halfKick;

@@ -57,6 +57,12 @@ void FlavorPlugin::validateImpulseStep(const ImpulseParameters& p) {
             " is not allowed with splitting = " + std::to_string((int)p.splitting) +
             " (it limits the warped frequency); allowed: 0 with every splitting, a phase "
             "between 0 and pi with Warped (4)");
+    if (p.warpedFrictionScaling && p.splitting != StochasticImpulseIntegrator::Warped)
+        throw OpenMM::OpenMMException("StochasticImpulseIntegrator: warpedFrictionScaling = true is not allowed with "
+                                      "splitting = " +
+                                      std::to_string((int)p.splitting) +
+                                      " (it scales the friction of warped modes); allowed: false with every "
+                                      "splitting, true with Warped (4)");
     if (p.thermostatPlacement == StochasticImpulseIntegrator::Middle &&
         p.splitting != StochasticImpulseIntegrator::Filtered && p.splitting != StochasticImpulseIntegrator::Warped)
         throw OpenMM::OpenMMException("StochasticImpulseIntegrator: thermostatPlacement = Middle (1) is not allowed "

@@ -13,10 +13,15 @@ StochasticImpulseIntegratorProxy::StochasticImpulseIntegratorProxy()
 
 void StochasticImpulseIntegratorProxy::serialize(const void* object, SerializationNode& node) const {
     const StochasticImpulseIntegrator& integrator = *reinterpret_cast<const StochasticImpulseIntegrator*>(object);
-    // Version 4 added the Metropolis adjustment and the hard wall, version 5 the Warped phase limit, each written only
-    // where it is on: without them the document is the version 3 one, which older builds read.
+    // Version 4 added the Metropolis adjustment and the hard wall, version 5 the Warped phase limit, version 6 the
+    // Warped friction scaling, each written only where it is on: without them the document is the version 3 one,
+    // which older builds read.
     const bool version4 = integrator.getMetropolis() || integrator.getMaxDrudeDistance() > 0.0;
-    node.setIntProperty("version", integrator.getMaxWarpedPhase() > 0.0 ? 5 : version4 ? 4 : 3);
+    const int version = integrator.getWarpedFrictionScaling()  ? 6
+                        : integrator.getMaxWarpedPhase() > 0.0 ? 5
+                        : version4                             ? 4
+                                                               : 3;
+    node.setIntProperty("version", version);
     node.setDoubleProperty("stepSize", integrator.getStepSize());
     node.setDoubleProperty("temperature", integrator.getTemperature());
     node.setDoubleProperty("friction", integrator.getFriction());
@@ -38,13 +43,15 @@ void StochasticImpulseIntegratorProxy::serialize(const void* object, Serializati
         node.setDoubleProperty("maxDrudeDistance", integrator.getMaxDrudeDistance());
     if (integrator.getMaxWarpedPhase() > 0.0)
         node.setDoubleProperty("maxWarpedPhase", integrator.getMaxWarpedPhase());
+    if (integrator.getWarpedFrictionScaling())
+        node.setBoolProperty("warpedFrictionScaling", true);
 }
 
 void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& node) const {
     int version = node.getIntProperty("version");
-    if (version < 1 || version > 5)
+    if (version < 1 || version > 6)
         throw OpenMMException("StochasticImpulseIntegrator: unsupported serialization version " +
-                              std::to_string(version) + "; this library reads versions 1 to 5");
+                              std::to_string(version) + "; this library reads versions 1 to 6");
     auto integrator = std::make_unique<StochasticImpulseIntegrator>(
         node.getDoubleProperty("temperature"), node.getDoubleProperty("friction"), node.getDoubleProperty("stepSize"),
         node.getIntProperty("stiffGroups"));
@@ -65,5 +72,7 @@ void* StochasticImpulseIntegratorProxy::deserialize(const SerializationNode& nod
         integrator->setMaxDrudeDistance(node.getDoubleProperty("maxDrudeDistance"));
     if (version >= 5 && node.hasProperty("maxWarpedPhase"))
         integrator->setMaxWarpedPhase(node.getDoubleProperty("maxWarpedPhase"));
+    if (version >= 6 && node.hasProperty("warpedFrictionScaling"))
+        integrator->setWarpedFrictionScaling(node.getBoolProperty("warpedFrictionScaling"));
     return integrator.release();
 }

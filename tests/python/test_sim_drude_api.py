@@ -111,6 +111,7 @@ def test_version_2_xml_loads_with_the_thermostat_throughout():
 @pytest.mark.parametrize("configure, message", [
     (lambda i: i.setThermostatPlacement(StochasticImpulseIntegrator.Middle), r"thermostatPlacement = Middle \(1\)"),
     (lambda i: i.setMaxWarpedPhase(2.05), r"maxWarpedPhase = 2.05 is not allowed with splitting = 1"),
+    (lambda i: i.setWarpedFrictionScaling(True), r"warpedFrictionScaling = true is not allowed with splitting = 1"),
 ])
 def test_settings_strang_lacks_are_rejected_when_stepping_and_the_context_stays_usable(configure, message):
     integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.002, {conftest.STIFF_GROUP})
@@ -142,6 +143,19 @@ def test_the_warped_phase_limit_takes_radians_is_checked_and_serialized():
     assert copy.getMaxWarpedPhase() == 2.05 * unit.radian
     integrator.setSplitting(StochasticImpulseIntegrator.Warped)
     assert "ω̃H ≤ 2.05" in integrator.describeStep()
+
+
+def test_the_warped_friction_scaling_is_a_bool_serialized_and_described():
+    integrator = StochasticImpulseIntegrator(300.0, 5.0, 0.003, {conftest.STIFF_GROUP})
+    assert integrator.getWarpedFrictionScaling() is False
+    with pytest.raises(TypeError, match="setWarpedFrictionScaling"):
+        integrator.setWarpedFrictionScaling(1.0 / unit.picosecond)
+    integrator.setWarpedFrictionScaling(True)
+    assert integrator.getWarpedFrictionScaling() is True
+    copy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator))
+    assert copy.getWarpedFrictionScaling() is True
+    integrator.setSplitting(StochasticImpulseIntegrator.Warped)
+    assert "stiff friction scaled" in integrator.describeStep()
 
 
 def test_the_hard_wall_takes_lengths():

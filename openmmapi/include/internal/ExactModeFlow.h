@@ -329,6 +329,60 @@ inline double phaseLimitedFrequency(double warpedOmega, double h, double maxPhas
     return maxPhase > 0.0 ? std::fmin(warpedOmega, maxPhase / h) : warpedOmega;
 }
 
+/**
+ * How the Warped splitting sets each stiff mode's flow: the limit on its phase per step
+ * (StochasticImpulseIntegrator::setMaxWarpedPhase, 0 for none) and whether its friction is scaled to its effective
+ * inertia (StochasticImpulseIntegrator::setWarpedFrictionScaling).
+ */
+struct WarpedFlowSettings {
+    double maxPhase = 0.0;
+    bool scaledFriction = false;
+    bool operator==(const WarpedFlowSettings& o) const {
+        return maxPhase == o.maxPhase && scaledFriction == o.scaledFriction;
+    }
+    bool operator!=(const WarpedFlowSettings& o) const { return !(*this == o); }
+};
+
+/** A stiff mode's Warped flow: its warped frequency, the frequency it flows at (phase limited) and its friction. */
+struct WarpedMode {
+    double warpedOmega, flowOmega, gamma;
+};
+
+/**
+ * The inertia factor of a Warped step whose mode (true frequency omega) flows at flowOmega: for a soft force that
+ * changes slowly, the step's two-step recurrence x_(n+1) - 2 cos(flowOmega h) x_n + x_(n-1) = ... responds as a
+ * mode of frequency omega_d = 2 sin(flowOmega h/2)/h with the true stiffness, i.e. as a particle (omega/omega_d)^2
+ * times heavier.  Returns (omega_d/omega)^2, the inverse of that mass factor.
+ */
+inline double warpedInertiaScale(double omega, double flowOmega, double h) {
+    const double omegaD = 2.0 * std::sin(0.5 * flowOmega * h) / h;
+    return omegaD * omegaD / (omega * omega);
+}
+
+/**
+ * The Warped flow of a stiff mode of frequency omega > 0 and friction gamma >= 0 over h > 0.  Without friction
+ * scaling: warpedFrequency at gamma, limited to settings.maxPhase.  With it, the friction is gamma s with
+ * s = warpedInertiaScale of the flow that friction gives: the mode then responds to a slowly changing force as a
+ * particle 1/s times heavier under the true friction force (mass times gamma times velocity), so its bath draws from
+ * the motion that drives it the heat the true mode's does.  s depends on the friction only through the warp's weak
+ * dependence on it, so the fixed point is found by iteration in a few steps (to rounding; at most 50).
+ */
+inline WarpedMode warpedMode(double omega, double gamma, double h, const WarpedFlowSettings& settings) {
+    WarpedMode mode{0.0, 0.0, gamma};
+    for (int i = 0; i < 50; ++i) {
+        mode.warpedOmega = warpedFrequency(omega, mode.gamma, h);
+        mode.flowOmega = phaseLimitedFrequency(mode.warpedOmega, h, settings.maxPhase);
+        if (!settings.scaledFriction || gamma == 0.0)
+            break;
+        const double scaled = gamma * warpedInertiaScale(omega, mode.flowOmega, h);
+        const bool converged = std::fabs(scaled - mode.gamma) <= 1e-14 * gamma;
+        mode.gamma = scaled;
+        if (converged)
+            break;
+    }
+    return mode;
+}
+
 /** The exact Ornstein-Uhlenbeck flow of a velocity alone: v' = decay v + noise sqrt(kT/m) xi. */
 struct VelocityFlow {
     double decay, noise;

@@ -3,6 +3,7 @@
 
 #include "../FlavorIntegrator.h"
 #include "../StochasticImpulseIntegrator.h"
+#include "ExactModeFlow.h"
 #include "windowsExportFlavors.h"
 #include <string>
 #include <vector>
@@ -116,8 +117,8 @@ struct SubFlow {
     /** Mode flows: the bath of the stiff modes. */
     Bath stiffBath = {};
     StiffFrequency frequency = StiffFrequency::Exact;
-    /** Warped frequency: the largest angle omega~ h (radians) a stiff mode turns, 0 for no limit. */
-    double maxPhase = 0.0;
+    /** Warped frequency: the limit on the angle omega~ h a stiff mode turns and whether its friction is scaled. */
+    WarpedFlowSettings warp = {};
     ZeroModeFlow zeroModes = ZeroModeFlow::Exact;
     KickResponse response = KickResponse::None;
     FrozenSet frozen = FrozenSet::None;
@@ -135,9 +136,8 @@ struct SubFlow {
     StepLength length = {};
     bool operator==(const SubFlow& o) const {
         return kind == o.kind && h == o.h && groups == o.groups && bath == o.bath && stiffBath == o.stiffBath &&
-               frequency == o.frequency && maxPhase == o.maxPhase && zeroModes == o.zeroModes &&
-               response == o.response && frozen == o.frozen && clocked == o.clocked && clock == o.clock &&
-               distance == o.distance;
+               frequency == o.frequency && warp == o.warp && zeroModes == o.zeroModes && response == o.response &&
+               frozen == o.frozen && clocked == o.clocked && clock == o.clock && distance == o.distance;
     }
     bool operator!=(const SubFlow& o) const { return !(*this == o); }
 };
@@ -215,11 +215,14 @@ struct ImpulseParameters {
     double maxDrudeDistance = 0.0;
     /** The Warped splitting's limit on omega~ H, 0 for none (StochasticImpulseIntegrator::setMaxWarpedPhase). */
     double maxWarpedPhase = 0.0;
+    /** Whether Warped scales the stiff modes' friction (StochasticImpulseIntegrator::setWarpedFrictionScaling). */
+    bool warpedFrictionScaling = false;
     bool operator==(const ImpulseParameters& o) const {
         return splitting == o.splitting && stepSize == o.stepSize && stiffGroups == o.stiffGroups &&
                integrationGroups == o.integrationGroups && thermostatPlacement == o.thermostatPlacement &&
                bath == o.bath && stiffBath == o.stiffBath && metropolis == o.metropolis &&
-               maxDrudeDistance == o.maxDrudeDistance && maxWarpedPhase == o.maxWarpedPhase;
+               maxDrudeDistance == o.maxDrudeDistance && maxWarpedPhase == o.maxWarpedPhase &&
+               warpedFrictionScaling == o.warpedFrictionScaling;
     }
 };
 

@@ -350,7 +350,7 @@ ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size
     const bool middleFlow = !harmonic && flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
     modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
                              propagator, !harmonic && flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow,
-                             flow.maxPhase);
+                             flow.warp);
     uploadMixed(cc, propagators[p], propagator.data, "flavorPropagator");
     vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
     uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
@@ -384,10 +384,9 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
     const bool closing = flow.kind == SubFlow::FilteredKick;
     const bool middle = flow.zeroModes == SubFlow::ZeroModeFlow::Middle;
     StiffModes::ForceResponse response, processing;
-    modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response,
-                                flow.maxPhase, middle, response);
-    modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.maxPhase,
-                                     processing);
+    modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response, flow.warp,
+                                middle, response);
+    modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.warp, processing);
     uploadMixed(cc, responses[p], response.data, "flavorResponse");
     uploadMixed(cc, processings[p], processing.data, "flavorProcessing");
     ComputeKernel kernel = program->createKernel("forceResponse");

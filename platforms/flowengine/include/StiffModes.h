@@ -102,11 +102,13 @@ public:
      * flows at its warped frequency omega~ = warpedFrequency(omega, stiffGamma, h) instead of omega, with its constant
      * force scaled by (omega~/omega)^2 so that its equilibrium stays where the true potential has it (the Warped
      * splitting).  middleZeroModes (h > 0): the zero modes flow as computeMiddleFreeFlow (the Middle thermostat
-     * placement) instead of the exact free flow.  maxWarpedPhase > 0 (warped only): a mode whose warped frequency
-     * turns farther per step flows at maxWarpedPhase/h (phaseLimitedFrequency), its constant force scaled likewise.
+     * placement) instead of the exact free flow.  warp (warped only): a mode whose warped frequency turns farther per
+     * step than warp.maxPhase > 0 flows at maxPhase/h (phaseLimitedFrequency), its constant force scaled likewise;
+     * with warp.scaledFriction its friction is stiffGamma scaled to its inertia (warpedMode).
      */
     void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT, Propagator& propagator,
-                           bool warped = false, bool middleZeroModes = false, double maxWarpedPhase = 0.0) const;
+                           bool warped = false, bool middleZeroModes = false,
+                           const WarpedFlowSettings& warp = WarpedFlowSettings()) const;
 
     /**
      * The response of positions and velocities to a force F held by each mode: per component, for each of its D modes
@@ -128,12 +130,13 @@ public:
      * next opening kick processes the velocities to the exact 0 and leaves positions unchanged (modes whose flow
      * turns by less than 0.9 pi per step only; lambda has poles at k pi).  middleZeroModes: the zero modes take a
      * full kick h in the opening response, as the image of the Middle free flow, and none in the closing one, so that
-     * their velocities at the step's end are half-step velocities.  maxWarpedPhase > 0 (Plain only): a mode whose
-     * warped flow is slowed to that phase per step (computePropagator) takes the half kicks kappa h/2 that keep its
-     * exact mean with the slowed flow, instead of plain ones.
+     * their velocities at the step's end are half-step velocities.  warp (Plain only): a mode whose warped flow is
+     * slowed to warp.maxPhase per step (computePropagator) takes the half kicks kappa h/2 that keep its exact mean
+     * with the slowed flow, instead of plain ones; with warp.scaledFriction, kicks and processing are those of the
+     * flow with the scaled friction.
      */
     void computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
-                              SubFlow::KickResponse kickResponse, double maxWarpedPhase, bool middleZeroModes,
+                              SubFlow::KickResponse kickResponse, const WarpedFlowSettings& warp, bool middleZeroModes,
                               ForceResponse& response) const;
     /**
      * Computes the velocity processing of the Filtered splitting over a step h > 0.  Under a soft force that grows
@@ -144,10 +147,10 @@ public:
      * step, so positions are unchanged.  c is computed with the friction stiffGamma (the step's particular solution
      * for a linearly growing force, lambda f removed).  Zero modes and modes whose flow turns by 0.9 pi or more per
      * step: none.  With Plain kicks the same with the warped flow (c = xi~/sin xi~ without friction), limited by
-     * maxWarpedPhase as in computeForceResponse.
+     * warp as in computeForceResponse.
      */
     void computeVelocityProcessing(double h, double stiffGamma, bool closing, SubFlow::KickResponse kickResponse,
-                                   double maxWarpedPhase, ForceResponse& response) const;
+                                   const WarpedFlowSettings& warp, ForceResponse& response) const;
 
 private:
     /** Lays out response per mode (two values each) and fills each mode's pair with modeResponse(omega, pair). */

@@ -35,13 +35,13 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
             if (modes)
                 modes->computePropagator(flow.h, friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
                                          propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow,
-                                         flow.maxPhase);
+                                         flow.warp);
         }
         if (modes && filtered) {
             const bool closing = flow.kind == SubFlow::FilteredKick;
             modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response,
-                                        flow.maxPhase, middle, responses[p]);
-            modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.maxPhase,
+                                        flow.warp, middle, responses[p]);
+            modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.warp,
                                              processing[p]);
         }
         if (flow.kind == SubFlow::HarmonicFlow && modes)

@@ -25,13 +25,13 @@ ModeFlow modeFlow(double omega, double gamma, double h) {
  * flow of a zero mode or the warped flow of a stiff mode (constant force scaled so that its equilibrium stays).
  */
 ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool warped, bool middleZeroModes,
-                  double maxWarpedPhase) {
+                  const WarpedFlowSettings& warp) {
     if (middleZeroModes && omega == 0.0 && h > 0.0)
         return computeMiddleFreeFlow(gamma, h);
     if (warped && omega > 0.0 && h > 0.0) {
-        const double warpedOmega = phaseLimitedFrequency(warpedFrequency(omega, stiffGamma, h), h, maxWarpedPhase);
-        const double scale = std::pow(warpedOmega / omega, 2);
-        ModeFlow f = computeModeFlow(warpedOmega, stiffGamma, h);
+        const WarpedMode mode = warpedMode(omega, stiffGamma, h, warp);
+        const double scale = std::pow(mode.flowOmega / omega, 2);
+        ModeFlow f = computeModeFlow(mode.flowOmega, mode.gamma, h);
         f.gx *= scale;
         f.gv *= scale;
         return f;
@@ -43,7 +43,7 @@ ModeFlow stepFlow(double omega, double gamma, double stiffGamma, double h, bool 
 
 void StiffModes::computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT,
                                    Propagator& propagator, bool warped, bool middleZeroModes,
-                                   double maxWarpedPhase) const {
+                                   const WarpedFlowSettings& warp) const {
     bool hasStiffModes = false;
     for (const Component& comp : components)
         hasStiffModes = hasStiffModes || comp.stiff;
@@ -68,7 +68,7 @@ void StiffModes::computePropagator(double h, double gamma, double kT, double sti
         vector<double> modeThermalScale(D);
         for (int k = 0; k < D; ++k) {
             const double w = omega[comp.firstMode + C * k];
-            flows[k] = stepFlow(w, gamma, stiffGamma, h, warped, middleZeroModes, maxWarpedPhase);
+            flows[k] = stepFlow(w, gamma, stiffGamma, h, warped, middleZeroModes, warp);
             modeThermalScale[k] = w > 0.0 ? stiffThermalScale : thermalScale;
         }
         double* out = &propagator.data[propagator.offset[c]];
@@ -133,14 +133,14 @@ struct FilteredModeKicks {
 };
 
 FilteredModeKicks filteredModeKicks(double w, double gamma, double h, SubFlow::KickResponse kickResponse,
-                                    double maxWarpedPhase) {
+                                    const WarpedFlowSettings& warp) {
     FilteredModeKicks kicks;
     // Plain kicks go with the warped flow, which has the exact static response.
     const bool warped = kickResponse == SubFlow::KickResponse::Plain;
-    const double warpedW = warped ? warpedFrequency(w, gamma, h) : w;
-    const double flowW = warped ? phaseLimitedFrequency(warpedW, h, maxWarpedPhase) : w;
-    const bool plain = warped && flowW == warpedW;
-    const ModeFlow& f = kicks.flow = computeModeFlow(flowW, gamma, h);
+    const WarpedMode mode = warped ? warpedMode(w, gamma, h, warp) : WarpedMode{w, w, gamma};
+    const double flowW = mode.flowOmega;
+    const bool plain = warped && flowW == mode.warpedOmega;
+    const ModeFlow& f = kicks.flow = computeModeFlow(flowW, mode.gamma, h);
     // kappa makes the constant-force fixed point of K(kappa h/2) E(h) K(kappa h/2) the exact mean f/omega^2 (with
     // g, the flow's own constant-force response, scaled to the true potential's minimum where the flow is slowed);
     // the warped flow has it with plain kicks.
@@ -183,13 +183,13 @@ void StiffModes::fillModeResponses(ForceResponse& response,
 }
 
 void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma, bool closing,
-                                      SubFlow::KickResponse kickResponse, double maxWarpedPhase, bool middleZeroModes,
-                                      ForceResponse& response) const {
+                                      SubFlow::KickResponse kickResponse, const WarpedFlowSettings& warp,
+                                      bool middleZeroModes, ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (w > 0.0) {
             // Half kicks scaled by kappa; the closing one less the processing lambda f, which the opening one of the
             // next step puts back.
-            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, maxWarpedPhase);
+            const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, warp);
             const double opening = kicks.halfKick + kicks.lambda;
             out[0] = closing ? 0.0 : opening * kicks.flow.xv;
             out[1] = closing ? kicks.halfKick - kicks.lambda : opening * kicks.flow.vv;
@@ -207,12 +207,12 @@ void StiffModes::computeForceResponse(double h, double gamma, double stiffGamma,
 }
 
 void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool closing,
-                                           SubFlow::KickResponse kickResponse, double maxWarpedPhase,
+                                           SubFlow::KickResponse kickResponse, const WarpedFlowSettings& warp,
                                            ForceResponse& response) const {
     fillModeResponses(response, [&](double w, double* out) {
         if (!(w > 0.0))
             return;
-        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, maxWarpedPhase);
+        const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, warp);
         out[0] = closing ? 0.0 : kicks.beta * kicks.flow.xv;
         out[1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
     });

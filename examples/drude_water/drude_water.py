@@ -142,12 +142,15 @@ class SelfConsistent:
 WALL_NM = 0.02  # DrudeLangevinIntegrator.setMaxDrudeDistance of the "DrudeLangevinWall" peers (the hard wall)
 # setMaxWarpedPhase of the "WarpedMiddleLimited" peers: the phase per step that Warped has at 2.5 fs (--max-warped-phase).
 MAX_WARPED_PHASE = 2.05
+# The Drude (stiff-mode) bath's friction, 1/ps, of every peer (--drude-friction): Lamoureux and Roux's 20/ps.
+DRUDE_FRICTION_PER_PS = 20.0
 
 
 def make_integrator(kind, step_fs, seed):
     if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy"):
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
-                                                    20 / unit.picosecond, step_fs * unit.femtosecond)
+                                                    DRUDE_FRICTION_PER_PS / unit.picosecond,
+                                                    step_fs * unit.femtosecond)
         if kind == "DrudeLangevinWall":
             # The hard wall: a Drude particle farther than WALL_NM from its core is reflected (OpenMM raises an
             # exception when one is found far beyond it).
@@ -157,7 +160,10 @@ def make_integrator(kind, step_fs, seed):
     integrator = StochasticImpulseIntegrator(300 * unit.kelvin, 5 / unit.picosecond, step_fs * unit.femtosecond,
                                              {DRUDE_GROUP})
     # "WarpedMiddle", "FilteredMiddle": the splitting with the zero modes' thermostat placed as LangevinMiddle's;
-    # "WarpedMiddleLimited": WarpedMiddle with its phase per step limited (setMaxWarpedPhase).
+    # "WarpedMiddleLimited": WarpedMiddle with its phase per step limited (setMaxWarpedPhase); "...Scaled": with the
+    # stiff modes' friction scaled to their inertia (setWarpedFrictionScaling).
+    scaled = kind.endswith("Scaled")
+    kind = kind[:-len("Scaled")] if scaled else kind
     limited = kind.endswith("Limited")
     kind = kind[:-len("Limited")] if limited else kind
     middle = kind.endswith("Middle")
@@ -166,8 +172,10 @@ def make_integrator(kind, step_fs, seed):
         integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
     if limited:
         integrator.setMaxWarpedPhase(MAX_WARPED_PHASE)
+    if scaled:
+        integrator.setWarpedFrictionScaling(True)
     integrator.setStiffModeTemperature(1 * unit.kelvin)
-    integrator.setStiffModeFriction(20 / unit.picosecond)
+    integrator.setStiffModeFriction(DRUDE_FRICTION_PER_PS / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
     return integrator
 
@@ -386,7 +394,8 @@ def plot_seed_summary(summary, seeds, molecules, path):
     others = {label: e for label, e in summary["runs"].items() if label != reference_label and "t_com" in e}
     kinds = list(dict.fromkeys(e["integrator"] for e in others.values()))
     styles = {"DrudeLangevin": ("s", "black"), "DrudeLangevinWall": ("D", "tab:purple"),
-              "DrudeLangevinHeavy": ("^", "tab:brown")}
+              "DrudeLangevinHeavy": ("^", "tab:brown"), "WarpedMiddleScaled": ("v", "tab:orange"),
+              "WarpedMiddleLimitedScaled": ("v", "tab:orange")}
     for ax, (key, name) in zip(axes.flat, OBSERVABLES):
         mean, error = reference[key][:2]
         ax.axhspan(mean - 2 * error, mean + 2 * error, color="0.85",
@@ -395,9 +404,9 @@ def plot_seed_summary(summary, seeds, molecules, path):
             points = sorted((e["step_fs"], e[key][0], e[key][1]) for e in others.values() if e["integrator"] == kind)
             h, y, err = zip(*points)
             marker, color = styles.get(kind, ("o", "tab:cyan"))
-            label = kind_label(kind) + (f" with ω̃H ≤ {summary['max_warped_phase']:g}" if kind.endswith("Limited")
-                                        else ", Drude mass as the SIM's at H" if kind.endswith("Heavy")
-                                        else "") + ", mean ± s.e."
+            label = (kind_description(kind, summary["max_warped_phase"]) if kind.startswith("Warped")
+                     else kind_label(kind) + (", Drude mass as the SIM's at H" if kind.endswith("Heavy") else "")) + \
+                ", mean ± s.e."
             ax.errorbar(h, y, yerr=err, fmt=marker + "-", capsize=3, color=color, label=label)
         ax.set_xlabel("step H (fs)")
         ax.set_ylabel(name)
@@ -411,6 +420,16 @@ def plot_seed_summary(summary, seeds, molecules, path):
     fig.tight_layout(rect=(0, 0.06, 1, 0.96))
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def kind_description(kind, max_phase):
+    """A Warped peer's kind in words: its placement, phase limit and friction scaling."""
+    scaled = kind.endswith("Scaled")
+    kind = kind[:-len("Scaled")] if scaled else kind
+    limited = kind.endswith("Limited")
+    kind = kind[:-len("Limited")] if limited else kind
+    return (kind.replace("Middle", " with the Middle placement") + (f", ω̃H ≤ {max_phase:g}" if limited else "") +
+            (", friction scaled" if scaled else ""))
 
 
 def kind_label(kind):
@@ -429,7 +448,8 @@ def plot(data, path):
              ("\n(blew up)" if lb in blown else "") for lb in labels]
     colors = {"DrudeLangevin": "black", "DrudeLangevinWall": "tab:purple", "Strang": "tab:blue", "Filtered": "tab:red",
               "Warped": "tab:green", "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive",
-              "WarpedMiddleLimited": "tab:cyan", "DrudeLangevinHeavy": "tab:brown"}
+              "WarpedMiddleLimited": "tab:cyan", "DrudeLangevinHeavy": "tab:brown", "WarpedMiddleScaled": "tab:orange",
+              "WarpedMiddleLimitedScaled": "tab:orange"}
     fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
     for ax, (key, title) in zip(axes.flat, OBSERVABLES):
         band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",
@@ -494,9 +514,10 @@ def plot(data, path):
         fig.text(0.01, 0.004, textwrap.fill("failed (not drawn) or blew up (drawn as marked): " + "; ".join(failed),
                                             120), fontsize=9, color="tab:red", va="bottom")
     fig.legend(handles=[band], loc="lower right", fontsize=9, frameon=False)
-    kind_names = {"Strang": "Strang", "Filtered": "Filtered", "Warped": "Warped",
-                  "FilteredMiddle": "Filtered with the Middle placement", "WarpedMiddle": "Warped with the Middle placement",
-                  "WarpedMiddleLimited": "WarpedMiddle with ω̃H ≤ %g" % data["parameters"].get("max_warped_phase", 0)}
+    kind_names = {"Strang": "Strang", "Filtered": "Filtered", "FilteredMiddle": "Filtered with the Middle placement"}
+    kind_names.update({kind: kind_description(kind, data["parameters"].get("max_warped_phase", 0))
+                       for kind in ("Warped", "WarpedMiddle", "WarpedMiddleLimited", "WarpedMiddleScaled",
+                                    "WarpedMiddleLimitedScaled")})
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
     what = (f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
             "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
@@ -809,7 +830,7 @@ def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=(), limited_step
 
 
 def main():
-    global MAX_WARPED_PHASE
+    global MAX_WARPED_PHASE, DRUDE_FRICTION_PER_PS
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
     repo_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -838,9 +859,10 @@ def main():
                         help="added to every random seed: independent replicas of a run (default 0)")
     parser.add_argument("--splittings", nargs="+",
                         choices=["Strang", "Filtered", "Warped", "FilteredMiddle", "WarpedMiddle",
-                                 "WarpedMiddleLimited"],
+                                 "WarpedMiddleLimited", "WarpedMiddleScaled", "WarpedMiddleLimitedScaled"],
                         default=["Strang", "Filtered", "Warped"],
-                        help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle) "
+                        help="StochasticImpulseIntegrator splittings, ...Middle with setThermostatPlacement(Middle), "
+                             "...Limited with setMaxWarpedPhase, ...Scaled with setWarpedFrictionScaling "
                              "(default Strang Filtered Warped)")
     parser.add_argument("--heavy-drudes", type=float, nargs="*", default=[], metavar="FS",
                         help="DrudeLangevinHeavy peers: DrudeLangevin at %g fs on Drude particles as heavy as the "
@@ -849,6 +871,9 @@ def main():
                         help="--interleaved-timing: WarpedMiddleLimited peers at these steps (fs)")
     parser.add_argument("--max-warped-phase", type=float, default=MAX_WARPED_PHASE,
                         help="setMaxWarpedPhase (radians) of the WarpedMiddleLimited peers (default %(default)g)")
+    parser.add_argument("--drude-friction", type=float, default=DRUDE_FRICTION_PER_PS, metavar="PER_PS",
+                        help="friction (1/ps) of the Drude bath of every peer: DrudeLangevin's drudeFriction, the "
+                             "SIM's setStiffModeFriction (default %(default)g)")
     parser.add_argument("--seed-summary", metavar="JSON", nargs="+",
                         help="only pool the drude_water.json of runs with several seeds into --out (table and chart)")
     parser.add_argument("--replot", metavar="JSON", help="only redraw the chart of an earlier run's JSON into --out")
@@ -873,6 +898,9 @@ def main():
     if args.seed < 0:
         parser.error("--seed must be non-negative (got %d)" % args.seed)
     MAX_WARPED_PHASE = args.max_warped_phase
+    if not args.drude_friction > 0:
+        parser.error("--drude-friction must be positive (got %g)" % args.drude_friction)
+    DRUDE_FRICTION_PER_PS = args.drude_friction
     if args.filter_bias:
         os.makedirs(args.out, exist_ok=True)
         filter_bias(args.out)
@@ -942,7 +970,7 @@ def main():
         run["speedup_over_DrudeLangevin_1fs"] = run["ns_per_day"] / completed["DrudeLangevin_1fs"]["ns_per_day"]
     data = {"scene": "drude_water", "model": "SWM4-NDP (swm4ndp.xml), rigid water, PME", "platform": "CPU, 2 threads",
             "parameters": dict(settings, box_nm=box, temperature_K=300, friction_per_ps=5,
-                               drude_temperature_K=1, drude_friction_per_ps=20, max_warped_phase=MAX_WARPED_PHASE,
+                               drude_temperature_K=1, drude_friction_per_ps=DRUDE_FRICTION_PER_PS, max_warped_phase=MAX_WARPED_PHASE,
                                seed=args.seed),
             "criterion": "within_error_of_reference: |run - reference| <= 2 sqrt(se_run^2 + se_ref^2)",
             "reference": reference_label, "g_oo_r_nm": (0.5 * (edges[1:] + edges[:-1])).tolist(), "runs": runs}

@@ -124,8 +124,9 @@ class SelfConsistent:
         return analysis.displacements(x)
 
 
-def make_integrator(kind, step_fs, seed, max_warped_phase=0.0):
-    """DrudeLangevin, or the SIM ("WarpedMiddle"; max_warped_phase > 0: setMaxWarpedPhase, radians)."""
+def make_integrator(kind, step_fs, seed, max_warped_phase=0.0, scaled_friction=False):
+    """DrudeLangevin, or the SIM ("WarpedMiddle"; max_warped_phase > 0: setMaxWarpedPhase, radians; scaled_friction:
+    setWarpedFrictionScaling)."""
     if kind == "DrudeLangevin":
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
                                                     20 / unit.picosecond, step_fs * unit.femtosecond)
@@ -137,6 +138,7 @@ def make_integrator(kind, step_fs, seed, max_warped_phase=0.0):
         integrator.setStiffModeTemperature(1 * unit.kelvin)
         integrator.setStiffModeFriction(20 / unit.picosecond)
         integrator.setMaxWarpedPhase(max_warped_phase)
+        integrator.setWarpedFrictionScaling(scaled_friction)
     integrator.setRandomNumberSeed(seed)
     return integrator
 
@@ -153,13 +155,14 @@ def equilibrated(system, positions, seed, ps):
 
 
 def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm=0.0, induced_groups=None,
-            extra=None, max_warped_phase=0.0):
+            extra=None, max_warped_phase=0.0, scaled_friction=False):
     """One peer from the common state: burn-in, then the production's block averages.  induced_groups: name -> pair
     indices, each reported as induced_ratio_<name> beside all pairs'; extra(frame) -> {name: value} more observables
-    per frame (default: the ions' induced ratio, nothing more); max_warped_phase: the SIM's setMaxWarpedPhase."""
+    per frame (default: the ions' induced ratio, nothing more); max_warped_phase, scaled_friction: the SIM's
+    setMaxWarpedPhase and setWarpedFrictionScaling."""
     if induced_groups is None:
         induced_groups = {"ions": analysis.ion_pairs}
-    integrator = make_integrator(kind, step_fs, seed, max_warped_phase)
+    integrator = make_integrator(kind, step_fs, seed, max_warped_phase, scaled_friction)
     if wall_nm > 0:
         integrator.setMaxDrudeDistance(wall_nm)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})

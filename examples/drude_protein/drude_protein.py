@@ -166,6 +166,8 @@ def main():
     parser.add_argument("--seed", type=int, default=1, help="random seed of the run (default 1)")
     parser.add_argument("--max-warped-phase", type=float, default=0.0,
                         help="setMaxWarpedPhase of the SIM runs in radians (default 0: no limit)")
+    parser.add_argument("--scaled-friction", action="store_true",
+                        help="the SIM runs with setWarpedFrictionScaling(True)")
     parser.add_argument("--no-reference", action="store_true",
                         help="only the SIM runs (to set beside the reference of a run with the same --seed)")
     args = parser.parse_args()
@@ -200,20 +202,24 @@ def main():
         values.update(geometry.observables(frame.positions))
         return values
 
-    groups = {"peptide": analysis.solute_pairs, "water": water_pairs}
+    # The anisotropic Drude particles (the carbonyl oxygens') apart too: their remainders are soft in the split.
+    anisotropic_pairs = np.array([i for i in range(drude.getNumParticles()) if drude.getParticleParameters(i)[2] >= 0],
+                                 dtype=int)
+    groups = {"peptide": analysis.solute_pairs, "water": water_pairs, "anisotropic": anisotropic_pairs}
     scf = SelfConsistent(system, analysis)  # on the original System
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
 
     runs = []
 
-    def run(run_system, kind, step_fs, seed, wall, max_warped_phase=0.0):
+    def run(run_system, kind, step_fs, seed, wall, max_warped_phase=0.0, scaled_friction=False):
         """A run, or the record of its failure (a step too large blows up)."""
         geometry.frames = {"bonds": [], "angles": []}
         try:
             result = run_one(run_system, state, analysis, scf, kind, step_fs, settings, seed, wall, groups, extra,
-                             max_warped_phase)
+                             max_warped_phase, scaled_friction)
             result["max_warped_phase"] = max_warped_phase
+            result["scaled_friction"] = scaled_friction
             result["force_evaluations_per_ps"] = 1000.0 / step_fs
             result["bond_width_nm"] = geometry.spread(geometry.frames["bonds"], settings["blocks"])
             result["angle_width_deg"] = geometry.spread(geometry.frames["angles"], settings["blocks"])
@@ -227,10 +233,11 @@ def main():
         for step_fs in args.wall_peers:
             run(system, "DrudeLangevin", step_fs, args.seed + 4, args.wall)
     for step_fs in args.sim_steps:
-        run(separated, "WarpedMiddle", step_fs, args.seed + 3, args.wall, args.max_warped_phase)
+        run(separated, "WarpedMiddle", step_fs, args.seed + 3, args.wall, args.max_warped_phase, args.scaled_friction)
 
     names = [("t_peptide", "T peptide (K)"), ("t_water", "T water (K)"), ("t_drude", "T Drude (K)"),
              ("induced_ratio_peptide", "ind/SCF peptide"), ("induced_ratio_water", "ind/SCF water"),
+             ("induced_ratio_anisotropic", "ind/SCF anisotropic"),
              ("rmsd_nm", "RMSD (nm)"), ("bond_width_nm", "bond width (nm)"), ("angle_width_deg", "angle width (deg)"),
              ("phi_deg", "phi (deg)"), ("extended", "extended"), ("pe_per_pair", "PE/pair"),
              ("ns_per_day", "ns/day")]

@@ -412,12 +412,13 @@ def plot_seed_summary(summary, seeds, molecules, path):
         ax.set_ylabel(name)
         ax.ticklabel_format(axis="y", useOffset=False)
     handles, names = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="lower center", ncol=3, fontsize=9, frameon=False)
-    compared = [kind_label(k) for k in kinds if k != "DrudeLangevin"]
-    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): " + " and ".join(compared) +
+    fig.legend(handles, names, loc="lower center", ncol=2, fontsize=9, frameon=False)
+    compared = [kind_description(k, summary["max_warped_phase"]) if k.startswith("Warped") else kind_label(k)
+                for k in kinds if k != "DrudeLangevin"]
+    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): " + "; ".join(compared) +
                                f" against DrudeLangevin H = {reference['step_fs']:g} fs; mean ± s.e. over {seeds} "
                                "seeds per peer", 130), fontsize=11)
-    fig.tight_layout(rect=(0, 0.06, 1, 0.96))
+    fig.tight_layout(rect=(0, 0.09, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -731,6 +732,58 @@ def step_end_velocity_variance(omega, h, gamma=5.0):
     return covariance[1, 1]
 
 
+def heat_draw(out, steps_fs=(1.0, 2.0, 2.5, 3.0, 3.5, 4.0), picoseconds=2.0):
+    """The heat the cold Drude bath draws from the molecules, measured directly: every peer runs `picoseconds` from
+    one equilibrated state with the molecules' thermostat off (friction 1e-6/ps) and the Drude bath on (1 K at
+    --drude-friction), and the slope of the total energy (potential plus kinetic from the reported velocities) is the
+    heat drawn.  Peers: DrudeLangevin at 0.25 and 0.5 fs; the SIM (WarpedMiddleLimited, plain Warped up to 2.5 fs)
+    unscaled and scaled at steps_fs; the same SIM without any bath (stiff friction 0), whose slope is the step's own
+    energy drift.  The bath's draw of a SIM is its slope less that drift.  Writes heat_draw.json."""
+    system, topology, positions, _ = build_water(256)
+    state = equilibrated_state(system, positions, 1.0, 2000, 1)
+    masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
+    molecules = topology.getNumResidues()
+
+    def slope(kind, step_fs, bath=True):
+        integrator = make_integrator(kind, step_fs, 3)
+        integrator.setFriction(1e-6)
+        if not bath:
+            integrator.setStiffModeFriction(0.0)
+            integrator.setStiffModeTemperature(0.0)
+        context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+        context.setState(state)
+        steps = int(round(picoseconds * 1000 / step_fs))
+        times, energies = [], []
+        counts = np.linspace(0, steps, 41).astype(int)
+        for i, done in enumerate(counts):
+            if i:
+                integrator.step(int(done - counts[i - 1]))
+            current = context.getState(getEnergy=True, getVelocities=True)
+            v = current.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
+            kinetic = 0.5 * np.sum(masses[:, None] * v * v)
+            times.append(done * step_fs / 1000)
+            energies.append(current.getPotentialEnergy().value_in_unit(unit.kilojoule_per_mole) + kinetic)
+        return float(np.polyfit(times, energies, 1)[0]) / molecules
+
+    # What a drawn power P (kJ/mol/ps per molecule) costs the molecules under their 5/ps thermostat in steady state:
+    # P / (friction k_B degrees of freedom), 6 degrees of freedom per rigid molecule.
+    kelvin_per_power = 1 / (5 * BOLTZ * 6)
+    report = {"picoseconds": picoseconds, "kelvin_per_kJ_per_mol_ps": kelvin_per_power, "peers": {}}
+    for step_fs in (0.25, 0.5):
+        draw = -slope("DrudeLangevin", step_fs)
+        report["peers"][f"DrudeLangevin_{step_fs:g}fs"] = {"step_fs": step_fs, "draw": draw}
+        print(f"DrudeLangevin {step_fs:g} fs: the Drude bath draws {draw:.3f} kJ/mol/ps per molecule", flush=True)
+    for step_fs in steps_fs:
+        drift = slope("WarpedMiddleLimited", step_fs, bath=False)
+        for kind in ("WarpedMiddleLimited", "WarpedMiddleLimitedScaled"):
+            draw = -slope(kind, step_fs) + drift
+            report["peers"][f"{kind}_{step_fs:g}fs"] = {"step_fs": step_fs, "draw": draw, "step_drift": drift}
+            print(f"{kind} {step_fs:g} fs: the Drude bath draws {draw:.3f} kJ/mol/ps per molecule (the step's own "
+                  f"drift without baths {drift:.3f})", flush=True)
+    with open(os.path.join(out, "heat_draw.json"), "w") as f:
+        json.dump(report, f, indent=1)
+
+
 def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
     """What the step-end velocities of a kick-flow-kick step do to the centre-of-mass temperature of rigid water:
     <Omega^2> of the molecules' translations and rotations from the mean squared force and torque of 20 frames of
@@ -843,6 +896,8 @@ def main():
                              "stability threshold against omega H")
     parser.add_argument("--velocity-bias", action="store_true",
                         help="only predict the step-end bias of the centre-of-mass temperature from forces and torques")
+    parser.add_argument("--heat-draw", action="store_true",
+                        help="only measure the heat the Drude bath draws from the molecules (thermostat off), per peer")
     parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",
                         help="only time DrudeLangevin 1 fs, Filtered 2 fs and Warped 2.5 fs (Throughout, Middle) in "
                              "turn, ROUNDS rounds")
@@ -908,6 +963,10 @@ def main():
     if args.velocity_bias:
         os.makedirs(args.out, exist_ok=True)
         velocity_bias(args.out)
+        return
+    if args.heat_draw:
+        os.makedirs(args.out, exist_ok=True)
+        heat_draw(args.out)
         return
     if args.interleaved_timing is not None:
         if args.interleaved_timing < 1:

@@ -149,6 +149,48 @@ class PeptideGeometry:
                 "extended": float(psi > 60 or psi < -120)}
 
 
+# The observables of the seed table: JSON key, row name, format (bond widths are shown in pm).
+SEED_TABLE_ROWS = [("t_peptide", "T peptide (K)", "%.1f"), ("t_water", "T water (K)", "%.1f"),
+                   ("t_drude", "T Drude (K)", "%.3f"), ("induced_ratio_peptide", "induced / SCF, peptide", "%.4f"),
+                   ("induced_ratio_water", "induced / SCF, water", "%.4f"),
+                   ("induced_ratio_anisotropic", "induced / SCF, anisotropic", "%.4f"),
+                   ("rmsd_nm", "heavy-atom RMSD (nm)", "%.3f"), ("bond_width_nm", "bond width (pm)", "%.2f"),
+                   ("angle_width_deg", "angle width (°)", "%.2f"), ("phi_deg", "φ (°)", "%.0f"),
+                   ("pe_per_pair", "PE per Drude pair (kJ/mol)", "%.2f")]
+
+
+def seed_table(reference_files, sim_files):
+    """The Markdown table of several seeds: the DrudeLangevin 0.5-fs runs of reference_files against the SIM runs of
+    sim_files, per step; mean over the seeds ± its standard error, t against the reference in brackets."""
+    def runs_of(files, keep):
+        return [r for path in files for r in json.load(open(path))["runs"] if keep(r) and "failed" not in r]
+
+    def pooled(runs, key):
+        values = np.array([r[key][0] * (1000 if key == "bond_width_nm" else 1) for r in runs if key in r])
+        if len(values) < 2:
+            return None
+        return values.mean(), values.std(ddof=1) / np.sqrt(len(values))
+
+    reference = runs_of(reference_files, lambda r: r["integrator"] == "DrudeLangevin" and r["step_fs"] == 0.5)
+    steps = sorted({r["step_fs"] for path in sim_files for r in json.load(open(path))["runs"]
+                    if r["integrator"] == "WarpedMiddle"})
+    columns = [("DrudeLangevin 0.5 fs (reference)", reference)]
+    columns += [(f"SIM {h:g} fs", runs_of(sim_files, lambda r, h=h: r["integrator"] == "WarpedMiddle" and
+                                          r["step_fs"] == h)) for h in steps]
+    lines = ["| observable | " + " | ".join(name for name, _ in columns) + " |", "|---" * (len(columns) + 1) + "|"]
+    for key, name, fmt in SEED_TABLE_ROWS:
+        cells, ref = [name], pooled(reference, key)
+        for index, (_, runs) in enumerate(columns):
+            value = pooled(runs, key)
+            cell = "—" if value is None else (fmt % value[0]) + " ± " + (fmt % value[1])
+            if value is not None and index and ref is not None:
+                cell += " (%+.1f)" % ((value[0] - ref[0]) / np.hypot(value[1], ref[1]))
+            cells.append(cell)
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("| runs | " + " | ".join(str(len(runs)) for _, runs in columns) + " |")
+    return "\n".join(lines)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test)")
@@ -168,9 +210,18 @@ def main():
                         help="setMaxWarpedPhase of the SIM runs in radians (default 0: no limit)")
     parser.add_argument("--scaled-friction", action="store_true",
                         help="the SIM runs with setWarpedFrictionScaling(True)")
+    parser.add_argument("--seed-table", nargs="+", metavar="JSON",
+                        help="only print the table of the SIM runs in these drude_protein.json files against the "
+                             "reference runs of --reference-files")
+    parser.add_argument("--reference-files", nargs="+", metavar="JSON", default=[
+        os.path.join(HERE, "results", f"seed{s}", "drude_protein.json") for s in range(1, 6)],
+                        help="the runs with the DrudeLangevin 0.5-fs reference (default results/seed1..5)")
     parser.add_argument("--no-reference", action="store_true",
                         help="only the SIM runs (to set beside the reference of a run with the same --seed)")
     args = parser.parse_args()
+    if args.seed_table:
+        print(seed_table(args.reference_files, args.seed_table))
+        return
     if args.quick:
         waters, cutoff, equilibration_ps = 80, 0.55, 0.05
         settings = dict(production_ps=0.1, burn_ps=0.02, samples=6, blocks=2, scf_frames=2)

@@ -43,3 +43,14 @@ def test_step_limit_probe_quick(tmp_path):
         assert len(data["runs"]) == 1
         run = data["runs"][0]
         assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run
+
+
+def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path):
+    stored = [os.path.join(REPO_ROOT, "examples", "drude_protein", "results", "friction_scaling", f"seed{s}",
+                           "drude_protein.json") for s in range(1, 6)]
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-table", *stored))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md")) as f:
+        readme = f.read()
+    rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    assert len(rows) == 1 + 11 + 1 and all(row in readme for row in rows)  # header, observables, runs

@@ -784,6 +784,41 @@ def heat_draw(out, steps_fs=(1.0, 2.0, 2.5, 3.0, 3.5, 4.0), picoseconds=2.0):
         json.dump(report, f, indent=1)
 
 
+def cold_hot_pairs(out, pairs, step_fs=2.5, picoseconds=12.0):
+    """Does the molecules' temperature lean of the scaled SIM need the cold Drude bath?  For each of `pairs`
+    equilibrated starts, WarpedMiddleScaled at step_fs twice, its Drude bath at 1 K and at 300 K (both 20/ps), 1 ps
+    of burn-in and `picoseconds` sampled 120 times; the centre-of-mass temperature of each, and the paired
+    difference cold - hot, mean ± s.e. over the pairs.  Writes cold_hot_pairs.json."""
+    system, _, positions, _ = build_water(256)
+    analysis = Analysis(system)
+    report = {"step_fs": step_fs, "picoseconds": picoseconds, "pairs": []}
+    for pair in range(pairs):
+        state = equilibrated_state(system, positions, 1.0, 2000, 100 + pair)
+        temperatures = {}
+        for label, drude_kelvin in (("cold", 1.0), ("hot", 300.0)):
+            integrator = make_integrator("WarpedMiddleScaled", step_fs, 200 + pair)
+            integrator.setStiffModeTemperature(drude_kelvin * unit.kelvin)
+            context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+            context.setState(state)
+            integrator.step(int(round(1000 / step_fs)))
+            every = max(1, int(round(picoseconds * 1000 / step_fs)) // 120)
+            samples = []
+            for _ in range(120):
+                integrator.step(every)
+                v = context.getState(getVelocities=True).getVelocities(asNumpy=True)
+                samples.append(analysis.temperatures(v.value_in_unit(unit.nanometer / unit.picosecond))[0])
+            temperatures[label] = float(np.mean(samples))
+        report["pairs"].append(temperatures)
+        for key, values in (("cold_K", [p["cold"] for p in report["pairs"]]),
+                            ("hot_K", [p["hot"] for p in report["pairs"]]),
+                            ("cold_minus_hot_K", [p["cold"] - p["hot"] for p in report["pairs"]])):
+            report[key] = [float(v) for v in mean_se(np.array(values))]
+        print(f"pair {pair + 1}/{pairs}: cold {temperatures['cold']:.2f} K, hot {temperatures['hot']:.2f} K; "
+              f"cold - hot so far {report['cold_minus_hot_K'][0]:.2f} K", flush=True)
+    with open(os.path.join(out, "cold_hot_pairs.json"), "w") as f:
+        json.dump(report, f, indent=1)
+
+
 def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
     """What the step-end velocities of a kick-flow-kick step do to the centre-of-mass temperature of rigid water:
     <Omega^2> of the molecules' translations and rotations from the mean squared force and torque of 20 frames of
@@ -896,6 +931,9 @@ def main():
                              "stability threshold against omega H")
     parser.add_argument("--velocity-bias", action="store_true",
                         help="only predict the step-end bias of the centre-of-mass temperature from forces and torques")
+    parser.add_argument("--cold-hot-pairs", type=int, metavar="PAIRS",
+                        help="only compare the scaled SIM's molecules at 2.5 fs with a 1-K and a 300-K Drude bath, "
+                             "PAIRS paired runs")
     parser.add_argument("--heat-draw", action="store_true",
                         help="only measure the heat the Drude bath draws from the molecules (thermostat off), per peer")
     parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",
@@ -963,6 +1001,12 @@ def main():
     if args.velocity_bias:
         os.makedirs(args.out, exist_ok=True)
         velocity_bias(args.out)
+        return
+    if args.cold_hot_pairs is not None:
+        if args.cold_hot_pairs < 2:
+            parser.error("--cold-hot-pairs needs at least 2 pairs (got %d)" % args.cold_hot_pairs)
+        os.makedirs(args.out, exist_ok=True)
+        cold_hot_pairs(args.out, args.cold_hot_pairs)
         return
     if args.heat_draw:
         os.makedirs(args.out, exist_ok=True)

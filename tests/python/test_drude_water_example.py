@@ -3,6 +3,8 @@ the exact-flow runs keep rigid, polarized water."""
 import json
 import math
 import os
+import subprocess
+import sys
 
 import conftest
 import openmm
@@ -85,6 +87,15 @@ def test_interleaved_timing_needs_a_round(tmp_path):
     assert "--interleaved-timing needs at least 1 round (got 0)" in result.stderr
 
 
+def test_cold_hot_pairs_need_two_pairs_and_the_drude_friction_must_be_positive(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--cold-hot-pairs", "1"))
+    assert result.returncode != 0
+    assert "--cold-hot-pairs needs at least 2 pairs (got 1)" in result.stderr
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--drude-friction", "0"))
+    assert result.returncode != 0
+    assert "--drude-friction must be positive (got 0)" in result.stderr
+
+
 def test_step_end_velocity_variance_is_one_minus_omega_h_squared_over_six():
     # The stationary step-end <v^2>/kT of K(h/2) E(h) K(h/2) for a harmonic motion, with the friction in the free flow
     # E, against the closed form 1 - (omega h)^2/6 (friction 5/ps changes it by less than 1e-6 here); and 1 for
@@ -130,3 +141,21 @@ def test_table_reprints_the_readme_rows_from_the_stored_runs(tmp_path):
         readme = f.read()
     rows = [line for line in result.stdout.splitlines() if line.startswith("| DrudeLangevin")]
     assert rows and all(row in readme for row in rows)
+
+
+def test_heat_model_the_sims_cooling_is_a_heavier_drudes_and_scaling_removes_most_of_it(tmp_path):
+    """heat_model.py's exact stationary temperatures (docs/sim_drude.md section 7): the SIM's soft mode within 0.3 K
+    of the true dynamics with a (omega/omega_d)^2-heavier Drude at every step, the scaled SIM at least 70 % closer to
+    the true dynamics than the unscaled one."""
+    script = os.path.join(REPO_ROOT, "examples", "drude_water", "heat_model.py")
+    result = subprocess.run([sys.executable, script, "--out", str(tmp_path)], capture_output=True, text=True,
+                            timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "heat_model.json") as f:
+        model = json.load(f)
+    true = model["true_temperature_K"]
+    assert len(model["rows"]) == 7
+    for row in model["rows"]:
+        assert abs(row["sim"] - row["heavier_drude"]) < 0.3, row
+        assert true - row["sim_scaled"] < 0.3 * (true - row["sim"]), row
+    assert (tmp_path / "heat_model.png").stat().st_size > 10000

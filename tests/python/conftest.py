@@ -194,6 +194,13 @@ def assert_continuation_depends_on_random_state(context, before, after):
     assert np.max(np.abs(positions_again[-1] - positions[-1])) > 1e-4
 
 
+def assert_cli_rejects(script, out, extra, message):
+    """The script run with --quick --out OUT and the extra arguments exits with an error whose stderr says message."""
+    result = run_quick(script, out, extra=extra)
+    assert result.returncode != 0
+    assert message in result.stderr, result.stderr[-2000:]
+
+
 def run_quick(script, out, timeout=120, extra=()):
     """Run an example or benchmark script (full path) with --quick --out OUT (and the extra arguments) in a child
     process."""

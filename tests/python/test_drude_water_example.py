@@ -76,24 +76,18 @@ def test_seed_summary_pools_the_stored_phase_limit_runs(tmp_path):
 
 
 def test_a_negative_seed_offset_is_rejected(tmp_path):
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed", "-1"))
-    assert result.returncode != 0
-    assert "--seed must be non-negative (got -1)" in result.stderr
+    conftest.assert_cli_rejects(SCRIPT, tmp_path, ("--seed", "-1"), "--seed must be non-negative (got -1)")
 
 
 def test_interleaved_timing_needs_a_round(tmp_path):
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--interleaved-timing", "0"))
-    assert result.returncode != 0
-    assert "--interleaved-timing needs at least 1 round (got 0)" in result.stderr
+    conftest.assert_cli_rejects(SCRIPT, tmp_path, ("--interleaved-timing", "0"),
+                                "--interleaved-timing needs at least 1 round (got 0)")
 
 
 def test_cold_hot_pairs_need_two_pairs_and_the_drude_friction_must_be_positive(tmp_path):
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--cold-hot-pairs", "1"))
-    assert result.returncode != 0
-    assert "--cold-hot-pairs needs at least 2 pairs (got 1)" in result.stderr
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--drude-friction", "0"))
-    assert result.returncode != 0
-    assert "--drude-friction must be positive (got 0)" in result.stderr
+    conftest.assert_cli_rejects(SCRIPT, tmp_path, ("--cold-hot-pairs", "1"),
+                                "--cold-hot-pairs needs at least 2 pairs (got 1)")
+    conftest.assert_cli_rejects(SCRIPT, tmp_path, ("--drude-friction", "0"), "--drude-friction must be positive (got 0)")
 
 
 def test_step_end_velocity_variance_is_one_minus_omega_h_squared_over_six():

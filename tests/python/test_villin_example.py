@@ -46,12 +46,10 @@ def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path
     assert data["peers"][-1]["stable"]
     # Every angle counted once in the observables: the separated planar ones are not counted twice.
     assert data["angles"] == 1067
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "2.5:1:planar:bonds"))
-    assert result.returncode != 0
-    assert "'2.5:1:planar:bonds' is not delta:tau[:bonds|:planar][:middle]" in result.stderr
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:0.5:sideways"))
-    assert result.returncode != 0
-    assert "'3:0.5:sideways' is not delta:tau[:bonds|:planar][:middle]" in result.stderr
+    conftest.assert_cli_rejects(SCRIPT, tmp_path, ("--flavors", "2.5:1:planar:bonds"),
+                                "'2.5:1:planar:bonds' is not delta:tau[:bonds|:planar][:middle]")
+    conftest.assert_cli_rejects(SCRIPT, tmp_path, ("--flavors", "3:0.5:sideways"),
+                                "'3:0.5:sideways' is not delta:tau[:bonds|:planar][:middle]")
 
 
 def test_a_small_step_langevin_peer_runs_and_a_step_out_of_range_is_an_error(tmp_path):

@@ -32,6 +32,7 @@ import numpy as np
 import openmm
 import openmm.app as app
 import openmm.unit as unit
+from flavorbench.ensemble import mean_se
 from openmmflavors import StochasticImpulseIntegrator
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -167,9 +168,7 @@ def seed_table(reference_files, sim_files):
 
     def pooled(runs, key):
         values = np.array([r[key][0] * (1000 if key == "bond_width_nm" else 1) for r in runs if key in r])
-        if len(values) < 2:
-            return None
-        return values.mean(), values.std(ddof=1) / np.sqrt(len(values))
+        return mean_se(values) if len(values) > 1 else None
 
     reference = runs_of(reference_files, lambda r: r["integrator"] == "DrudeLangevin" and r["step_fs"] == 0.5)
     steps = sorted({r["step_fs"] for path in sim_files for r in json.load(open(path))["runs"]

@@ -146,6 +146,18 @@ MAX_WARPED_PHASE = 2.05
 DRUDE_FRICTION_PER_PS = 20.0
 
 
+def sim_kind(kind):
+    """A SIM peer's kind split into its splitting and options: "WarpedMiddleLimitedScaled" -> ("Warped", middle,
+    limited, scaled); the suffixes are ...Middle (setThermostatPlacement(Middle)), ...Limited (setMaxWarpedPhase) and
+    ...Scaled (setWarpedFrictionScaling), in that order."""
+    flags = []
+    for suffix in ("Scaled", "Limited", "Middle"):
+        flags.append(kind.endswith(suffix))
+        kind = kind[:-len(suffix)] if flags[-1] else kind
+    scaled, limited, middle = flags
+    return kind, middle, limited, scaled
+
+
 def make_integrator(kind, step_fs, seed):
     if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy"):
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
@@ -162,12 +174,8 @@ def make_integrator(kind, step_fs, seed):
     # "WarpedMiddle", "FilteredMiddle": the splitting with the zero modes' thermostat placed as LangevinMiddle's;
     # "WarpedMiddleLimited": WarpedMiddle with its phase per step limited (setMaxWarpedPhase); "...Scaled": with the
     # stiff modes' friction scaled to their inertia (setWarpedFrictionScaling).
-    scaled = kind.endswith("Scaled")
-    kind = kind[:-len("Scaled")] if scaled else kind
-    limited = kind.endswith("Limited")
-    kind = kind[:-len("Limited")] if limited else kind
-    middle = kind.endswith("Middle")
-    integrator.setSplitting(getattr(StochasticImpulseIntegrator, kind[:-len("Middle")] if middle else kind))
+    splitting, middle, limited, scaled = sim_kind(kind)
+    integrator.setSplitting(getattr(StochasticImpulseIntegrator, splitting))
     if middle:
         integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
     if limited:
@@ -424,12 +432,9 @@ def plot_seed_summary(summary, seeds, molecules, path):
 
 
 def kind_description(kind, max_phase):
-    """A Warped peer's kind in words: its placement, phase limit and friction scaling."""
-    scaled = kind.endswith("Scaled")
-    kind = kind[:-len("Scaled")] if scaled else kind
-    limited = kind.endswith("Limited")
-    kind = kind[:-len("Limited")] if limited else kind
-    return (kind.replace("Middle", " with the Middle placement") + (f", ω̃H ≤ {max_phase:g}" if limited else "") +
+    """A SIM peer's kind in words: its splitting, placement, phase limit and friction scaling."""
+    splitting, middle, limited, scaled = sim_kind(kind)
+    return (splitting + (" with the Middle placement" if middle else "") + (f", ω̃H ≤ {max_phase:g}" if limited else "") +
             (", friction scaled" if scaled else ""))
 
 
@@ -515,10 +520,9 @@ def plot(data, path):
         fig.text(0.01, 0.004, textwrap.fill("failed (not drawn) or blew up (drawn as marked): " + "; ".join(failed),
                                             120), fontsize=9, color="tab:red", va="bottom")
     fig.legend(handles=[band], loc="lower right", fontsize=9, frameon=False)
-    kind_names = {"Strang": "Strang", "Filtered": "Filtered", "FilteredMiddle": "Filtered with the Middle placement"}
-    kind_names.update({kind: kind_description(kind, data["parameters"].get("max_warped_phase", 0))
-                       for kind in ("Warped", "WarpedMiddle", "WarpedMiddleLimited", "WarpedMiddleScaled",
-                                    "WarpedMiddleLimitedScaled")})
+    kind_names = {kind: kind_description(kind, data["parameters"].get("max_warped_phase", 0))
+                  for kind in ("Strang", "Filtered", "Warped", "FilteredMiddle", "WarpedMiddle", "WarpedMiddleLimited",
+                               "WarpedMiddleScaled", "WarpedMiddleLimitedScaled")}
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
     what = (f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
             "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +

@@ -368,15 +368,17 @@ inline double warpedInertiaScale(double omega, double flowOmega, double h) {
  * dependence on it, so the fixed point is found by iteration in a few steps (to rounding; at most 50).
  */
 inline WarpedMode warpedMode(double omega, double gamma, double h, const WarpedFlowSettings& settings) {
-    WarpedMode mode{0.0, 0.0, gamma};
+    auto flowAt = [&](double friction) {
+        const double warped = warpedFrequency(omega, friction, h);
+        return WarpedMode{warped, phaseLimitedFrequency(warped, h, settings.maxPhase), friction};
+    };
+    WarpedMode mode = flowAt(gamma);
+    if (!settings.scaledFriction || gamma == 0.0)
+        return mode;
     for (int i = 0; i < 50; ++i) {
-        mode.warpedOmega = warpedFrequency(omega, mode.gamma, h);
-        mode.flowOmega = phaseLimitedFrequency(mode.warpedOmega, h, settings.maxPhase);
-        if (!settings.scaledFriction || gamma == 0.0)
-            break;
         const double scaled = gamma * warpedInertiaScale(omega, mode.flowOmega, h);
         const bool converged = std::fabs(scaled - mode.gamma) <= 1e-14 * gamma;
-        mode.gamma = scaled;
+        mode = flowAt(scaled);
         if (converged)
             break;
     }

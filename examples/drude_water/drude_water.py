@@ -158,10 +158,11 @@ def sim_kind(kind):
     return kind, middle, limited, scaled
 
 
-def make_integrator(kind, step_fs, seed):
-    if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy"):
+def make_integrator(kind, step_fs, seed, drude_friction_scale=1.0):
+    """A peer's integrator; drude_friction_scale multiplies DrudeLangevin's Drude friction (heavier-Drude peers)."""
+    if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy", "DrudeLangevinLeastHeavy"):
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
-                                                    DRUDE_FRICTION_PER_PS / unit.picosecond,
+                                                    drude_friction_scale * DRUDE_FRICTION_PER_PS / unit.picosecond,
                                                     step_fs * unit.femtosecond)
         if kind == "DrudeLangevinWall":
             # The hard wall: a Drude particle farther than WALL_NM from its core is reflected (OpenMM raises an
@@ -190,22 +191,29 @@ def make_integrator(kind, step_fs, seed):
 
 # ONE_4PI_EPS0 in kJ nm/mol/e^2, as OpenMM has it: a Drude spring's constant is ONE_4PI_EPS0 q^2/alpha.
 ONE_4PI_EPS0 = 138.935457644382
-# The step of the "DrudeLangevinHeavy" peers (fs): DrudeLangevin on heavier Drude particles.
+# The step of the heavier-Drude peers (fs): DrudeLangevin on heavier Drude particles.
 HEAVY_DRUDE_STEP_FS = 0.5
 
 
-def heavy_drude_system(system, sim_step_fs, max_phase):
-    """The System with each Drude particle as heavy as the phase-limited SIM at sim_step_fs makes it act: its pair's
-    relative motion gets the reduced mass k/omega_d^2, omega_d = 2 sin(max_phase/2)/H (docs/sim_drude.md section 6),
-    the pair's total mass kept.  Returns the copy and the Drude mass (amu)."""
+def response_frequency(step_fs, phase):
+    """omega_d = 2 sin(phase/2)/H (1/ps): a step that flows a Drude mode by `phase` and keeps its exact mean makes it
+    follow a field as a spring of this frequency would (docs/sim_drude.md section 6).  Its largest value, 2/H at the
+    phase pi, bounds every step that samples the field once (section 8)."""
+    return 2 * math.sin(0.5 * phase) / (step_fs * 1e-3)
+
+
+def heavy_drude_system(system, omega_d):
+    """The System with each Drude particle as heavy as a step whose response frequency is omega_d makes it act: its
+    pair's relative motion gets the reduced mass k/omega_d^2, the pair's total mass kept.  Returns the copy, the
+    Drude mass (amu) and the ratio of the true reduced mass to the new one (the same for every pair of one k/mu)."""
     heavy = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     drude = next(f for f in heavy.getForces() if isinstance(f, openmm.DrudeForce))
-    omega_d = 2 * math.sin(0.5 * max_phase) / (sim_step_fs * 1e-3)
-    masses = set()
+    masses, ratios = set(), set()
     for i in range(drude.getNumParticles()):
         particle, core, _, _, _, charge, alpha, _, _ = drude.getParticleParameters(i)
         k = ONE_4PI_EPS0 * charge.value_in_unit(unit.elementary_charge)**2 / alpha.value_in_unit(unit.nanometer**3)
-        total = (heavy.getParticleMass(particle) + heavy.getParticleMass(core)).value_in_unit(unit.dalton)
+        pair = [heavy.getParticleMass(p).value_in_unit(unit.dalton) for p in (particle, core)]
+        total = sum(pair)
         reduced = k / omega_d**2
         if 4 * reduced >= total:
             raise ValueError(f"no Drude mass gives the reduced mass {reduced:.3g} amu of a {total:.3g}-amu pair")
@@ -213,7 +221,23 @@ def heavy_drude_system(system, sim_step_fs, max_phase):
         heavy.setParticleMass(particle, mass)
         heavy.setParticleMass(core, total - mass)
         masses.add(round(mass, 6))
-    return heavy, max(masses)
+        ratios.add(round(pair[0] * pair[1] / total / reduced, 9))
+    return heavy, max(masses), max(ratios)
+
+
+def heavy_peer(system, kind, step_fs):
+    """(System, Drude mass, Drude friction scale) of a heavier-Drude peer standing at the SIM step step_fs:
+    DrudeLangevinHeavy as heavy as the phase-limited SIM there (friction per unit mass kept); DrudeLangevinLeastHeavy
+    as heavy as any step that samples the field once must make it at least (omega_d = 2/H), its friction scaled as
+    setWarpedFrictionScaling scales the SIM's, so that the friction force for a given velocity is the true one."""
+    if kind == "DrudeLangevinHeavy":
+        heavy, mass, _ = heavy_drude_system(system, response_frequency(step_fs, MAX_WARPED_PHASE))
+        return heavy, mass, 1.0
+    heavy, mass, ratio = heavy_drude_system(system, response_frequency(step_fs, math.pi))
+    if ratio >= 1:
+        raise ValueError(f"at {step_fs:g} fs a step that samples the field once can keep the Drude's own mass "
+                         "(2/H is above its frequency)")
+    return heavy, mass, ratio
 
 
 def equilibrated_state(system, positions, step_fs, steps, seed, threads=2):
@@ -228,12 +252,12 @@ def equilibrated_state(system, positions, step_fs, steps, seed, threads=2):
     return context.getState(getPositions=True, getVelocities=True)
 
 
-def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter=None):
+def run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter=None, drude_friction_scale=1.0):
     """One peer from the common state: burn-in, then the production's observables.  counter["steps"] counts the steps
     done (the burn-in one at a time), so that a run that raises can say at which step it failed."""
     counter = {} if counter is None else counter
     counter["steps"], counter["interval"] = 0, 1
-    integrator = make_integrator(kind, step_fs, seed)
+    integrator = make_integrator(kind, step_fs, seed, drude_friction_scale)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
     burn = int(round(settings["burn_ps"] * 1000 / step_fs))
@@ -385,7 +409,11 @@ def seed_summary(paths, out):
         cells = [OBSERVABLE_FORMATS[k] % tuple(entry[k][:2]) + (f" ({entry[k + '_t']:+.1f})" if k + "_t" in entry else "")
                  for k, _ in OBSERVABLES]
         speed = entry.get("ns_per_day_over_DrudeLangevin_1fs")
-        heavy = f", m_D = {entry['drude_mass_amu']:.2f} amu, as the SIM at" if "drude_mass_amu" in entry else ""
+        heavy = ""
+        if "drude_mass_amu" in entry:
+            stands_for = ("friction scaled, the lightest for" if entry["integrator"] == "DrudeLangevinLeastHeavy"
+                          else "as the SIM at")
+            heavy = f", m_D = {entry['drude_mass_amu']:.2f} amu, {stands_for}"
         lines.append(f"| {kind_label(entry['integrator'])}{heavy} | {entry['step_fs']:g} | " +
                      (f"{speed:.2f}" if speed else "—") + " | " + " | ".join(cells) + " |")
     print("\n".join(lines))
@@ -402,7 +430,8 @@ def plot_seed_summary(summary, seeds, molecules, path):
     others = {label: e for label, e in summary["runs"].items() if label != reference_label and "t_com" in e}
     kinds = list(dict.fromkeys(e["integrator"] for e in others.values()))
     styles = {"DrudeLangevin": ("s", "black"), "DrudeLangevinWall": ("D", "tab:purple"),
-              "DrudeLangevinHeavy": ("^", "tab:brown"), "WarpedMiddleScaled": ("v", "tab:orange"),
+              "DrudeLangevinHeavy": ("^", "tab:brown"), "DrudeLangevinLeastHeavy": ("<", "tab:gray"),
+              "WarpedMiddleScaled": ("v", "tab:orange"),
               "WarpedMiddleLimitedScaled": ("v", "tab:orange")}
     for ax, (key, name) in zip(axes.flat, OBSERVABLES):
         mean, error = reference[key][:2]
@@ -413,7 +442,7 @@ def plot_seed_summary(summary, seeds, molecules, path):
             h, y, err = zip(*points)
             marker, color = styles.get(kind, ("o", "tab:cyan"))
             label = (kind_description(kind, summary["max_warped_phase"]) if kind.startswith("Warped")
-                     else kind_label(kind) + (", Drude mass as the SIM's at H" if kind.endswith("Heavy") else "")) + \
+                     else kind_label(kind) + HEAVY_DESCRIPTIONS.get(kind, "")) + \
                 ", mean ± s.e."
             ax.errorbar(h, y, yerr=err, fmt=marker + "-", capsize=3, color=color, label=label)
         ax.set_xlabel("step H (fs)")
@@ -438,10 +467,18 @@ def kind_description(kind, max_phase):
             (", friction scaled" if scaled else ""))
 
 
+# What the heavier-Drude peers' masses stand for, as the seed summary's chart says it.
+HEAVY_DESCRIPTIONS = {"DrudeLangevinHeavy": ", Drude mass as the SIM's at H",
+                      "DrudeLangevinLeastHeavy": ", friction scaled: the lightest Drude any once-per-step "
+                                                 "field sampling at H allows"}
+
+
 def kind_label(kind):
     """A peer's kind as the charts name it."""
-    return {"DrudeLangevinWall": "DrudeLangevin + wall",
-            "DrudeLangevinHeavy": "DrudeLangevin %g fs, heavier Drudes" % HEAVY_DRUDE_STEP_FS}.get(kind, kind)
+    labels = {"DrudeLangevinWall": "DrudeLangevin + wall",
+              "DrudeLangevinHeavy": "DrudeLangevin %g fs, heavier Drudes" % HEAVY_DRUDE_STEP_FS,
+              "DrudeLangevinLeastHeavy": "DrudeLangevin %g fs, Drudes of ω_d = 2/H" % HEAVY_DRUDE_STEP_FS}
+    return labels.get(kind, kind)
 
 
 def plot(data, path):
@@ -455,6 +492,7 @@ def plot(data, path):
     colors = {"DrudeLangevin": "black", "DrudeLangevinWall": "tab:purple", "Strang": "tab:blue", "Filtered": "tab:red",
               "Warped": "tab:green", "FilteredMiddle": "tab:pink", "WarpedMiddle": "tab:olive",
               "WarpedMiddleLimited": "tab:cyan", "DrudeLangevinHeavy": "tab:brown", "WarpedMiddleScaled": "tab:orange",
+              "DrudeLangevinLeastHeavy": "tab:gray",
               "WarpedMiddleLimitedScaled": "tab:orange"}
     fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
     for ax, (key, title) in zip(axes.flat, OBSERVABLES):
@@ -964,6 +1002,10 @@ def main():
     parser.add_argument("--heavy-drudes", type=float, nargs="*", default=[], metavar="FS",
                         help="DrudeLangevinHeavy peers: DrudeLangevin at %g fs on Drude particles as heavy as the "
                              "WarpedMiddleLimited SIM at these steps (fs) makes them act" % HEAVY_DRUDE_STEP_FS)
+    parser.add_argument("--least-heavy-drudes", type=float, nargs="*", default=[], metavar="FS",
+                        help="DrudeLangevinLeastHeavy peers: DrudeLangevin at %g fs on Drude particles as heavy as any "
+                             "step of these lengths (fs) that samples the field once must make them act (omega_d = "
+                             "2/H), Drude friction scaled to keep the friction force" % HEAVY_DRUDE_STEP_FS)
     parser.add_argument("--limited-steps", type=float, nargs="*", default=[], metavar="FS",
                         help="--interleaved-timing: WarpedMiddleLimited peers at these steps (fs)")
     parser.add_argument("--max-warped-phase", type=float, default=MAX_WARPED_PHASE,
@@ -1046,18 +1088,19 @@ def main():
     peers += [(kind, h) for kind in (("Strang", "Filtered", "Warped") if args.quick else args.splittings)
               for h in settings["sim_steps"]]
     peers += [("DrudeLangevinWall", h) for h in args.wall_steps]
-    # DrudeLangevin on Drude particles as heavy as the phase-limited SIM at H makes them act (labelled by that H).
+    # DrudeLangevin on Drude particles as heavy as the phase-limited SIM at H makes them act, and as heavy as any step
+    # H that samples the field once must make them (labelled by that H).
     peers += [("DrudeLangevinHeavy", h) for h in args.heavy_drudes]
+    peers += [("DrudeLangevinLeastHeavy", h) for h in args.least_heavy_drudes]
     for seed, (kind, step_fs) in enumerate(peers, start=10 + args.seed):
         label = f"{kind}_{step_fs:g}fs"
         counter = {}
         try:
-            if kind == "DrudeLangevinHeavy":
-                heavy, mass = heavy_drude_system(system, step_fs, MAX_WARPED_PHASE)
-                heavy_analysis = Analysis(heavy)
-                runs[label] = run_one(heavy, state, heavy_analysis, scf, kind, HEAVY_DRUDE_STEP_FS, settings, edges,
-                                      seed, counter)
-                runs[label].update(emulates_fs=step_fs, drude_mass_amu=mass)
+            if kind in ("DrudeLangevinHeavy", "DrudeLangevinLeastHeavy"):
+                heavy, mass, friction_scale = heavy_peer(system, kind, step_fs)
+                runs[label] = run_one(heavy, state, Analysis(heavy), scf, kind, HEAVY_DRUDE_STEP_FS, settings, edges,
+                                      seed, counter, friction_scale)
+                runs[label].update(emulates_fs=step_fs, drude_mass_amu=mass, drude_friction_scale=friction_scale)
             else:
                 runs[label] = run_one(system, state, analysis, scf, kind, step_fs, settings, edges, seed, counter)
         except (openmm.OpenMMException, FloatingPointError, ValueError) as error:

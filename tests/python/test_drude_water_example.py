@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import conftest
+import numpy as np
 import openmm
 import openmm.unit as unit
 import pytest
@@ -111,7 +112,7 @@ def test_heavy_drudes_have_the_reduced_mass_of_the_phase_limited_sim():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     system, _, _, _ = module.build_water(8)
-    heavy, mass = module.heavy_drude_system(system, 3.5, 2.05)
+    heavy, mass, ratio = module.heavy_drude_system(system, module.response_frequency(3.5, 2.05))
     drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
     omega_d = 2 * math.sin(1.025) / 0.0035
     for i in range(drude.getNumParticles()):
@@ -122,8 +123,34 @@ def test_heavy_drudes_have_the_reduced_mass_of_the_phase_limited_sim():
         assert sum(after) == pytest.approx(sum(before), rel=1e-12)
         assert after[0] * after[1] / sum(after) == pytest.approx(k / omega_d**2, rel=1e-10)
         assert after[0] == pytest.approx(mass, abs=1e-6) and after[0] > before[0]
+        assert ratio == pytest.approx(before[0] * before[1] / sum(before) * omega_d**2 / k, rel=1e-8)
     with pytest.raises(ValueError, match="no Drude mass gives the reduced mass"):
-        module.heavy_drude_system(system, 40.0, 2.05)
+        module.heavy_drude_system(system, module.response_frequency(40.0, 2.05))
+
+
+def test_the_least_heavy_drudes_respond_at_2_over_h_with_the_friction_force_kept():
+    # DrudeLangevinLeastHeavy at H: omega_d = 2/H (the phase pi), the Drude friction scaled by the true over the new
+    # reduced mass, (omega_d/omega)^2 with omega = sqrt(k/mu); refused where 2/H exceeds omega (below 1.93 fs).
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("drude_water", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    system, _, _, _ = module.build_water(8)
+    drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
+    particle, core, _, _, _, charge, alpha, _, _ = drude.getParticleParameters(0)
+    k = 138.935457644382 * charge.value_in_unit(unit.elementary_charge)**2 / alpha.value_in_unit(unit.nanometer**3)
+    masses = [system.getParticleMass(j).value_in_unit(unit.dalton) for j in (particle, core)]
+    omega = math.sqrt(k * sum(masses) / (masses[0] * masses[1]))
+    assert 1030 < omega < 1040
+    for step_fs in (3.0, 3.5):
+        heavy, mass, scale = module.heavy_peer(system, "DrudeLangevinLeastHeavy", step_fs)
+        after = [heavy.getParticleMass(j).value_in_unit(unit.dalton) for j in (particle, core)]
+        assert after[0] * after[1] / sum(after) == pytest.approx(k * (step_fs * 1e-3 / 2)**2, rel=1e-10)
+        assert scale == pytest.approx((2 / (step_fs * 1e-3 * omega))**2, rel=1e-8)
+        _, heavier, unscaled = module.heavy_peer(system, "DrudeLangevinHeavy", step_fs)
+        assert heavier > mass and unscaled == 1.0
+    with pytest.raises(ValueError, match="can keep the Drude's own mass"):
+        module.heavy_peer(system, "DrudeLangevinLeastHeavy", 1.9)
 
 
 def test_table_reprints_the_readme_rows_from_the_stored_runs(tmp_path):
@@ -153,3 +180,57 @@ def test_heat_model_the_sims_cooling_is_a_heavier_drudes_and_scaling_removes_mos
         assert abs(row["sim"] - row["heavier_drude"]) < 0.3, row
         assert true - row["sim_scaled"] < 0.3 * (true - row["sim"]), row
     assert (tmp_path / "heat_model.png").stat().st_size > 10000
+
+
+PROBE = os.path.join(REPO_ROOT, "examples", "drude_water", "temperature_probe.py")
+
+
+def _temperature_probe_module():
+    import importlib.util
+    sys.path.insert(0, os.path.dirname(PROBE))
+    spec = importlib.util.spec_from_file_location("temperature_probe", PROBE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_temperature_classes_of_rigidly_translating_molecules_are_all_translational():
+    # Every particle of molecule m moving with u_m: no rotation, no Drude motion, the translational temperature
+    # sum M_m u_m^2 / ((3N - 3) k), and T_COM's kinetic energy that same sum over its own degrees of freedom.
+    module = _temperature_probe_module()
+    drude_water = module.drude_water
+    system, _, _, _ = drude_water.build_water(8)
+    analysis = drude_water.Analysis(system)
+    blocks = np.array(analysis.blocks)
+    u = np.random.default_rng(5).normal(size=(len(blocks), 3))
+    v = np.zeros((system.getNumParticles(), 3))
+    for m, block in enumerate(blocks):
+        v[block] = u[m]
+    t_com, t_trans, t_rot, t_drude = module.temperature_classes(analysis, analysis.masses, blocks, v)
+    kinetic = 0.5 * np.sum(analysis.masses[blocks].sum(axis=1)[:, None] * u**2)
+    assert t_trans == pytest.approx(2 * kinetic / ((3 * len(blocks) - 3) * drude_water.BOLTZ), rel=1e-12)
+    assert t_com == pytest.approx(2 * kinetic / (analysis.com_dof * drude_water.BOLTZ), rel=1e-12)
+    assert abs(t_rot) < 1e-9 * t_trans and t_drude == 0.0
+
+
+def test_temperature_probe_quick_writes_every_peer(tmp_path):
+    result = conftest.run_quick(PROBE, tmp_path, timeout=300,
+                                extra=("--peers", "DrudeLangevin:1:1", "WarpedMiddleLimitedScaled:2.5:300"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "temperature_probe.json") as f:
+        report = json.load(f)
+    assert list(report["peers"]) == ["DrudeLangevin_1fs_Drudes1K", "WarpedMiddleLimitedScaled_2.5fs_Drudes300K"]
+    for peer in report["peers"].values():
+        for name in ("t_com", "t_translational", "t_rotational", "t_drude"):
+            assert math.isfinite(peer[name][0]) and peer[name][1] >= 0
+    # A 300-K Drude bath holds the Drudes near 300 K, a 1-K bath near 1 K.
+    assert report["peers"]["DrudeLangevin_1fs_Drudes1K"]["t_drude"][0] < 20
+    assert report["peers"]["WarpedMiddleLimitedScaled_2.5fs_Drudes300K"]["t_drude"][0] > 100
+
+
+@pytest.mark.parametrize("peer, message", [("Warped:2.5", "expected KIND:H:DRUDE_K"),
+                                           ("Verlet:2.5:1", "unknown kind 'Verlet'"),
+                                           ("DrudeLangevinWall:1:1", "unknown kind"),
+                                           ("Warped:-1:1", "must be positive")])
+def test_temperature_probe_rejects_a_bad_peer(tmp_path, peer, message):
+    conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", peer), message)

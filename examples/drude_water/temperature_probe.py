@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""Long single runs of SWM4-NDP water for the molecules' temperature, split into its classes of degrees of freedom.
+
+Each peer (KIND:H:DRUDE_K: DrudeLangevin or a drude_water.py SIM kind, its step in fs and the Drude bath's
+temperature in K) runs from one state (drude_water's 2-ps equilibration, seed 7), 1 ps of burn-in and --ps
+picoseconds sampled every 10 fs, with the molecules' friction --friction (1/ps).  Per peer, mean ± standard error of 20 block means: T_COM as drude_water
+reports it (the Drude pairs' centres of mass and the hydrogens, 6 degrees of freedom per rigid molecule), its
+translational and rotational parts, and the Drudes' temperature.  Writes temperature_probe.json to --out and prints
+each peer as it finishes (progress every tenth of a run).
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import openmm
+import openmm.unit as unit
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import drude_water  # noqa: E402
+
+BLOCKS = 20
+SAMPLE_FS = 10.0
+
+
+def parse_peer(text):
+    """"KIND:H:DRUDE_K" -> (kind, step in fs, Drude bath in K); ValueError naming what is wrong."""
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise ValueError(f"peer {text!r}: expected KIND:H:DRUDE_K, e.g. WarpedMiddleLimitedScaled:2.5:1")
+    kind, step, kelvin = parts[0], float(parts[1]), float(parts[2])
+    if kind != "DrudeLangevin" and drude_water.sim_kind(kind)[0] not in ("Strang", "Filtered", "Warped"):
+        raise ValueError(f"peer {text!r}: unknown kind {kind!r}")
+    if not step > 0 or not kelvin > 0:
+        raise ValueError(f"peer {text!r}: the step and the Drude temperature must be positive")
+    return kind, step, kelvin
+
+
+def temperature_classes(analysis, masses, blocks, v):
+    """(T_COM, translational, rotational, Drude) temperatures of one frame of velocities (nm/ps)."""
+    t_com, t_drude = analysis.temperatures(v)
+    block_masses = masses[blocks]
+    molecule_masses = block_masses.sum(axis=1)
+    centre_velocities = np.einsum("mp,mpk->mk", block_masses, v[blocks]) / molecule_masses[:, None]
+    translational = 0.5 * np.sum(molecule_masses[:, None] * centre_velocities**2)
+    molecules = len(blocks)
+    total = 0.5 * t_com * analysis.com_dof * drude_water.BOLTZ
+    return (t_com, 2 * translational / ((3 * molecules - 3) * drude_water.BOLTZ),
+            2 * (total - translational) / (3 * molecules * drude_water.BOLTZ), t_drude)
+
+
+def run_peer(system, state, analysis, kind, step_fs, drude_kelvin, friction, picoseconds, burn_ps):
+    integrator = drude_water.make_integrator(kind, step_fs, 11)
+    integrator.setFriction(friction / unit.picosecond)
+    if kind == "DrudeLangevin":
+        integrator.setDrudeTemperature(drude_kelvin * unit.kelvin)
+    else:
+        integrator.setStiffModeTemperature(drude_kelvin * unit.kelvin)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
+    context.setState(state)
+    integrator.step(int(round(burn_ps * 1000 / step_fs)))
+    every = max(1, int(round(SAMPLE_FS / step_fs)))
+    samples = int(round(picoseconds * 1000 / step_fs)) // every
+    blocks = np.array(analysis.blocks)
+    series = []
+    started = time.time()
+    for i in range(samples):
+        integrator.step(every)
+        v = context.getState(getVelocities=True).getVelocities(asNumpy=True)
+        series.append(temperature_classes(analysis, analysis.masses, blocks,
+                                          v.value_in_unit(unit.nanometer / unit.picosecond)))
+        if (i + 1) % max(1, samples // 10) == 0:
+            print(f"  {kind} {step_fs:g} fs, Drudes {drude_kelvin:g} K: {100 * (i + 1) // samples} % "
+                  f"({time.time() - started:.0f} s)", flush=True)
+    series = np.array(series)
+    usable = len(series) // BLOCKS * BLOCKS
+    block_means = series[:usable].reshape(BLOCKS, -1, series.shape[1]).mean(axis=1)
+    result = {}
+    for column, name in enumerate(("t_com", "t_translational", "t_rotational", "t_drude")):
+        result[name] = [float(series[:, column].mean()),
+                        float(block_means[:, column].std(ddof=1) / math.sqrt(BLOCKS))]
+    return result
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--peers", nargs="+", required=True, metavar="KIND:H:DRUDE_K",
+                        help="e.g. DrudeLangevin:1:1 WarpedMiddleLimitedScaled:2.5:1 WarpedMiddleLimitedScaled:2.5:300")
+    parser.add_argument("--ps", type=float, default=200.0, help="picoseconds sampled per peer (default 200)")
+    parser.add_argument("--friction", type=float, default=5.0, help="the molecules' friction, 1/ps (default 5)")
+    parser.add_argument("--out", default=".", help="folder for temperature_probe.json (default .)")
+    parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 125 molecules, "
+                        "0.05 ps of equilibration and burn-in, 0.2 ps sampled")
+    args = parser.parse_args()
+    try:
+        peers = [parse_peer(p) for p in args.peers]
+    except ValueError as error:
+        parser.error(str(error))
+    if not args.ps > 0:
+        parser.error("--ps must be positive (got %g)" % args.ps)
+    if not args.friction > 0:
+        parser.error("--friction must be positive (got %g)" % args.friction)
+    molecules, equilibration_steps, burn_ps = (125, 50, 0.05) if args.quick else (256, 2000, 1.0)
+    picoseconds = 0.2 if args.quick else args.ps
+    system, _, positions, _ = drude_water.build_water(molecules)
+    analysis = drude_water.Analysis(system)
+    state = drude_water.equilibrated_state(system, positions, 1.0, equilibration_steps, 7)
+    report = {"molecules": molecules, "picoseconds": picoseconds, "burn_in_ps": burn_ps,
+              "friction_per_ps": args.friction, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
+    os.makedirs(args.out, exist_ok=True)
+    for kind, step_fs, kelvin in peers:
+        label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K"
+        report["peers"][label] = run_peer(system, state, analysis, kind, step_fs, kelvin, args.friction, picoseconds,
+                                          burn_ps)
+        print(label, ", ".join(f"{k} {m:.2f} ± {e:.2f}" for k, (m, e) in report["peers"][label].items()), flush=True)
+        with open(os.path.join(args.out, "temperature_probe.json"), "w") as f:
+            json.dump(report, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

@@ -107,12 +107,17 @@ def exact_temperature(coupling, omega_y, drude_mu=DRUDE_MU):
 
 
 def main():
+    global FRICTION
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "results"))
     parser.add_argument("--r", type=float, default=0.1, help="coupling: fraction of y's stiffness (default 0.1)")
     parser.add_argument("--omega-y", type=float, default=100.0, help="y's frequency Omega in 1/ps (default 100)")
     parser.add_argument("--max-warped-phase", type=float, default=2.05, help="setMaxWarpedPhase (default 2.05)")
+    parser.add_argument("--friction", type=float, default=FRICTION, help="y's friction in 1/ps (default %(default)g)")
     args = parser.parse_args()
+    if not args.friction > 0:
+        parser.error("--friction must be positive (got %g)" % args.friction)
+    FRICTION = args.friction
     coupling = math.sqrt(args.r * DRUDE_MU * DRUDE_OMEGA**2 * MOLECULE_MASS * args.omega_y**2)
     steps = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0]
     exact = exact_temperature(coupling, args.omega_y)
@@ -130,7 +135,7 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "heat_model.json"), "w") as f:
         json.dump(dict(r=args.r, omega_y_per_ps=args.omega_y, max_warped_phase=args.max_warped_phase,
-                       true_temperature_K=exact, rows=rows), f, indent=1)
+                       friction_per_ps=FRICTION, true_temperature_K=exact, rows=rows), f, indent=1)
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     ax.axhline(exact, color="black", label="true dynamics")
     ax.plot(steps, [r["sim"] for r in rows], "o-", color="tab:cyan", label="SIM Warped (friction γ)")
@@ -141,8 +146,8 @@ def main():
     ax.set_xlabel("step H (fs)")
     ax.set_ylabel("temperature of the soft mode (K)")
     ax.set_title(f"Linear model: Drude mode (ω = {DRUDE_OMEGA:g}/ps, 1 K bath at 20/ps) driving a soft mode\n"
-                 f"(Ω = {args.omega_y:g}/ps, 300 K at 5/ps, r = {args.r:g}); ω̃H ≤ {args.max_warped_phase:g}",
-                 fontsize=10)
+                 f"(Ω = {args.omega_y:g}/ps, 300 K at {FRICTION:g}/ps, r = {args.r:g}); "
+                 f"ω̃H ≤ {args.max_warped_phase:g}", fontsize=10)
     ax.legend(fontsize=9)
     fig.tight_layout()
     fig.savefig(os.path.join(args.out, "heat_model.png"), dpi=110)

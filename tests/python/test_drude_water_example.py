@@ -234,3 +234,33 @@ def test_temperature_probe_quick_writes_every_peer(tmp_path):
                                            ("Warped:-1:1", "must be positive")])
 def test_temperature_probe_rejects_a_bad_peer(tmp_path, peer, message):
     conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", peer), message)
+
+
+def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_not_follow_the_friction(tmp_path):
+    """heat_model.py --friction (docs/sim_drude.md section 7): what the scaled SIM leaves is the dressing of the soft
+    mode by a Drude (m - 1) times heavier, a kinetic-energy deficit of (m - 1) r (Omega/omega)^2 of the temperature
+    (to 15 %), about the same at the soft mode's friction 5 and 20/ps; the unscaled SIM's deficit, mostly heat drawn,
+    falls by more than half from 5 to 20/ps."""
+    script = os.path.join(REPO_ROOT, "examples", "drude_water", "heat_model.py")
+    deficits = {}
+    for friction in (5, 20):
+        out = tmp_path / str(friction)
+        result = subprocess.run([sys.executable, script, "--friction", str(friction), "--out", str(out)],
+                                capture_output=True, text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+        assert result.returncode == 0, result.stderr[-3000:]
+        with open(out / "heat_model.json") as f:
+            model = json.load(f)
+        assert model["friction_per_ps"] == friction
+        true = model["true_temperature_K"]
+        dressing = model["r"] * (model["omega_y_per_ps"] / 1036.0)**2 * true
+        for row in model["rows"]:
+            if row["step_fs"] in (2.5, 3.5):
+                predicted = (row["mass_factor"] - 1) * dressing
+                assert abs((true - row["sim_scaled"]) - predicted) < 0.15 * predicted, row
+                deficits[(friction, row["step_fs"])] = (true - row["sim"], true - row["sim_scaled"])
+    for step_fs in (2.5, 3.5):
+        assert deficits[(20, step_fs)][0] < 0.5 * deficits[(5, step_fs)][0]
+        assert deficits[(20, step_fs)][1] > 0.8 * deficits[(5, step_fs)][1]
+    rejected = subprocess.run([sys.executable, script, "--friction", "0", "--out", str(tmp_path)], capture_output=True,
+                              text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert rejected.returncode != 0 and "--friction must be positive" in rejected.stderr

@@ -158,10 +158,11 @@ def sim_kind(kind):
     return kind, middle, limited, scaled
 
 
-def make_integrator(kind, step_fs, seed, drude_friction_scale=1.0):
-    """A peer's integrator; drude_friction_scale multiplies DrudeLangevin's Drude friction (heavier-Drude peers)."""
+def make_integrator(kind, step_fs, seed, drude_friction_scale=1.0, drude_kelvin=1.0):
+    """A peer's integrator; drude_friction_scale multiplies DrudeLangevin's Drude friction (heavier-Drude peers),
+    drude_kelvin is the Drude bath's temperature (DrudeLangevin's drudeTemperature, the SIM's stiff-mode one)."""
     if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy", "DrudeLangevinLeastHeavy"):
-        integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
+        integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, drude_kelvin * unit.kelvin,
                                                     drude_friction_scale * DRUDE_FRICTION_PER_PS / unit.picosecond,
                                                     step_fs * unit.femtosecond)
         if kind == "DrudeLangevinWall":
@@ -183,7 +184,7 @@ def make_integrator(kind, step_fs, seed, drude_friction_scale=1.0):
         integrator.setMaxWarpedPhase(MAX_WARPED_PHASE)
     if scaled:
         integrator.setWarpedFrictionScaling(True)
-    integrator.setStiffModeTemperature(1 * unit.kelvin)
+    integrator.setStiffModeTemperature(drude_kelvin * unit.kelvin)
     integrator.setStiffModeFriction(DRUDE_FRICTION_PER_PS / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
     return integrator
@@ -838,8 +839,7 @@ def cold_hot_pairs(out, pairs, step_fs=2.5, picoseconds=12.0):
         state = equilibrated_state(system, positions, 1.0, 2000, 100 + pair)
         temperatures = {}
         for label, drude_kelvin in (("cold", 1.0), ("hot", 300.0)):
-            integrator = make_integrator("WarpedMiddleScaled", step_fs, 200 + pair)
-            integrator.setStiffModeTemperature(drude_kelvin * unit.kelvin)
+            integrator = make_integrator("WarpedMiddleScaled", step_fs, 200 + pair, drude_kelvin=drude_kelvin)
             context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
             context.setState(state)
             integrator.step(int(round(1000 / step_fs)))

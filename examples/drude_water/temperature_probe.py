@@ -54,12 +54,8 @@ def temperature_classes(analysis, masses, blocks, v):
 
 
 def run_peer(system, state, analysis, kind, step_fs, drude_kelvin, friction, picoseconds, burn_ps):
-    integrator = drude_water.make_integrator(kind, step_fs, 11)
+    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_kelvin=drude_kelvin)
     integrator.setFriction(friction / unit.picosecond)
-    if kind == "DrudeLangevin":
-        integrator.setDrudeTemperature(drude_kelvin * unit.kelvin)
-    else:
-        integrator.setStiffModeTemperature(drude_kelvin * unit.kelvin)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
     integrator.step(int(round(burn_ps * 1000 / step_fs)))

@@ -14,6 +14,15 @@ import pytest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "drude_water", "drude_water.py")
+
+
+def _load(path):
+    """A scene script as a module (its functions, without running main)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(os.path.splitext(os.path.basename(path))[0], path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 OBSERVABLES = ["induced_ratio", "dipole", "pe_per_molecule", "g_oo_peak", "t_com", "t_drude"]
 
 
@@ -95,10 +104,7 @@ def test_step_end_velocity_variance_is_one_minus_omega_h_squared_over_six():
     # The stationary step-end <v^2>/kT of K(h/2) E(h) K(h/2) for a harmonic motion, with the friction in the free flow
     # E, against the closed form 1 - (omega h)^2/6 (friction 5/ps changes it by less than 1e-6 here); and 1 for
     # omega = 0, where the kicks vanish.
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("drude_water", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _load(SCRIPT)
     for omega, h in [(40.0, 0.002), (150.0, 0.0025), (200.0, 0.002)]:
         assert abs(module.step_end_velocity_variance(omega, h) - (1 - (omega * h)**2 / 6)) < 2e-6
     assert abs(module.step_end_velocity_variance(0.0, 0.0025) - 1) < 1e-12
@@ -107,10 +113,7 @@ def test_step_end_velocity_variance_is_one_minus_omega_h_squared_over_six():
 def test_heavy_drudes_have_the_reduced_mass_of_the_phase_limited_sim():
     # DrudeLangevinHeavy's System: every pair keeps its total mass and gets the reduced mass k/omega_d^2 with
     # omega_d = 2 sin(phi/2)/H, k = ONE_4PI_EPS0 q^2/alpha from the DrudeForce; a mass no pair can have is refused.
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("drude_water", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _load(SCRIPT)
     system, _, _, _ = module.build_water(8)
     heavy, mass, ratio = module.heavy_drude_system(system, module.response_frequency(3.5, 2.05))
     drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
@@ -131,10 +134,7 @@ def test_heavy_drudes_have_the_reduced_mass_of_the_phase_limited_sim():
 def test_the_least_heavy_drudes_respond_at_2_over_h_with_the_friction_force_kept():
     # DrudeLangevinLeastHeavy at H: omega_d = 2/H (the phase pi), the Drude friction scaled by the true over the new
     # reduced mass, (omega_d/omega)^2 with omega = sqrt(k/mu); refused where 2/H exceeds omega (below 1.93 fs).
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("drude_water", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _load(SCRIPT)
     system, _, _, _ = module.build_water(8)
     drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
     particle, core, _, _, _, charge, alpha, _, _ = drude.getParticleParameters(0)
@@ -186,12 +186,8 @@ PROBE = os.path.join(REPO_ROOT, "examples", "drude_water", "temperature_probe.py
 
 
 def _temperature_probe_module():
-    import importlib.util
     sys.path.insert(0, os.path.dirname(PROBE))
-    spec = importlib.util.spec_from_file_location("temperature_probe", PROBE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return _load(PROBE)
 
 
 def test_temperature_classes_of_rigidly_translating_molecules_are_all_translational():

@@ -56,53 +56,69 @@ def warped_frequency(omega, gamma, h):
     return 0.5 * (low + high)
 
 
-def warped_mode(h, max_phase, scaled):
+def warped_mode(h, max_phase, scaled, drude_friction=DRUDE_FRICTION):
     """(flow frequency, friction, half kick) of the Drude mode in a Warped step, limited and scaled as asked."""
-    gamma = DRUDE_FRICTION
+    gamma = drude_friction
     for _ in range(20):
         flow = warped_frequency(DRUDE_OMEGA, gamma, h)
         if max_phase:
             flow = min(flow, max_phase / h)
         if not scaled:
             break
-        gamma = DRUDE_FRICTION * (2 * math.sin(flow * h / 2) / (h * DRUDE_OMEGA))**2
+        gamma = drude_friction * (2 * math.sin(flow * h / 2) / (h * DRUDE_OMEGA))**2
     phi, _ = mode_flow(flow, gamma, h)
     # The half kick that keeps the exact mean: h/2 for the warped flow itself.
     kick = np.linalg.det(np.eye(2) - phi) / (2 * DRUDE_OMEGA**2 * phi[0, 1])
     return flow, gamma, kick
 
 
-def sim_temperature(h, coupling, omega_y, max_phase, scaled):
-    """y's stationary temperature under the SIM step (state x, vx, y, vy)."""
+def history_ratio(phi, h):
+    """b2 / b: the weight of the force history's second difference that cancels the Omega^2 error of the Drude's
+    response (docs/sim_drude.md section 8), for a mode flow phi with the exact mean."""
+    trace, det = np.trace(phi), np.linalg.det(phi)
+    return (1 + det) / (2 * (1 + det - trace)) - 1 / (DRUDE_OMEGA * h)**2
+
+
+def sim_temperature(h, coupling, omega_y, max_phase, scaled, history=False):
+    """y's stationary temperature under the SIM step (state x, vx, y, vy and y one and two steps back); with history
+    the opening kick of x adds (b2 / b) times the second difference of its soft force."""
     flow, gamma, a = warped_mode(h, max_phase, scaled)
     phi, noise = mode_flow(flow, gamma, h)
     k_y = MOLECULE_MASS * omega_y**2
 
     def kick(ax, ay):
-        k = np.eye(4)
-        k[1] += ax * np.array([0.0, 0.0, coupling, 0.0]) / DRUDE_MU
-        k[3] += ay * np.array([coupling, 0.0, -k_y, 0.0]) / MOLECULE_MASS
+        k = np.eye(6)
+        k[1] += ax * np.array([0.0, 0.0, coupling, 0.0, 0.0, 0.0]) / DRUDE_MU
+        k[3] += ay * np.array([coupling, 0.0, -k_y, 0.0, 0.0, 0.0]) / MOLECULE_MASS
         return k
-    flows = np.eye(4)
+    weight = 2 * a * coupling / DRUDE_MU * (history_ratio(phi, h) if history else 0.0)
+    correction = np.eye(6)
+    correction[1, 2:] += weight * np.array([1.0, 0.0, -2.0, 1.0])
+    remember = np.eye(6)
+    remember[4:] = 0.0
+    remember[4, 2], remember[5, 4] = 1.0, 1.0
+    flows = np.eye(6)
     flows[:2, :2] = phi
     drift, decay = np.array([[1.0, h / 2], [0.0, 1.0]]), math.exp(-FRICTION * h)
-    flows[2:, 2:] = drift @ np.diag([1.0, decay]) @ drift
-    q = np.zeros((4, 4))
+    flows[2:4, 2:4] = drift @ np.diag([1.0, decay]) @ drift
+    q = np.zeros((6, 6))
     q[:2, :2] = noise * KB * DRUDE_T / DRUDE_MU
-    q[2:, 2:] = drift @ np.diag([0.0, (1 - decay**2) * KB * TEMPERATURE / MOLECULE_MASS]) @ drift.T
+    q[2:4, 2:4] = drift @ np.diag([0.0, (1 - decay**2) * KB * TEMPERATURE / MOLECULE_MASS]) @ drift.T
     # Middle: y takes its full kick at the opening, x half kicks at both ends.
     closing = kick(a, 0.0)
-    step = closing @ flows @ kick(a, h)
+    step = closing @ flows @ remember @ correction @ kick(a, h)
+    if max(abs(np.linalg.eigvals(step))) >= 1:
+        return math.nan, flow
     sigma = sl.solve_discrete_lyapunov(step, closing @ q @ closing.T)
     return MOLECULE_MASS * sigma[3, 3] / KB, flow
 
 
-def exact_temperature(coupling, omega_y, drude_mu=DRUDE_MU):
+def exact_temperature(coupling, omega_y, drude_mu=DRUDE_MU, drude_friction=DRUDE_FRICTION):
     """y's stationary temperature under the true dynamics with a Drude of mass drude_mu and the same spring."""
     k = DRUDE_MU * DRUDE_OMEGA**2
-    a = np.array([[0, 1, 0, 0], [-k / drude_mu, -DRUDE_FRICTION, coupling / drude_mu, 0], [0, 0, 0, 1],
+    a = np.array([[0, 1, 0, 0], [-k / drude_mu, -drude_friction, coupling / drude_mu, 0], [0, 0, 0, 1],
                   [coupling / MOLECULE_MASS, 0, -omega_y**2, -FRICTION]])
-    q = np.diag([0, 2 * DRUDE_FRICTION * KB * DRUDE_T / drude_mu, 0, 2 * FRICTION * KB * TEMPERATURE / MOLECULE_MASS])
+    q = np.diag([0, 2 * drude_friction * KB * DRUDE_T / drude_mu, 0, 2 * FRICTION * KB * TEMPERATURE / MOLECULE_MASS])
     return MOLECULE_MASS * sl.solve_continuous_lyapunov(a, -q)[3, 3] / KB
 
 

@@ -260,3 +260,83 @@ def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_
     rejected = subprocess.run([sys.executable, script, "--friction", "0", "--out", str(tmp_path)], capture_output=True,
                               text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
     assert rejected.returncode != 0 and "--friction must be positive" in rejected.stderr
+
+
+FORCE_HISTORY = os.path.join(REPO_ROOT, "examples", "drude_water", "force_history.py")
+
+
+def _force_history_module():
+    sys.path.insert(0, os.path.dirname(FORCE_HISTORY))
+    return _load(FORCE_HISTORY)
+
+
+@pytest.mark.parametrize("step_fs", [2.5, 3.5])
+def test_the_history_term_makes_the_slow_response_exact_to_omega_squared_and_leads_by_its_cube(step_fs):
+    # docs/sim_drude.md section 8: omega^2 x / f = 1 + (Omega / omega_d)^2 + ... without the term, with
+    # omega_d^2 = 2 (1 + D - T) / ((1 + D) H^2); with it 1 + (Omega / omega)^2 + ..., and the term adds
+    # i (b2 / b) (Omega H)^3 to leading order.  Without friction, whose own O((gamma / omega)^2) terms the expansion
+    # leaves out.
+    module = _force_history_module()
+    h, omega = step_fs * 1e-3, 1036.0
+    trace, det, ratio = module.recurrence(h, scaled=False, drude_friction=1e-9)
+    omega_d2 = 2 * (1 + det - trace) / ((1 + det) * h * h)
+
+    def omega2_coefficient(history):
+        # Richardson on the real part: its error is O(Omega^4).
+        low, high = (module.response(trace, det, ratio, h, w, history).real - 1 for w in (4.0, 8.0))
+        return (16 * low - high) / (12 * 16.0)
+    assert omega2_coefficient(False) == pytest.approx(1 / omega_d2, rel=1e-5)
+    assert omega2_coefficient(True) == pytest.approx(1 / omega**2, rel=1e-5)
+    assert omega_d2 < 0.6 * omega**2
+    field = 10.0
+    lead = (module.response(trace, det, ratio, h, field, True) - module.response(trace, det, ratio, h, field, False))
+    assert lead.imag == pytest.approx(ratio * (field * h)**3, rel=2e-2)
+    assert module.lead_friction(ratio, h, field) == pytest.approx(-ratio * omega**2 * field**2 * h**3)
+
+
+@pytest.mark.parametrize("step_fs", [2.5, 3.0, 3.5, 4.0])
+def test_the_history_term_destabilizes_every_softening_mode_that_the_bath_does_not_damp(step_fs):
+    # To first order in lambda the oscillating roots move by -lambda s^2 (b2 / b) / 2 in modulus (s = 1 + D - T)
+    # from sqrt(D): without friction any lambda < 0 is unstable, with it the edge is -2 (1 - sqrt D) / (s^2 b2 / b).
+    # Without the term the edge on the stiff side is |T - lambda s| = 1 + D.
+    module = _force_history_module()
+    h = step_fs * 1e-3
+    trace, det, ratio = module.recurrence(h, scaled=False, drude_friction=1e-9)
+    s = 1 + det - trace
+    epsilon = 1e-6
+    growth = (module.spectral_radius(trace, det, ratio, -epsilon) - 1) / epsilon
+    assert growth == pytest.approx(s * s * ratio / 2, rel=1e-3)
+    assert module.stable_interval(trace, det, ratio)[0] > -1e-3
+    trace, det, ratio = module.recurrence(h, scaled=False)
+    s = 1 + det - trace
+    low, high = module.stable_interval(trace, det, ratio)
+    assert low == pytest.approx(-2 * (1 - math.sqrt(det)) / (s * s * ratio), rel=0.1)
+    assert module.stable_interval(trace, det, 0.0) == pytest.approx((-1.0, (1 + det + trace) / s), abs=1e-9)
+
+
+def test_force_history_the_lead_heats_the_molecules_and_the_coupling_needs_a_small_phase(tmp_path):
+    """force_history.py: with the friction scaled, the term heats heat_model.py's soft mode as a Drude friction of
+    -(b2 / b) omega^2 Omega^2 H^3 would (to 15 %); stable over SWM4-NDP's lambda only at flow phases below 0.5, where
+    that friction exceeds 1000/ps."""
+    result = subprocess.run([sys.executable, FORCE_HISTORY, "--out", str(tmp_path)], capture_output=True, text=True,
+                            timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "force_history.json") as f:
+        report = json.load(f)
+    true = report["true_temperature_K"]
+    assert [row["step_fs"] for row in report["rows"]] == [2.5, 3.0, 3.5, 4.0]
+    for row in report["rows"]:
+        heating = row["scaled"]["soft_mode_with_history_K"] - true
+        predicted = row["predicted_with_history_K"] - true
+        assert heating > 1.0 and abs(heating - predicted) < 0.15 * predicted, row
+        assert row["scaled"]["soft_mode_K"] < true
+        cover = row["largest_phase_covering"]
+        assert cover["phase"] < 0.5 and cover["lead_friction_per_ps"] < -1000, row
+        assert row["friction_holding_per_ps"] > 25 * 20, row
+    assert (tmp_path / "force_history.png").stat().st_size > 20000
+
+
+def test_force_history_rejects_a_coupling_outside_0_1(tmp_path):
+    result = subprocess.run([sys.executable, FORCE_HISTORY, "--r", "1.5", "--out", str(tmp_path)],
+                            capture_output=True, text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+    assert result.returncode != 0 and "--r must be in (0, 1) (got 1.5)" in result.stderr

@@ -92,11 +92,14 @@ def friction_holding(h, softest, stiffest):
     return high
 
 
-def response(trace, det, ratio, h, omega_field, history=True):
-    """omega^2 times the Drude's response to a unit field of frequency omega_field (1 for a constant field)."""
+def response(trace, det, ratio, h, omega_field, history=True, coupling=0.0):
+    """omega^2 times the Drude's response to a unit field of frequency omega_field (1 for a constant field without
+    coupling), omega the frequency the step's exact mean is set for; coupling: a soft stiffness lambda k along the mode,
+    kicked like the field (an anisotropic remainder, the Drude-Drude coupling)."""
     z = complex(math.cos(omega_field * h), math.sin(omega_field * h))
-    numerator = (1 + det - trace) * (1 + (ratio * (1 - 1 / z)**2 if history else 0))
-    return numerator / (z - trace + det / z)
+    s = 1 + det - trace
+    kick = 1 + (ratio * (1 - 1 / z)**2 if history else 0)
+    return s * kick / (z - trace + det / z + coupling * s * kick)
 
 
 def lead_friction(ratio, h, omega_field=LIBRATION):

@@ -340,3 +340,45 @@ def test_force_history_rejects_a_coupling_outside_0_1(tmp_path):
     result = subprocess.run([sys.executable, FORCE_HISTORY, "--r", "1.5", "--out", str(tmp_path)],
                             capture_output=True, text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
     assert result.returncode != 0 and "--r must be in (0, 1) (got 1.5)" in result.stderr
+
+
+@pytest.mark.parametrize("step_fs", [2.0, 3.0])
+@pytest.mark.parametrize("coupling", [0.40, -0.42])
+def test_an_anisotropic_remainder_left_soft_keeps_the_mean_and_the_isotropic_flows_inertia(step_fs, coupling):
+    # A soft stiffness lambda k along a Drude mode (Drude-2019's anisotropic remainders: -0.42 to +0.40) kicked with
+    # the field, the flow that of the isotropic spring limited to the drude_protein scene's phase 1.77: the static
+    # response is the exact 1/(k (1 + lambda)) and the mass factor (the Omega^2 term against the true
+    # 1/((1 + lambda) omega^2)) the isotropic flow's.  Taken into the flow instead (frequency sqrt(1 + lambda) omega,
+    # its own warped phase, limited alike) the factor is (1 + lambda) omega^2 / omega_d'^2 with omega_d'^2 = s' / H^2:
+    # (1 + lambda) times the soft one where both flows sit at the limit.  No friction, whose O((gamma/omega)^2)
+    # terms the expansion leaves out.
+    module = _force_history_module()
+    heat_model = module.heat_model
+    h, omega, max_phase = step_fs * 1e-3, 1036.0, 1.77
+
+    def flow(frequency):
+        phi, _ = heat_model.mode_flow(min(heat_model.warped_frequency(frequency, 0.0, h), max_phase / h), 0.0, h)
+        return np.trace(phi), np.linalg.det(phi)
+
+    def expansion(trace, det, lam, frequency):
+        # (static response, Omega^2 coefficient relative to it) of omega^2 x / f, Richardson as above.
+        static = module.response(trace, det, 0.0, h, 0.0, False, lam).real / frequency**2
+        low, high = (module.response(trace, det, 0.0, h, w, False, lam).real / frequency**2 / static - 1
+                     for w in (4.0, 8.0))
+        return static, (16 * low - high) / 192
+    isotropic = flow(omega)
+    soft_static, soft_relative = expansion(*isotropic, coupling, omega)
+    _, isotropic_relative = expansion(*isotropic, 0.0, omega)
+    assert soft_static * omega**2 * (1 + coupling) == pytest.approx(1.0, abs=1e-12)
+    soft_mass = soft_relative * (1 + coupling) * omega**2
+    assert soft_mass == pytest.approx(isotropic_relative * omega**2, rel=1e-5)
+    stiff = flow(math.sqrt(1 + coupling) * omega)
+    stiff_static, stiff_relative = expansion(*stiff, 0.0, math.sqrt(1 + coupling) * omega)
+    assert stiff_static * omega**2 * (1 + coupling) == pytest.approx(1.0, abs=1e-12)
+    stiff_mass = stiff_relative * (1 + coupling) * omega**2
+    assert stiff_mass == pytest.approx((1 + coupling) * omega**2 * h * h / (2 - stiff[0]), rel=1e-5)
+    if step_fs == 3.0:
+        # Both flows at the phase limit: the same trace, and the remainder in the flow (1 + lambda) times as heavy.
+        assert stiff[0] == pytest.approx(isotropic[0], abs=1e-12)
+        assert stiff_mass == pytest.approx((1 + coupling) * soft_mass, rel=1e-5)
+    assert (stiff_mass > soft_mass) == (coupling > 0)

@@ -159,8 +159,8 @@ def sim_kind(kind):
 
 
 def make_integrator(kind, step_fs, seed, drude_friction_scale=1.0, drude_kelvin=1.0):
-    """A peer's integrator; drude_friction_scale multiplies DrudeLangevin's Drude friction (heavier-Drude peers),
-    drude_kelvin is the Drude bath's temperature (DrudeLangevin's drudeTemperature, the SIM's stiff-mode one)."""
+    """A peer's integrator; drude_friction_scale multiplies the Drude friction (DrudeLangevin's, the SIM's stiff-mode
+    one), drude_kelvin is the Drude bath's temperature (DrudeLangevin's drudeTemperature, the SIM's stiff-mode one)."""
     if kind in ("DrudeLangevin", "DrudeLangevinWall", "DrudeLangevinHeavy", "DrudeLangevinLeastHeavy"):
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, drude_kelvin * unit.kelvin,
                                                     drude_friction_scale * DRUDE_FRICTION_PER_PS / unit.picosecond,
@@ -185,7 +185,7 @@ def make_integrator(kind, step_fs, seed, drude_friction_scale=1.0, drude_kelvin=
     if scaled:
         integrator.setWarpedFrictionScaling(True)
     integrator.setStiffModeTemperature(drude_kelvin * unit.kelvin)
-    integrator.setStiffModeFriction(DRUDE_FRICTION_PER_PS / unit.picosecond)
+    integrator.setStiffModeFriction(drude_friction_scale * DRUDE_FRICTION_PER_PS / unit.picosecond)
     integrator.setRandomNumberSeed(seed)
     return integrator
 

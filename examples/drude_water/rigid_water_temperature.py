@@ -36,17 +36,19 @@ def main():
     parser.add_argument("--steps", type=float, nargs="+", default=[1.0, 2.0, 3.0, 4.0], help="steps in fs")
     parser.add_argument("--ps", type=float, default=4.0, help="ps sampled per run (default 4)")
     parser.add_argument("--integrators", nargs="+", choices=["LangevinMiddle", "SIM"], default=["LangevinMiddle"])
+    parser.add_argument("--water", choices=["tip3p", "tip4pew"], default="tip3p",
+                        help="tip4pew: with its massless M site, a virtual site as SWM4-NDP's (default tip3p)")
     args = parser.parse_args()
-    forcefield = app.ForceField("amber14/tip3p.xml")
+    forcefield = app.ForceField(f"amber14/{args.water}.xml")
     modeller = app.Modeller(app.Topology(), [])
-    modeller.addSolvent(forcefield, model="tip3p", boxSize=openmm.Vec3(2.17, 2.17, 2.17) * unit.nanometer)
+    modeller.addSolvent(forcefield, model=args.water, boxSize=openmm.Vec3(2.17, 2.17, 2.17) * unit.nanometer)
     system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.PME, nonbondedCutoff=0.8 * unit.nanometer,
                                      rigidWater=True)
     empty = openmm.HarmonicBondForce()
     empty.setForceGroup(1)
     system.addForce(empty)
     masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton) for i in range(system.getNumParticles())])
-    dof = 6 * (system.getNumParticles() // 3) - 3
+    dof = 6 * modeller.topology.getNumResidues() - 3
     platform = openmm.Platform.getPlatformByName("CPU")
     integrator = openmm.LangevinMiddleIntegrator(300, 5, 0.001)
     context = openmm.Context(system, integrator, platform, {"Threads": "1"})

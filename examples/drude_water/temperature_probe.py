@@ -3,10 +3,11 @@
 
 Each peer (KIND:H:DRUDE_K: DrudeLangevin or a drude_water.py SIM kind, its step in fs and the Drude bath's
 temperature in K) runs from one state (drude_water's 2-ps equilibration, seed 7), 1 ps of burn-in and --ps
-picoseconds sampled every 10 fs, with the molecules' friction --friction (1/ps).  Per peer, mean ± standard error of 20 block means: T_COM as drude_water
-reports it (the Drude pairs' centres of mass and the hydrogens, 6 degrees of freedom per rigid molecule), its
-translational and rotational parts, and the Drudes' temperature.  Writes temperature_probe.json to --out and prints
-each peer as it finishes (progress every tenth of a run).
+picoseconds sampled every 10 fs, with the molecules' friction --friction and the Drude bath's --drude-friction (1/ps);
+--neutral-drudes (diagnostic) switches the Drude pairs' charges off.  Per peer, mean ± standard error of 20 block
+means: T_COM as drude_water reports it (the Drude pairs' centres of mass and the hydrogens, 6 degrees of freedom per
+rigid molecule), its translational and rotational parts, and the Drudes' temperature.  Writes temperature_probe.json
+to --out and prints each peer as it finishes (progress every tenth of a run).
 """
 
 import argparse
@@ -53,8 +54,31 @@ def temperature_classes(analysis, masses, blocks, v):
             2 * (total - translational) / (3 * molecules * drude_water.BOLTZ), t_drude)
 
 
-def run_peer(system, state, analysis, kind, step_fs, drude_kelvin, friction, picoseconds, burn_ps):
-    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_kelvin=drude_kelvin)
+def neutral_drudes(system):
+    """Diagnostic: the Drude pairs' charges off in the NonbondedForce (each pair is neutral in SWM4-NDP, so the
+    System stays neutral), springs, masses and constraints kept: a Drude is then a neutral mass on its core's spring,
+    which no field moves."""
+    drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
+    nonbonded = next(f for f in system.getForces() if isinstance(f, openmm.NonbondedForce))
+    paired = set()
+    for i in range(drude.getNumParticles()):
+        particle, core = drude.getParticleParameters(i)[:2]
+        paired.update((particle, core))
+    if abs(sum(nonbonded.getParticleParameters(p)[0].value_in_unit(unit.elementary_charge) for p in paired)) > 1e-9:
+        raise ValueError("the Drude pairs are not neutral")
+    for p in paired:
+        _, sigma, epsilon = nonbonded.getParticleParameters(p)
+        nonbonded.setParticleParameters(p, 0.0, sigma, epsilon)
+    for i in range(nonbonded.getNumExceptions()):
+        a, b, _, sigma, epsilon = nonbonded.getExceptionParameters(i)
+        if a in paired or b in paired:
+            nonbonded.setExceptionParameters(i, a, b, 0.0, sigma, epsilon)
+
+
+def run_peer(system, state, analysis, kind, step_fs, drude_kelvin, friction, picoseconds, burn_ps,
+             drude_friction=drude_water.DRUDE_FRICTION_PER_PS):
+    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_kelvin=drude_kelvin,
+                                             drude_friction_scale=drude_friction / drude_water.DRUDE_FRICTION_PER_PS)
     integrator.setFriction(friction / unit.picosecond)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
@@ -88,7 +112,11 @@ def main():
                         help="e.g. DrudeLangevin:1:1 WarpedMiddleLimitedScaled:2.5:1 WarpedMiddleLimitedScaled:2.5:300")
     parser.add_argument("--ps", type=float, default=200.0, help="picoseconds sampled per peer (default 200)")
     parser.add_argument("--friction", type=float, default=5.0, help="the molecules' friction, 1/ps (default 5)")
+    parser.add_argument("--drude-friction", type=float, default=drude_water.DRUDE_FRICTION_PER_PS,
+                        help="the Drude bath's friction, 1/ps (default %(default)g)")
     parser.add_argument("--out", default=".", help="folder for temperature_probe.json (default .)")
+    parser.add_argument("--neutral-drudes", action="store_true", help="diagnostic: the Drude pairs' charges off "
+                        "(neutral_drudes), so that no field drives the Drudes")
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 125 molecules, "
                         "0.05 ps of equilibration and burn-in, 0.2 ps sampled")
     args = parser.parse_args()
@@ -100,18 +128,23 @@ def main():
         parser.error("--ps must be positive (got %g)" % args.ps)
     if not args.friction > 0:
         parser.error("--friction must be positive (got %g)" % args.friction)
+    if not args.drude_friction > 0:
+        parser.error("--drude-friction must be positive (got %g)" % args.drude_friction)
     molecules, equilibration_steps, burn_ps = (125, 50, 0.05) if args.quick else (256, 2000, 1.0)
     picoseconds = 0.2 if args.quick else args.ps
     system, _, positions, _ = drude_water.build_water(molecules)
+    if args.neutral_drudes:
+        neutral_drudes(system)
     analysis = drude_water.Analysis(system)
     state = drude_water.equilibrated_state(system, positions, 1.0, equilibration_steps, 7)
     report = {"molecules": molecules, "picoseconds": picoseconds, "burn_in_ps": burn_ps,
-              "friction_per_ps": args.friction, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
+              "neutral_drudes": args.neutral_drudes,
+              "friction_per_ps": args.friction, "drude_friction_per_ps": args.drude_friction, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
     os.makedirs(args.out, exist_ok=True)
     for kind, step_fs, kelvin in peers:
         label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K"
         report["peers"][label] = run_peer(system, state, analysis, kind, step_fs, kelvin, args.friction, picoseconds,
-                                          burn_ps)
+                                          burn_ps, args.drude_friction)
         print(label, ", ".join(f"{k} {m:.2f} ± {e:.2f}" for k, (m, e) in report["peers"][label].items()), flush=True)
         with open(os.path.join(args.out, "temperature_probe.json"), "w") as f:
             json.dump(report, f, indent=1)

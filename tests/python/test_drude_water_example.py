@@ -224,12 +224,43 @@ def test_temperature_probe_quick_writes_every_peer(tmp_path):
     assert report["peers"]["WarpedMiddleLimitedScaled_2.5fs_Drudes300K"]["t_drude"][0] > 100
 
 
+def test_neutral_drudes_leave_no_field_on_the_drude_particles():
+    # After neutral_drudes the nonbonded forces on every Drude particle vanish (no charge, no Lennard-Jones), the
+    # System's charge is unchanged and the Drude springs are untouched.
+    module = _temperature_probe_module()
+    system, _, positions, _ = module.drude_water.build_water(8)
+    nonbonded = next(f for f in system.getForces() if isinstance(f, openmm.NonbondedForce))
+    drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
+
+    def total_charge():
+        return sum(nonbonded.getParticleParameters(i)[0].value_in_unit(unit.elementary_charge)
+                   for i in range(system.getNumParticles()))
+    before = total_charge()
+    springs = [drude.getParticleParameters(i) for i in range(drude.getNumParticles())]
+    module.neutral_drudes(system)
+    assert total_charge() == pytest.approx(before, abs=1e-12)
+    assert [drude.getParticleParameters(i) for i in range(drude.getNumParticles())] == springs
+    context = openmm.Context(system, openmm.VerletIntegrator(0.001), openmm.Platform.getPlatformByName("Reference"))
+    context.setPositions(positions)
+    context.computeVirtualSites()
+    forces = context.getState(getForces=True, groups={0}).getForces(asNumpy=True).value_in_unit(
+        unit.kilojoule_per_mole / unit.nanometer)
+    particles = [drude.getParticleParameters(i)[0] for i in range(drude.getNumParticles())]
+    assert np.abs(forces[particles]).max() < 1e-9
+    assert np.abs(forces).max() > 1.0
+
+
 @pytest.mark.parametrize("peer, message", [("Warped:2.5", "expected KIND:H:DRUDE_K"),
                                            ("Verlet:2.5:1", "unknown kind 'Verlet'"),
                                            ("DrudeLangevinWall:1:1", "unknown kind"),
                                            ("Warped:-1:1", "must be positive")])
 def test_temperature_probe_rejects_a_bad_peer(tmp_path, peer, message):
     conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", peer), message)
+
+
+def test_temperature_probe_rejects_a_drude_friction_that_is_not_positive(tmp_path):
+    conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", "DrudeLangevin:1:1", "--drude-friction", "0"),
+                                "--drude-friction must be positive (got 0)")
 
 
 def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_not_follow_the_friction(tmp_path):

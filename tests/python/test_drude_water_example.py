@@ -14,6 +14,7 @@ import pytest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "drude_water", "drude_water.py")
+HEAT_MODEL = os.path.join(REPO_ROOT, "examples", "drude_water", "heat_model.py")
 
 
 def _load(path):
@@ -23,6 +24,20 @@ def _load(path):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+def _run_analysis(script, out, *arguments):
+    """An analysis script (one without --quick) run with the arguments and --out OUT in a child process."""
+    return subprocess.run([sys.executable, script, *arguments, "--out", str(out)], capture_output=True, text=True,
+                          timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+
+
+def _analysis_report(script, out, *arguments):
+    """The JSON report that the analysis script writes to OUT (named after the script)."""
+    result = _run_analysis(script, out, *arguments)
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(os.path.join(out, os.path.splitext(os.path.basename(script))[0] + ".json")) as f:
+        return json.load(f)
+
+
 OBSERVABLES = ["induced_ratio", "dipole", "pe_per_molecule", "g_oo_peak", "t_com", "t_drude"]
 
 
@@ -168,12 +183,7 @@ def test_heat_model_the_sims_cooling_is_a_heavier_drudes_and_scaling_removes_mos
     """heat_model.py's exact stationary temperatures (docs/sim_drude.md section 7): the SIM's soft mode within 0.3 K
     of the true dynamics with a (omega/omega_d)^2-heavier Drude at every step, the scaled SIM at least 70 % closer to
     the true dynamics than the unscaled one."""
-    script = os.path.join(REPO_ROOT, "examples", "drude_water", "heat_model.py")
-    result = subprocess.run([sys.executable, script, "--out", str(tmp_path)], capture_output=True, text=True,
-                            timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
-    assert result.returncode == 0, result.stderr[-3000:]
-    with open(tmp_path / "heat_model.json") as f:
-        model = json.load(f)
+    model = _analysis_report(HEAT_MODEL, tmp_path)
     true = model["true_temperature_K"]
     assert len(model["rows"]) == 7
     for row in model["rows"]:
@@ -268,15 +278,10 @@ def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_
     mode by a Drude (m - 1) times heavier, a kinetic-energy deficit of (m - 1) r (Omega/omega)^2 of the temperature
     (to 15 %), about the same at the soft mode's friction 5 and 20/ps; the unscaled SIM's deficit, mostly heat drawn,
     falls by more than half from 5 to 20/ps."""
-    script = os.path.join(REPO_ROOT, "examples", "drude_water", "heat_model.py")
     deficits = {}
     for friction in (5, 20):
         out = tmp_path / str(friction)
-        result = subprocess.run([sys.executable, script, "--friction", str(friction), "--out", str(out)],
-                                capture_output=True, text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
-        assert result.returncode == 0, result.stderr[-3000:]
-        with open(out / "heat_model.json") as f:
-            model = json.load(f)
+        model = _analysis_report(HEAT_MODEL, out, "--friction", str(friction))
         assert model["friction_per_ps"] == friction
         true = model["true_temperature_K"]
         dressing = model["r"] * (model["omega_y_per_ps"] / 1036.0)**2 * true
@@ -288,8 +293,7 @@ def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_
     for step_fs in (2.5, 3.5):
         assert deficits[(20, step_fs)][0] < 0.5 * deficits[(5, step_fs)][0]
         assert deficits[(20, step_fs)][1] > 0.8 * deficits[(5, step_fs)][1]
-    rejected = subprocess.run([sys.executable, script, "--friction", "0", "--out", str(tmp_path)], capture_output=True,
-                              text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+    rejected = _run_analysis(HEAT_MODEL, tmp_path, "--friction", "0")
     assert rejected.returncode != 0 and "--friction must be positive" in rejected.stderr
 
 
@@ -349,11 +353,7 @@ def test_force_history_the_lead_heats_the_molecules_and_the_coupling_needs_a_sma
     """force_history.py: with the friction scaled, the term heats heat_model.py's soft mode as a Drude friction of
     -(b2 / b) omega^2 Omega^2 H^3 would (to 15 %); stable over SWM4-NDP's lambda only at flow phases below 0.5, where
     that friction exceeds 1000/ps."""
-    result = subprocess.run([sys.executable, FORCE_HISTORY, "--out", str(tmp_path)], capture_output=True, text=True,
-                            timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
-    assert result.returncode == 0, result.stderr[-3000:]
-    with open(tmp_path / "force_history.json") as f:
-        report = json.load(f)
+    report = _analysis_report(FORCE_HISTORY, tmp_path)
     true = report["true_temperature_K"]
     assert [row["step_fs"] for row in report["rows"]] == [2.5, 3.0, 3.5, 4.0]
     for row in report["rows"]:
@@ -368,8 +368,7 @@ def test_force_history_the_lead_heats_the_molecules_and_the_coupling_needs_a_sma
 
 
 def test_force_history_rejects_a_coupling_outside_0_1(tmp_path):
-    result = subprocess.run([sys.executable, FORCE_HISTORY, "--r", "1.5", "--out", str(tmp_path)],
-                            capture_output=True, text=True, timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
+    result = _run_analysis(FORCE_HISTORY, tmp_path, "--r", "1.5")
     assert result.returncode != 0 and "--r must be in (0, 1) (got 1.5)" in result.stderr
 
 

@@ -7,7 +7,9 @@ equilibrated state, the kinetic temperature of the molecules (6 N - 3 degrees of
 mean over the runs ± its standard error.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/rigid_water_temperature.py [--steps 1 2 3 4] \\
-        [--ps 4] [--integrators LangevinMiddle SIM]
+        [--ps 4] [--integrators LangevinMiddle SIM] [--water tip4pew]
+
+--water tip4pew takes TIP4P-Ew instead, whose massless M site is a virtual site as SWM4-NDP's is.
 """
 import argparse
 

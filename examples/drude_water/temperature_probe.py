@@ -4,10 +4,11 @@
 Each peer (KIND:H:DRUDE_K: DrudeLangevin or a drude_water.py SIM kind, its step in fs and the Drude bath's
 temperature in K) runs from one state (drude_water's 2-ps equilibration, seed 7), 1 ps of burn-in and --ps
 picoseconds sampled every 10 fs, with the molecules' friction --friction and the Drude bath's --drude-friction (1/ps);
---neutral-drudes (diagnostic) switches the Drude pairs' charges off.  Per peer, mean ± standard error of 20 block
-means: T_COM as drude_water reports it (the Drude pairs' centres of mass and the hydrogens, 6 degrees of freedom per
-rigid molecule), its translational and rotational parts, and the Drudes' temperature.  Writes temperature_probe.json
-to --out and prints each peer as it finishes (progress every tenth of a run).
+--neutral-drudes (diagnostic) switches the Drude pairs' charges off, --max-warped-phase sets the ...Limited kinds'
+phase limit.  Per peer, mean ± standard error of 20 block means: T_COM as drude_water reports it (the Drude pairs'
+centres of mass and the hydrogens, 6 degrees of freedom per rigid molecule), its translational and rotational parts,
+and the Drudes' temperature.  Writes temperature_probe.json to --out and prints each peer as it finishes (progress
+every tenth of a run).
 """
 
 import argparse
@@ -114,6 +115,8 @@ def main():
     parser.add_argument("--friction", type=float, default=5.0, help="the molecules' friction, 1/ps (default 5)")
     parser.add_argument("--drude-friction", type=float, default=drude_water.DRUDE_FRICTION_PER_PS,
                         help="the Drude bath's friction, 1/ps (default %(default)g)")
+    parser.add_argument("--max-warped-phase", type=float, default=drude_water.MAX_WARPED_PHASE,
+                        help="the ...Limited kinds' setMaxWarpedPhase, radians (default %(default)g)")
     parser.add_argument("--out", default=".", help="folder for temperature_probe.json (default .)")
     parser.add_argument("--neutral-drudes", action="store_true", help="diagnostic: the Drude pairs' charges off "
                         "(neutral_drudes), so that no field drives the Drudes")
@@ -130,6 +133,9 @@ def main():
         parser.error("--friction must be positive (got %g)" % args.friction)
     if not args.drude_friction > 0:
         parser.error("--drude-friction must be positive (got %g)" % args.drude_friction)
+    if not 0 < args.max_warped_phase < math.pi:
+        parser.error("--max-warped-phase must be in (0, pi) (got %g)" % args.max_warped_phase)
+    drude_water.MAX_WARPED_PHASE = args.max_warped_phase
     molecules, equilibration_steps, burn_ps = (125, 50, 0.05) if args.quick else (256, 2000, 1.0)
     picoseconds = 0.2 if args.quick else args.ps
     system, _, positions, _ = drude_water.build_water(molecules)
@@ -139,7 +145,8 @@ def main():
     state = drude_water.equilibrated_state(system, positions, 1.0, equilibration_steps, 7)
     report = {"molecules": molecules, "picoseconds": picoseconds, "burn_in_ps": burn_ps,
               "neutral_drudes": args.neutral_drudes,
-              "friction_per_ps": args.friction, "drude_friction_per_ps": args.drude_friction, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
+              "friction_per_ps": args.friction, "drude_friction_per_ps": args.drude_friction,
+              "max_warped_phase": args.max_warped_phase, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
     os.makedirs(args.out, exist_ok=True)
     for kind, step_fs, kelvin in peers:
         label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K"

@@ -268,9 +268,11 @@ def test_temperature_probe_rejects_a_bad_peer(tmp_path, peer, message):
     conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", peer), message)
 
 
-def test_temperature_probe_rejects_a_drude_friction_that_is_not_positive(tmp_path):
-    conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", "DrudeLangevin:1:1", "--drude-friction", "0"),
-                                "--drude-friction must be positive (got 0)")
+@pytest.mark.parametrize("option, value, message", [("--drude-friction", "0", "--drude-friction must be positive"),
+                                                    ("--max-warped-phase", "3.5", "--max-warped-phase must be in (0, pi)")])
+def test_temperature_probe_rejects_a_bad_setting(tmp_path, option, value, message):
+    conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", "DrudeLangevin:1:1", option, value),
+                                f"{message} (got {value})")
 
 
 def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_not_follow_the_friction(tmp_path):

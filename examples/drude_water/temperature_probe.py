@@ -5,10 +5,11 @@ Each peer (KIND:H:DRUDE_K: DrudeLangevin or a drude_water.py SIM kind, its step 
 temperature in K) runs from one state (drude_water's 2-ps equilibration, seed 7), 1 ps of burn-in and --ps
 picoseconds sampled every 10 fs, with the molecules' friction --friction and the Drude bath's --drude-friction (1/ps);
 --neutral-drudes (diagnostic) switches the Drude pairs' charges off, --max-warped-phase sets the ...Limited kinds'
-phase limit.  Per peer, mean ± standard error of 20 block means: T_COM as drude_water reports it (the Drude pairs'
-centres of mass and the hydrogens, 6 degrees of freedom per rigid molecule), its translational and rotational parts,
-and the Drudes' temperature.  Writes temperature_probe.json to --out and prints each peer as it finishes (progress
-every tenth of a run).
+phase limit, --twin-of H:PHASE runs the DrudeLangevin peers on Drude particles as heavy as that SIM step makes them.
+Per peer, mean ± standard error of 20 block means: T_COM as drude_water reports it (the Drude pairs' centres of mass
+and the hydrogens, 6 degrees of freedom per rigid molecule), its translational and rotational parts, and the Drudes'
+temperature.  Writes temperature_probe.json to --out and prints each peer as it finishes (progress every tenth of a
+run).
 """
 
 import argparse
@@ -77,9 +78,10 @@ def neutral_drudes(system):
 
 
 def run_peer(system, state, analysis, kind, step_fs, drude_kelvin, friction, picoseconds, burn_ps,
-             drude_friction=drude_water.DRUDE_FRICTION_PER_PS):
-    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_kelvin=drude_kelvin,
-                                             drude_friction_scale=drude_friction / drude_water.DRUDE_FRICTION_PER_PS)
+             drude_friction=drude_water.DRUDE_FRICTION_PER_PS, friction_scale=1.0):
+    integrator = drude_water.make_integrator(
+        kind, step_fs, 11, drude_kelvin=drude_kelvin,
+        drude_friction_scale=friction_scale * drude_friction / drude_water.DRUDE_FRICTION_PER_PS)
     integrator.setFriction(friction / unit.picosecond)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
@@ -117,6 +119,9 @@ def main():
                         help="the Drude bath's friction, 1/ps (default %(default)g)")
     parser.add_argument("--max-warped-phase", type=float, default=drude_water.MAX_WARPED_PHASE,
                         help="the ...Limited kinds' setMaxWarpedPhase, radians (default %(default)g)")
+    parser.add_argument("--twin-of", metavar="H:PHASE", help="DrudeLangevin peers on Drude particles as heavy as a "
+                        "SIM step H (fs) that flows the Drude by PHASE makes them act, their friction scaled as "
+                        "setWarpedFrictionScaling scales the SIM's (drude_water.heavy_drude_system)")
     parser.add_argument("--out", default=".", help="folder for temperature_probe.json (default .)")
     parser.add_argument("--neutral-drudes", action="store_true", help="diagnostic: the Drude pairs' charges off "
                         "(neutral_drudes), so that no field drives the Drudes")
@@ -136,22 +141,41 @@ def main():
     if not 0 < args.max_warped_phase < math.pi:
         parser.error("--max-warped-phase must be in (0, pi) (got %g)" % args.max_warped_phase)
     drude_water.MAX_WARPED_PHASE = args.max_warped_phase
+    twin = None
+    if args.twin_of:
+        try:
+            twin_step, twin_phase = (float(x) for x in args.twin_of.split(":"))
+        except ValueError:
+            parser.error(f"--twin-of {args.twin_of!r}: expected H:PHASE, e.g. 2.5:1.0")
+        if not twin_step > 0 or not 0 < twin_phase <= math.pi:
+            parser.error(f"--twin-of {args.twin_of!r}: H must be positive and PHASE in (0, pi]")
     molecules, equilibration_steps, burn_ps = (125, 50, 0.05) if args.quick else (256, 2000, 1.0)
     picoseconds = 0.2 if args.quick else args.ps
     system, _, positions, _ = drude_water.build_water(molecules)
     if args.neutral_drudes:
         neutral_drudes(system)
     analysis = drude_water.Analysis(system)
+    if args.twin_of:
+        heavy, mass, ratio = drude_water.heavy_drude_system(
+            system, drude_water.response_frequency(twin_step, twin_phase))
+        twin = (heavy, drude_water.Analysis(heavy), ratio)
     state = drude_water.equilibrated_state(system, positions, 1.0, equilibration_steps, 7)
     report = {"molecules": molecules, "picoseconds": picoseconds, "burn_in_ps": burn_ps,
               "neutral_drudes": args.neutral_drudes,
               "friction_per_ps": args.friction, "drude_friction_per_ps": args.drude_friction,
               "max_warped_phase": args.max_warped_phase, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
     os.makedirs(args.out, exist_ok=True)
+    if twin:
+        report["twin_of"], report["twin_drude_mass_amu"] = args.twin_of, mass
     for kind, step_fs, kelvin in peers:
         label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K"
-        report["peers"][label] = run_peer(system, state, analysis, kind, step_fs, kelvin, args.friction, picoseconds,
-                                          burn_ps, args.drude_friction)
+        if twin and kind == "DrudeLangevin":
+            label += "_twin"
+            report["peers"][label] = run_peer(twin[0], state, twin[1], kind, step_fs, kelvin, args.friction,
+                                              picoseconds, burn_ps, args.drude_friction, twin[2])
+        else:
+            report["peers"][label] = run_peer(system, state, analysis, kind, step_fs, kelvin, args.friction,
+                                              picoseconds, burn_ps, args.drude_friction)
         print(label, ", ".join(f"{k} {m:.2f} ± {e:.2f}" for k, (m, e) in report["peers"][label].items()), flush=True)
         with open(os.path.join(args.out, "temperature_probe.json"), "w") as f:
             json.dump(report, f, indent=1)

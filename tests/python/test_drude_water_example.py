@@ -268,11 +268,32 @@ def test_temperature_probe_rejects_a_bad_peer(tmp_path, peer, message):
     conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", peer), message)
 
 
-@pytest.mark.parametrize("option, value, message", [("--drude-friction", "0", "--drude-friction must be positive"),
-                                                    ("--max-warped-phase", "3.5", "--max-warped-phase must be in (0, pi)")])
+def test_temperature_probe_runs_a_heavier_drude_twin_on_its_own_masses(tmp_path):
+    # The twin of a SIM step that flows the Drude by 1 rad at 2.5 fs: Drude particles (2.59 / (2 sin 0.5))^2 times
+    # the reduced mass, the twin's temperatures from its own masses (a 1-K Drude bath holds its Drudes cold).
+    result = conftest.run_quick(PROBE, tmp_path, timeout=300, extra=("--peers", "DrudeLangevin:1:1", "--twin-of",
+                                                                     "2.5:1.0"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "temperature_probe.json") as f:
+        report = json.load(f)
+    assert list(report["peers"]) == ["DrudeLangevin_1fs_Drudes1K_twin"] and report["twin_of"] == "2.5:1.0"
+    module = _temperature_probe_module()
+    system, _, _, _ = module.drude_water.build_water(8)
+    _, mass, ratio = module.drude_water.heavy_drude_system(system, module.drude_water.response_frequency(2.5, 1.0))
+    assert report["twin_drude_mass_amu"] == pytest.approx(mass)
+    assert 1 / ratio == pytest.approx((1036.0 * 2.5e-3 / (2 * math.sin(0.5)))**2, rel=2e-3)
+    peer = report["peers"]["DrudeLangevin_1fs_Drudes1K_twin"]
+    assert all(math.isfinite(peer[name][0]) for name in ("t_com", "t_translational", "t_rotational"))
+    assert peer["t_drude"][0] < 50
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("--drude-friction", "0", "--drude-friction must be positive (got 0)"),
+    ("--max-warped-phase", "3.5", "--max-warped-phase must be in (0, pi) (got 3.5)"),
+    ("--twin-of", "2.5", "--twin-of '2.5': expected H:PHASE"),
+    ("--twin-of", "2.5:4", "--twin-of '2.5:4': H must be positive and PHASE in (0, pi]")])
 def test_temperature_probe_rejects_a_bad_setting(tmp_path, option, value, message):
-    conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", "DrudeLangevin:1:1", option, value),
-                                f"{message} (got {value})")
+    conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", "DrudeLangevin:1:1", option, value), message)
 
 
 def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_not_follow_the_friction(tmp_path):

@@ -43,6 +43,18 @@ def parse_peer(text):
     return kind, step, kelvin
 
 
+def parse_twin(text):
+    """"H:PHASE" -> (step in fs, phase in rad) of the SIM step whose heavier-acting Drude a twin copies; ValueError
+    naming what is wrong."""
+    try:
+        step, phase = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise ValueError(f"--twin-of {text!r}: expected H:PHASE, e.g. 2.5:1.0") from None
+    if not step > 0 or not 0 < phase <= math.pi:
+        raise ValueError(f"--twin-of {text!r}: H must be positive and PHASE in (0, pi]")
+    return step, phase
+
+
 def temperature_classes(analysis, masses, blocks, v):
     """(T_COM, translational, rotational, Drude) temperatures of one frame of velocities (nm/ps)."""
     t_com, t_drude = analysis.temperatures(v)
@@ -141,41 +153,34 @@ def main():
     if not 0 < args.max_warped_phase < math.pi:
         parser.error("--max-warped-phase must be in (0, pi) (got %g)" % args.max_warped_phase)
     drude_water.MAX_WARPED_PHASE = args.max_warped_phase
-    twin = None
-    if args.twin_of:
-        try:
-            twin_step, twin_phase = (float(x) for x in args.twin_of.split(":"))
-        except ValueError:
-            parser.error(f"--twin-of {args.twin_of!r}: expected H:PHASE, e.g. 2.5:1.0")
-        if not twin_step > 0 or not 0 < twin_phase <= math.pi:
-            parser.error(f"--twin-of {args.twin_of!r}: H must be positive and PHASE in (0, pi]")
+    try:
+        twin_of = parse_twin(args.twin_of) if args.twin_of else None
+    except ValueError as error:
+        parser.error(str(error))
     molecules, equilibration_steps, burn_ps = (125, 50, 0.05) if args.quick else (256, 2000, 1.0)
     picoseconds = 0.2 if args.quick else args.ps
     system, _, positions, _ = drude_water.build_water(molecules)
     if args.neutral_drudes:
         neutral_drudes(system)
-    analysis = drude_water.Analysis(system)
-    if args.twin_of:
-        heavy, mass, ratio = drude_water.heavy_drude_system(
-            system, drude_water.response_frequency(twin_step, twin_phase))
-        twin = (heavy, drude_water.Analysis(heavy), ratio)
+    # What each kind runs on: (System, its Analysis, Drude friction scale, label suffix).
+    runs_on = {"SIM": (system, drude_water.Analysis(system), 1.0, "")}
+    runs_on["DrudeLangevin"] = runs_on["SIM"]
+    if twin_of:
+        heavy, mass, ratio = drude_water.heavy_drude_system(system, drude_water.response_frequency(*twin_of))
+        runs_on["DrudeLangevin"] = (heavy, drude_water.Analysis(heavy), ratio, "_twin")
     state = drude_water.equilibrated_state(system, positions, 1.0, equilibration_steps, 7)
     report = {"molecules": molecules, "picoseconds": picoseconds, "burn_in_ps": burn_ps,
               "neutral_drudes": args.neutral_drudes,
               "friction_per_ps": args.friction, "drude_friction_per_ps": args.drude_friction,
               "max_warped_phase": args.max_warped_phase, "blocks": BLOCKS, "quick": args.quick, "peers": {}}
     os.makedirs(args.out, exist_ok=True)
-    if twin:
+    if twin_of:
         report["twin_of"], report["twin_drude_mass_amu"] = args.twin_of, mass
     for kind, step_fs, kelvin in peers:
-        label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K"
-        if twin and kind == "DrudeLangevin":
-            label += "_twin"
-            report["peers"][label] = run_peer(twin[0], state, twin[1], kind, step_fs, kelvin, args.friction,
-                                              picoseconds, burn_ps, args.drude_friction, twin[2])
-        else:
-            report["peers"][label] = run_peer(system, state, analysis, kind, step_fs, kelvin, args.friction,
-                                              picoseconds, burn_ps, args.drude_friction)
+        peer_system, analysis, friction_scale, suffix = runs_on["DrudeLangevin" if kind == "DrudeLangevin" else "SIM"]
+        label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K{suffix}"
+        report["peers"][label] = run_peer(peer_system, state, analysis, kind, step_fs, kelvin, args.friction,
+                                          picoseconds, burn_ps, args.drude_friction, friction_scale)
         print(label, ", ".join(f"{k} {m:.2f} ± {e:.2f}" for k, (m, e) in report["peers"][label].items()), flush=True)
         with open(os.path.join(args.out, "temperature_probe.json"), "w") as f:
             json.dump(report, f, indent=1)

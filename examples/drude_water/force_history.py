@@ -118,13 +118,14 @@ def phase_scan(h):
     return scan
 
 
-def rows(coupling_r):
-    coupling = math.sqrt(coupling_r * heat_model.DRUDE_MU * heat_model.DRUDE_OMEGA**2 * heat_model.MOLECULE_MASS
+def rows(r):
+    # heat_model.py's bilinear coupling c of the Drude mode to the soft mode, from r = c^2 / (k M Omega^2).
+    bilinear = math.sqrt(r * heat_model.DRUDE_MU * heat_model.DRUDE_OMEGA**2 * heat_model.MOLECULE_MASS
                          * LIBRATION**2)
-    true = heat_model.exact_temperature(coupling, LIBRATION)
+    true = heat_model.exact_temperature(bilinear, LIBRATION)
     # dT/dgamma of the true dynamics: what a Drude friction changed by the lead would do to the soft mode.
-    slope = (heat_model.exact_temperature(coupling, LIBRATION, drude_friction=25.0)
-             - heat_model.exact_temperature(coupling, LIBRATION, drude_friction=15.0)) / 10.0
+    slope = (heat_model.exact_temperature(bilinear, LIBRATION, drude_friction=25.0)
+             - heat_model.exact_temperature(bilinear, LIBRATION, drude_friction=15.0)) / 10.0
     table = []
     for step_fs in STEPS_FS:
         h = step_fs * 1e-3
@@ -134,8 +135,8 @@ def rows(coupling_r):
             name = "scaled" if scaled else "unscaled"
             row[name] = dict(history_ratio=ratio, stable_with_history=stable_interval(trace, det, ratio),
                              stable_without=stable_interval(trace, det, 0.0),
-                             soft_mode_K=heat_model.sim_temperature(h, coupling, LIBRATION, MAX_PHASE, scaled)[0],
-                             soft_mode_with_history_K=heat_model.sim_temperature(h, coupling, LIBRATION, MAX_PHASE,
+                             soft_mode_K=heat_model.sim_temperature(h, bilinear, LIBRATION, MAX_PHASE, scaled)[0],
+                             soft_mode_with_history_K=heat_model.sim_temperature(h, bilinear, LIBRATION, MAX_PHASE,
                                                                                  scaled, history=True)[0])
         ratio = row["scaled"]["history_ratio"]
         row["lead_friction_per_ps"] = lead_friction(ratio, h)

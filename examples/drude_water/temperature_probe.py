@@ -90,10 +90,9 @@ def neutral_drudes(system):
 
 
 def run_peer(system, state, analysis, kind, step_fs, drude_kelvin, friction, picoseconds, burn_ps,
-             drude_friction=drude_water.DRUDE_FRICTION_PER_PS, friction_scale=1.0):
-    integrator = drude_water.make_integrator(
-        kind, step_fs, 11, drude_kelvin=drude_kelvin,
-        drude_friction_scale=friction_scale * drude_friction / drude_water.DRUDE_FRICTION_PER_PS)
+             drude_friction_scale=1.0):
+    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_kelvin=drude_kelvin,
+                                             drude_friction_scale=drude_friction_scale)
     integrator.setFriction(friction / unit.picosecond)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
     context.setState(state)
@@ -179,8 +178,9 @@ def main():
     for kind, step_fs, kelvin in peers:
         peer_system, analysis, friction_scale, suffix = runs_on["DrudeLangevin" if kind == "DrudeLangevin" else "SIM"]
         label = f"{kind}_{step_fs:g}fs_Drudes{kelvin:g}K{suffix}"
-        report["peers"][label] = run_peer(peer_system, state, analysis, kind, step_fs, kelvin, args.friction,
-                                          picoseconds, burn_ps, args.drude_friction, friction_scale)
+        report["peers"][label] = run_peer(
+            peer_system, state, analysis, kind, step_fs, kelvin, args.friction, picoseconds, burn_ps,
+            friction_scale * args.drude_friction / drude_water.DRUDE_FRICTION_PER_PS)
         print(label, ", ".join(f"{k} {m:.2f} ± {e:.2f}" for k, (m, e) in report["peers"][label].items()), flush=True)
         with open(os.path.join(args.out, "temperature_probe.json"), "w") as f:
             json.dump(report, f, indent=1)

@@ -323,6 +323,14 @@ def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_
 FORCE_HISTORY = os.path.join(REPO_ROOT, "examples", "drude_water", "force_history.py")
 
 
+def _slow_response(module, trace, det, ratio, h, history=False, coupling=0.0):
+    """(static value, Omega^2 coefficient relative to it) of force_history.response: Richardson on the real part at
+    Omega = 4 and 8/ps, whose error is O(Omega^4)."""
+    static = module.response(trace, det, ratio, h, 0.0, history, coupling).real
+    low, high = (module.response(trace, det, ratio, h, w, history, coupling).real / static - 1 for w in (4.0, 8.0))
+    return static, (16 * low - high) / 192
+
+
 def _force_history_module():
     sys.path.insert(0, os.path.dirname(FORCE_HISTORY))
     return _load(FORCE_HISTORY)
@@ -339,12 +347,8 @@ def test_the_history_term_makes_the_slow_response_exact_to_omega_squared_and_lea
     trace, det, ratio = module.recurrence(h, scaled=False, drude_friction=1e-9)
     omega_d2 = 2 * (1 + det - trace) / ((1 + det) * h * h)
 
-    def omega2_coefficient(history):
-        # Richardson on the real part: its error is O(Omega^4).
-        low, high = (module.response(trace, det, ratio, h, w, history).real - 1 for w in (4.0, 8.0))
-        return (16 * low - high) / (12 * 16.0)
-    assert omega2_coefficient(False) == pytest.approx(1 / omega_d2, rel=1e-5)
-    assert omega2_coefficient(True) == pytest.approx(1 / omega**2, rel=1e-5)
+    assert _slow_response(module, trace, det, ratio, h)[1] == pytest.approx(1 / omega_d2, rel=1e-5)
+    assert _slow_response(module, trace, det, ratio, h, history=True)[1] == pytest.approx(1 / omega**2, rel=1e-5)
     assert omega_d2 < 0.6 * omega**2
     field = 10.0
     lead = (module.response(trace, det, ratio, h, field, True) - module.response(trace, det, ratio, h, field, False))
@@ -414,11 +418,9 @@ def test_an_anisotropic_remainder_left_soft_keeps_the_mean_and_the_isotropic_flo
         return np.trace(phi), np.linalg.det(phi)
 
     def expansion(trace, det, lam, frequency):
-        # (static response, Omega^2 coefficient relative to it) of omega^2 x / f, Richardson as above.
-        static = module.response(trace, det, 0.0, h, 0.0, False, lam).real / frequency**2
-        low, high = (module.response(trace, det, 0.0, h, w, False, lam).real / frequency**2 / static - 1
-                     for w in (4.0, 8.0))
-        return static, (16 * low - high) / 192
+        # (static response x / f, Omega^2 coefficient relative to it), the step's mean set for frequency.
+        static, relative = _slow_response(module, trace, det, 0.0, h, coupling=lam)
+        return static / frequency**2, relative
     isotropic = flow(omega)
     soft_static, soft_relative = expansion(*isotropic, coupling, omega)
     _, isotropic_relative = expansion(*isotropic, 0.0, omega)

@@ -444,9 +444,9 @@ def plot_seed_summary(summary, seeds, molecules, path):
             points = sorted((e["step_fs"], e[key][0], e[key][1]) for e in others.values() if e["integrator"] == kind)
             h, y, err = zip(*points)
             marker, color = styles.get(kind, ("o", "tab:cyan"))
-            label = (kind_description(kind, summary["max_warped_phase"]) if kind.startswith("Warped")
-                     else kind_label(kind) + HEAVY_DESCRIPTIONS.get(kind, "")) + \
-                ", mean ± s.e."
+            label = ("SIM " + kind_description(kind, summary["max_warped_phase"]) if kind.startswith("Warped")
+                     else "DrudeLangevin at H" if kind == "DrudeLangevin"
+                     else kind_label(kind) + HEAVY_DESCRIPTIONS.get(kind, "")) + ", mean ± s.e."
             ax.errorbar(h, y, yerr=err, fmt=marker + "-", capsize=3, color=color, label=label)
         ax.set_xlabel("step H (fs)")
         ax.set_ylabel(name)
@@ -455,11 +455,9 @@ def plot_seed_summary(summary, seeds, molecules, path):
         ax.ticklabel_format(axis="y", useOffset=False)
     handles, names = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="lower center", ncol=2, fontsize=9, frameon=False)
-    compared = [kind_description(k, summary["max_warped_phase"]) if k.startswith("Warped") else kind_label(k)
-                for k in kinds if k != "DrudeLangevin"]
-    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): " + "; ".join(compared) +
-                               f" against DrudeLangevin H = {reference['step_fs']:g} fs; mean ± s.e. over {seeds} "
-                               "seeds per peer", 130), fontsize=11)
+    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): the SIM and DrudeLangevin "
+                               f"peers (legend) against DrudeLangevin H = {reference['step_fs']:g} fs, each observable "
+                               f"against the step H; mean ± s.e. over {seeds} seeds per peer", 130), fontsize=11)
     fig.tight_layout(rect=(0, 0.09, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -19,19 +19,26 @@ import openmm
 import openmm.app as app
 import openmm.unit as unit
 from flavorbench.runners import KB as BOLTZ
+from flavorbench.solvation import WATER_DENSITY_300K, compress_to_volume, topology_mass, volume_nm3
 from flavorbench.timeseries import ProductionFrames, block_error
 from openmmflavors import StochasticImpulseIntegrator
 
 SPRING_GROUP = 1  # the isotropic Drude springs after separateDrudeSprings; everything else in group 0
+# NaCl's apparent molar volume in water near 1 mol/kg, 25 C (16.6 cm^3/mol at infinite dilution), in nm^3 per pair:
+# with the waters at their density, 4 pairs in 248 waters make a 1.031 g/cm^3 solution (measured: 1.032 at 5 % NaCl).
+NACL_PAIR_VOLUME = 19.0 / 602.214076
 
 
 def build(waters, pairs, cutoff):
     """A cubic box of `waters` SWM4-NDP molecules and `pairs` Na+/Cl- pairs (Drude-2019 SOD and CLA), PME (cutoff in
-    nm), rigid water, X-H bonds constrained."""
+    nm), rigid water, X-H bonds constrained; the box holds the waters at water's density at 300 K and the pairs at
+    NaCl's apparent molar volume."""
     modeller = app.Modeller(app.Topology(), [])
     # Modeller adds round(n_water * I / 55.4 M) pairs: ask for exactly `pairs`.
     modeller.addSolvent(app.ForceField("amber14/tip3p.xml"), model="tip3p", numAdded=waters + 2 * pairs,
                         positiveIon="Na+", negativeIon="Cl-", ionicStrength=pairs * 55.4 / waters * unit.molar)
+    compress_to_volume(modeller, volume_nm3(topology_mass(modeller.topology, {"HOH"}), WATER_DENSITY_300K)
+                       + pairs * NACL_PAIR_VOLUME)
     return polar_system(modeller, cutoff)
 
 

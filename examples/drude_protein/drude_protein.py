@@ -33,6 +33,8 @@ import openmm
 import openmm.app as app
 import openmm.unit as unit
 from flavorbench.ensemble import mean_se
+from flavorbench.solvation import (AMU_PER_NM3, PROTEIN_SPECIFIC_VOLUME, WATER_DENSITY_300K, compress_to_volume,
+                                   topology_mass, volume_nm3)
 from openmmflavors import StochasticImpulseIntegrator
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -47,11 +49,15 @@ WATER = "HOH"
 
 def build(waters, cutoff):
     """The dipeptide in a cubic box of `waters` SWM4-NDP molecules, PME (cutoff in nm), rigid water, X-H bonds
-    constrained.  Drude-2019 writes the caps as patches (ACE, CT3) of the residue they cap, so the three PDB residues
+    constrained; the box holds the waters at water's density at 300 K and the peptide at a protein's partial specific
+    volume.  Drude-2019 writes the caps as patches (ACE, CT3) of the residue they cap, so the three PDB residues
     become one residue ALA, bonds kept, after the water is added with amber14's templates."""
     pdb = app.PDBFile(PDB)
     solvated = app.Modeller(pdb.topology, pdb.positions)
     solvated.addSolvent(app.ForceField("amber14-all.xml", "amber14/tip3p.xml"), model="tip3p", numAdded=waters)
+    peptide_mass = topology_mass(solvated.topology, {"ACE", "ALA", "NME"})
+    compress_to_volume(solvated, volume_nm3(topology_mass(solvated.topology, {"HOH"}), WATER_DENSITY_300K)
+                       + peptide_mass * PROTEIN_SPECIFIC_VOLUME / AMU_PER_NM3)
     topology = app.Topology()
     topology.setPeriodicBoxVectors(solvated.topology.getPeriodicBoxVectors())
     chain = topology.addChain()

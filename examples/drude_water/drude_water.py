@@ -24,25 +24,30 @@ import openmm.unit as unit  # noqa: E402
 from flavorbench import reporting  # noqa: E402
 from flavorbench.ensemble import mean_se  # noqa: E402
 from flavorbench.runners import KB as BOLTZ  # noqa: E402
+from flavorbench.solvation import WATER_DENSITY_300K, volume_nm3  # noqa: E402
 from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
 
 DRUDE_GROUP = 1
 E_NM_TO_DEBYE = 48.0321  # 1 e nm in debye
+WATER_MASS_AMU = (app.element.oxygen.mass + 2 * app.element.hydrogen.mass).value_in_unit(unit.dalton)
 
 
-def build_water(molecules, spacing=0.31):
-    """SWM4-NDP water (OpenMM's swm4ndp.xml) on a cubic lattice: rigid, PME, Drude particles from addExtraParticles."""
+def build_water(molecules, density=WATER_DENSITY_300K):
+    """SWM4-NDP water (OpenMM's swm4ndp.xml) at `density` (g/cm^3): rigid, PME, Drude particles from
+    addExtraParticles.  The molecules sit on the sites of a cubic lattice that fills the box, spread evenly over its
+    sites when there are fewer molecules than sites (minimization and equilibration make a liquid of it)."""
     forcefield = app.ForceField("swm4ndp.xml")
     topology = app.Topology()
     chain = topology.addChain()
-    side = int(math.ceil(molecules ** (1 / 3)))
+    side = int(math.ceil(molecules ** (1 / 3) - 1e-9))
+    box = volume_nm3(molecules * WATER_MASS_AMU, density) ** (1 / 3)
+    spacing = box / side
     angle = math.radians(104.52)
     geometry = np.array([[0, 0, 0], [0.09572, 0, 0], [0.09572 * math.cos(angle), 0.09572 * math.sin(angle), 0]])
+    sites = list(itertools.product(range(side), repeat=3))
     positions = []
-    for count, (i, j, k) in enumerate(itertools.product(range(side), repeat=3)):
-        if count == molecules:
-            break
+    for site in np.linspace(0, len(sites), molecules, endpoint=False).astype(int):
         residue = topology.addResidue("HOH", chain)
         o = topology.addAtom("O", app.element.oxygen, residue)
         h1 = topology.addAtom("H1", app.element.hydrogen, residue)
@@ -50,8 +55,7 @@ def build_water(molecules, spacing=0.31):
         topology.addBond(o, h1)
         topology.addBond(o, h2)
         for g in geometry:
-            positions.append(openmm.Vec3(*(np.array([i, j, k]) * spacing + 0.05 + g)))
-    box = side * spacing
+            positions.append(openmm.Vec3(*(np.array(sites[site]) * spacing + 0.05 + g)))
     topology.setPeriodicBoxVectors(np.eye(3) * box * unit.nanometer)
     modeller = app.Modeller(topology, positions * unit.nanometer)
     modeller.addExtraParticles(forcefield)

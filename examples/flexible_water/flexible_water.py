@@ -51,6 +51,7 @@ import openmm.unit as unit
 import openmmflavors
 from flavorbench import reporting
 from flavorbench.runners import KB
+from flavorbench.solvation import WATER_DENSITY_300K, compress_to_volume, topology_mass, volume_nm3
 from flavorbench.systems import assign_force_groups
 from flavorbench.timeseries import ProductionFrames, add_block_errors, block_error
 
@@ -70,10 +71,11 @@ FRAME_KEYS = ("oh_mean", "oh_sd", "angle_mean", "angle_sd", "T_O", "T_H")
 
 
 def build_box(molecules):
-    """A cubic box of TIP3P water with the given number of molecules."""
+    """A cubic box of TIP3P water with the given number of molecules, at water's density at 300 K."""
     forcefield = app.ForceField("tip3p.xml")
     modeller = app.Modeller(app.Topology(), [])
     modeller.addSolvent(forcefield, model="tip3p", numAdded=molecules, neutralize=False)
+    compress_to_volume(modeller, volume_nm3(topology_mass(modeller.topology), WATER_DENSITY_300K))
     return forcefield, modeller
 
 

@@ -20,6 +20,14 @@ steps, equilibration, minimization = (20, 20, 20) if args.quick else (args.steps
 forcefield = app.ForceField("tip3p.xml")
 modeller = app.Modeller(app.Topology(), [])
 modeller.addSolvent(forcefield, model="tip3p", numAdded=216)
+# addSolvent leaves room at the faces (216 waters in a 1.97-nm box, 0.85 g/cm³): move each molecule with its
+# oxygen into the box that holds them at water's density at 300 K, 0.9965 g/cm³.
+edge = (216 * 18.0153 / (0.9965 * 602.214)) ** (1 / 3)  # nm
+old = modeller.topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
+xyz = np.array(modeller.positions.value_in_unit(unit.nanometer)).reshape(-1, 3, 3)  # O, H, H per molecule
+xyz += (xyz[:, :1] % old) * (edge / old) - xyz[:, :1]
+modeller.topology.setPeriodicBoxVectors(np.eye(3) * edge * unit.nanometer)
+modeller.positions = [openmm.Vec3(*p) for p in xyz.reshape(-1, 3)] * unit.nanometer
 system = forcefield.createSystem(modeller.topology, nonbondedMethod=app.PME, nonbondedCutoff=0.9*unit.nanometer,
                                  rigidWater=False, constraints=None)
 # Stiff: the O-H bonds (group 1) and H-O-H angles (group 2). Soft: everything else (group 0).

@@ -9,6 +9,7 @@
     ensemble    ensembles of independent copies and their statistics (the Langevin scenes)
     helper      the C++ helper benchmarks/step_cost and callgrind instruction counts
     firstorder  the C++ programs of the first-order scenes (van_der_pol, hidden_sde)
+    solvation   solvent boxes at a liquid's density
 
 The build copies this package next to openmmflavors (build/python), so PYTHONPATH=build/python finds both.
 """

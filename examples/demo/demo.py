@@ -85,13 +85,14 @@ def drude_water(production_ps, quick):
                   "%.1f" % r["t_com"][0], "%.3f" % r["t_drude"][0], "%.3f" % r["dipole"][0],
                   "%.2f" % r["pe_per_molecule"][0], "%.4f" % r["induced_ratio"][0]] for r in runs])
     print(TIMING_NOTE % (production_ps, TIMING[quick][1], time.perf_counter() - begin))
-    print("Full runs (examples/drude_water/README.md):\n"
-          "  speed: SIM Warped Middle 2.5 fs is 2.39x DrudeLangevin 1 fs's ns/day (2 threads, interleaved rounds;\n"
-          "    drude_water.py --interleaved-timing 12, about 2 min);\n"
-          "  accuracy: three paired 12-ps runs against DrudeLangevin 0.125 fs, every observable within the run-to-run\n"
-          "    error bars (|t| <= 2.8); its Drudes 0.033 +- 0.012 K below the 0.125-fs runs'\n"
-          "    (drude_water.py --production 12 --burn-in 1 --reference-steps 0.125 0.5 1 --splittings WarpedMiddle\n"
-          "    --sim-steps 2.5 --seed N for N = 1300, 1400, 1500; about 9 min each).")
+    print("Full runs (examples/drude_water/README.md, 256 molecules at water's density):\n"
+          "  speed: SIM Warped Middle 2.5 fs is 2.17x / 2.41x DrudeLangevin 1 fs's ns/day (2 / 1 threads, interleaved\n"
+          "    rounds; drude_water.py --interleaved-timing 8, about 3 min);\n"
+          "  accuracy: five paired 12-ps runs against DrudeLangevin 0.125 fs: induced dipoles, dipole, energy, g_OO\n"
+          "    within the run-to-run error bars (|t| <= 1.1); the molecules 1.0 % and the Drudes 1.2 % cool (-3.0, -3.4\n"
+          "    sigma); DrudeLangevin 1 fs's Drudes 29 % hot (drude_water.py --production 12 --burn-in 1\n"
+          "    --reference-steps 0.125 1 --splittings WarpedMiddle WarpedMiddleLimitedScaled --sim-steps 2.5 3 3.5\n"
+          "    --seed N for N = 4000..4004; about 6-10 min each).")
 
 
 def flexible_water(production_ps, quick):

@@ -82,7 +82,8 @@ class Shells:
                 d = x[target] - x[sources]
                 d -= box * np.round(d / box)
                 r = np.linalg.norm(d, axis=1)
-                forces[row, i] = COULOMB * self.charges[target] * ((self.charges[sources] * w / r**3)[:, None] * d).sum(0)
+                weighted = (self.charges[sources] * w / r**3)[:, None] * d
+                forces[row, i] = COULOMB * self.charges[target] * weighted.sum(0)
         return forces
 
     def relative_forces(self, x, box, cutoff):
@@ -155,7 +156,6 @@ def wave_weights(vector, x_drudes, box, longitudinal=True, shells=2):
 
 
 def hessian_rows(hessian_full, shells_hessians, spring, x_drudes, box):
-    full = np.linalg.eigvalsh(hessian_full / spring)
     values, vectors = np.linalg.eigh(hessian_full / spring)
     stiffest = []
     for column in range(len(values) - 1, len(values) - 9, -1):
@@ -164,11 +164,12 @@ def hessian_rows(hessian_full, shells_hessians, spring, x_drudes, box):
         stiffest.append(dict(lam=float(values[column]), participation=float(1 / np.sum(share**2) / len(share)),
                              longitudinal=float(wave_weights(v, x_drudes, box)),
                              transverse=float(wave_weights(v, x_drudes, box, False))))
-    rows = dict(full=[float(full[0]), float(full[-1])], stiffest=stiffest, shells={})
+    rows = dict(full=[float(values[0]), float(values[-1])], stiffest=stiffest, shells={})
     for cutoff, h in shells_hessians.items():
         near = np.linalg.eigvalsh(h / spring)
         far = np.linalg.eigvalsh((hessian_full - h) / spring)
-        rows["shells"][str(cutoff)] = dict(shell=[float(near[0]), float(near[-1])], beyond=[float(far[0]), float(far[-1])])
+        rows["shells"][str(cutoff)] = dict(shell=[float(near[0]), float(near[-1])],
+                                           beyond=[float(far[0]), float(far[-1])])
     return rows
 
 

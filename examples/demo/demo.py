@@ -140,8 +140,9 @@ def flexible_water(production_ps, quick):
           "    1.7 / 2.5 / 3.3x it (CPU-time ratios), every configurational observable and the oxygens' diffusion\n"
           "    within the error bars; delta = 10 fs runs hot. The O-H stretch moves only during tau of each delta:\n"
           "    its band sits at tau/delta of the true frequency in simulated time\n"
-          "    (flexible_water.py --seeds 1 2 3, about 70 min; in Modeller's 0.89-g/cm3 box. One seed at water's\n"
-          "    density: delta = 6 / 7 / 8 fs within every error bar at 2.33 / 2.59 / 3.01x LangevinMiddle 2 fs).")
+          "    (flexible_water.py --seeds 1 2 3, about 70 min; in Modeller's 0.89-g/cm3 box. At water's density,\n"
+          "    three seeds: delta = 6 / 8 fs keep structure and energy at 2.48 / 3.16x LangevinMiddle 2 fs, their\n"
+          "    hydrogens 1 % warm; LangevinMiddle 2 fs leaves the O-H spread 2.3 % wide; see the README).")
 
 
 def main():

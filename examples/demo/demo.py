@@ -141,8 +141,8 @@ def flexible_water(production_ps, quick):
           "    within the error bars; delta = 10 fs runs hot. The O-H stretch moves only during tau of each delta:\n"
           "    its band sits at tau/delta of the true frequency in simulated time\n"
           "    (flexible_water.py --seeds 1 2 3, about 70 min; in Modeller's 0.89-g/cm3 box. At water's density,\n"
-          "    three seeds: delta = 6 / 8 fs keep structure and energy at 2.48 / 3.16x LangevinMiddle 2 fs, their\n"
-          "    hydrogens 1 % warm; LangevinMiddle 2 fs leaves the O-H spread 2.3 % wide; see the README).")
+          "    three seeds with a 10-ps start: LangevinMiddle 2 fs and delta = 6 fs within every error bar, delta = 6 fs\n"
+          "    at 2.58x LangevinMiddle 2 fs; see the README).")
 
 
 def main():

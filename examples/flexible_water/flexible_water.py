@@ -872,7 +872,9 @@ def main():
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--equilibration", type=float, default=1.0, help="ps per peer before measuring")
     parser.add_argument("--production", type=float, default=10.0, help="ps per peer")
-    parser.add_argument("--start", type=float, default=3.0, help="ps of common equilibration before the peers")
+    parser.add_argument("--start", type=float, default=10.0,
+                        help="ps of common equilibration before the peers (default 10: at water's density 3 ps left "
+                             "the reference 3 K cold)")
     parser.add_argument("--rounds", type=int, default=10, help="interleaved rounds of the production (default 10)")
     parser.add_argument("--frame-ps", type=float, default=0.1, help="ps between production frames (default 0.1)")
     parser.add_argument("--spectrum", type=float, default=2.0,

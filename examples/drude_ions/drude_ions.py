@@ -19,7 +19,7 @@ import openmm
 import openmm.app as app
 import openmm.unit as unit
 from flavorbench.runners import KB as BOLTZ
-from flavorbench.solvation import WATER_DENSITY_300K, compress_to_volume, topology_mass, volume_nm3
+from flavorbench.solvation import compress_to_volume, water_volume
 from flavorbench.timeseries import ProductionFrames, block_error
 from openmmflavors import StochasticImpulseIntegrator
 
@@ -37,8 +37,7 @@ def build(waters, pairs, cutoff):
     # Modeller adds round(n_water * I / 55.4 M) pairs: ask for exactly `pairs`.
     modeller.addSolvent(app.ForceField("amber14/tip3p.xml"), model="tip3p", numAdded=waters + 2 * pairs,
                         positiveIon="Na+", negativeIon="Cl-", ionicStrength=pairs * 55.4 / waters * unit.molar)
-    compress_to_volume(modeller, volume_nm3(topology_mass(modeller.topology, {"HOH"}), WATER_DENSITY_300K)
-                       + pairs * NACL_PAIR_VOLUME)
+    compress_to_volume(modeller, water_volume(modeller.topology) + pairs * NACL_PAIR_VOLUME)
     return polar_system(modeller, cutoff)
 
 

@@ -33,8 +33,7 @@ import openmm
 import openmm.app as app
 import openmm.unit as unit
 from flavorbench.ensemble import mean_se
-from flavorbench.solvation import (AMU_PER_NM3, PROTEIN_SPECIFIC_VOLUME, WATER_DENSITY_300K, compress_to_volume,
-                                   topology_mass, volume_nm3)
+from flavorbench.solvation import AMU_PER_NM3, PROTEIN_SPECIFIC_VOLUME, compress_to_volume, topology_mass, water_volume
 from openmmflavors import StochasticImpulseIntegrator
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -56,8 +55,7 @@ def build(waters, cutoff):
     solvated = app.Modeller(pdb.topology, pdb.positions)
     solvated.addSolvent(app.ForceField("amber14-all.xml", "amber14/tip3p.xml"), model="tip3p", numAdded=waters)
     peptide_mass = topology_mass(solvated.topology, {"ACE", "ALA", "NME"})
-    compress_to_volume(solvated, volume_nm3(topology_mass(solvated.topology, {"HOH"}), WATER_DENSITY_300K)
-                       + peptide_mass * PROTEIN_SPECIFIC_VOLUME / AMU_PER_NM3)
+    compress_to_volume(solvated, water_volume(solvated.topology) + peptide_mass * PROTEIN_SPECIFIC_VOLUME / AMU_PER_NM3)
     topology = app.Topology()
     topology.setPeriodicBoxVectors(solvated.topology.getPeriodicBoxVectors())
     chain = topology.addChain()

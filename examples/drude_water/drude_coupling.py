@@ -35,7 +35,6 @@ import openmm.unit as unit
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import drude_water  # noqa: E402
 
-COULOMB = 138.935456  # kJ/mol nm / e^2
 SHELLS = (0.35, 0.45, 0.6)  # nm, oxygen-oxygen
 SWITCH_WIDTH = 0.1  # nm
 CURVATURE_STEPS_FS = (2.0, 2.5, 3.0, 3.5, 4.0)
@@ -83,7 +82,7 @@ class Shells:
                 d -= box * np.round(d / box)
                 r = np.linalg.norm(d, axis=1)
                 weighted = (self.charges[sources] * w / r**3)[:, None] * d
-                forces[row, i] = COULOMB * self.charges[target] * weighted.sum(0)
+                forces[row, i] = drude_water.ONE_4PI_EPS0 * self.charges[target] * weighted.sum(0)
         return forces
 
     def relative_forces(self, x, box, cutoff):
@@ -109,7 +108,7 @@ class Shells:
                     r = np.linalg.norm(d)
                     # The force on the target, K q_t q_s w d / r^3, has gradient K q_t q_s w (I/r^3 - 3 d d^T / r^5)
                     # in the target's position and its negative in the source's; the Hessian is minus that.
-                    block = COULOMB * self.charges[target] * self.charges[source] * weights[j] * (
+                    block = drude_water.ONE_4PI_EPS0 * self.charges[target] * self.charges[source] * weights[j] * (
                         np.eye(3) / r**3 - 3 * np.outer(d, d) / r**5)
                     hessian[3 * i:3 * i + 3, 3 * i:3 * i + 3] -= block
                     if source in index:
@@ -201,8 +200,7 @@ def main():
     system, _, positions, box = drude_water.build_water(args.molecules)
     analysis = drude_water.Analysis(system)
     drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
-    charge, polarizability = drude.getParticleParameters(0)[5:7]
-    spring = COULOMB * charge.value_in_unit(unit.elementary_charge)**2 / polarizability.value_in_unit(unit.nanometer**3)
+    spring = drude_water.drude_spring(drude, 0)
     shells = Shells(analysis)
     platform = openmm.Platform.getPlatformByName("CPU")
     state = drude_water.equilibrated_state(system, positions, 1.0, 2000, 7)

@@ -207,6 +207,12 @@ def response_frequency(step_fs, phase):
     return 2 * math.sin(0.5 * phase) / (step_fs * 1e-3)
 
 
+def drude_spring(drude, index):
+    """The spring constant k (kJ/mol/nm^2) of the DrudeForce's pair `index`: ONE_4PI_EPS0 q^2 / alpha."""
+    charge, alpha = drude.getParticleParameters(index)[5:7]
+    return ONE_4PI_EPS0 * charge.value_in_unit(unit.elementary_charge)**2 / alpha.value_in_unit(unit.nanometer**3)
+
+
 def heavy_drude_system(system, omega_d):
     """The System with each Drude particle as heavy as a step whose response frequency is omega_d makes it act: its
     pair's relative motion gets the reduced mass k/omega_d^2, the pair's total mass kept.  Returns the copy, the
@@ -215,8 +221,8 @@ def heavy_drude_system(system, omega_d):
     drude = next(f for f in heavy.getForces() if isinstance(f, openmm.DrudeForce))
     masses, ratios = set(), set()
     for i in range(drude.getNumParticles()):
-        particle, core, _, _, _, charge, alpha, _, _ = drude.getParticleParameters(i)
-        k = ONE_4PI_EPS0 * charge.value_in_unit(unit.elementary_charge)**2 / alpha.value_in_unit(unit.nanometer**3)
+        particle, core = drude.getParticleParameters(i)[:2]
+        k = drude_spring(drude, i)
         pair = [heavy.getParticleMass(p).value_in_unit(unit.dalton) for p in (particle, core)]
         total = sum(pair)
         reduced = k / omega_d**2

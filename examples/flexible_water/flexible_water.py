@@ -51,7 +51,7 @@ import openmm.unit as unit
 import openmmflavors
 from flavorbench import reporting
 from flavorbench.runners import KB
-from flavorbench.solvation import WATER_DENSITY_300K, compress_to_volume, topology_mass, volume_nm3
+from flavorbench.solvation import compress_to_volume, water_volume
 from flavorbench.systems import assign_force_groups
 from flavorbench.timeseries import ProductionFrames, add_block_errors, block_error
 
@@ -75,7 +75,7 @@ def build_box(molecules):
     forcefield = app.ForceField("tip3p.xml")
     modeller = app.Modeller(app.Topology(), [])
     modeller.addSolvent(forcefield, model="tip3p", numAdded=molecules, neutralize=False)
-    compress_to_volume(modeller, volume_nm3(topology_mass(modeller.topology), WATER_DENSITY_300K))
+    compress_to_volume(modeller, water_volume(modeller.topology))
     return forcefield, modeller
 
 

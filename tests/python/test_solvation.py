@@ -36,7 +36,7 @@ def test_compressing_moves_each_molecule_rigidly_to_the_density_asked_for():
     modeller = _tip3p_box(64)
     before = np.array(modeller.positions.value_in_unit(unit.nanometer)).reshape(-1, 3, 3)
     old_edge = modeller.topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
-    volume = solvation.volume_nm3(solvation.topology_mass(modeller.topology), solvation.WATER_DENSITY_300K)
+    volume = solvation.water_volume(modeller.topology)
     edge = solvation.compress_to_volume(modeller, volume)
     after = np.array(modeller.positions.value_in_unit(unit.nanometer)).reshape(-1, 3, 3)
     assert edge == pytest.approx(volume ** (1 / 3), rel=1e-12)
@@ -88,10 +88,8 @@ def test_the_solution_scenes_hold_their_waters_at_water_density():
     import drude_protein
     _, topology, _ = drude_ions.build(248, 4, 0.8)
     edge = topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
-    waters = solvation.volume_nm3(solvation.topology_mass(topology, {"HOH"}), solvation.WATER_DENSITY_300K)
-    assert edge**3 == pytest.approx(waters + 4 * drude_ions.NACL_PAIR_VOLUME, rel=1e-9)
+    assert edge**3 == pytest.approx(solvation.water_volume(topology) + 4 * drude_ions.NACL_PAIR_VOLUME, rel=1e-9)
     _, topology, _ = drude_protein.build(250, 0.8)
     edge = topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
-    waters = solvation.volume_nm3(solvation.topology_mass(topology, {"HOH"}), solvation.WATER_DENSITY_300K)
     peptide = solvation.topology_mass(topology, {drude_protein.PEPTIDE}) * solvation.PROTEIN_SPECIFIC_VOLUME
-    assert edge**3 == pytest.approx(waters + peptide / solvation.AMU_PER_NM3, rel=1e-9)
+    assert edge**3 == pytest.approx(solvation.water_volume(topology) + peptide / solvation.AMU_PER_NM3, rel=1e-9)

@@ -27,6 +27,11 @@ def topology_mass(topology, residues=None):
                if atom.element is not None and (residues is None or atom.residue.name in residues))
 
 
+def water_volume(topology, density=WATER_DENSITY_300K):
+    """The volume (nm^3) of the topology's waters (residues HOH) at density (g/cm^3)."""
+    return volume_nm3(topology_mass(topology, {"HOH"}), density)
+
+
 def molecules(topology):
     """The atom indices of each molecule (a connected set of bonded atoms) of the topology."""
     parent = list(range(topology.getNumAtoms()))

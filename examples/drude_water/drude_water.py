@@ -24,13 +24,20 @@ import openmm.unit as unit  # noqa: E402
 from flavorbench import reporting  # noqa: E402
 from flavorbench.ensemble import mean_se  # noqa: E402
 from flavorbench.runners import KB as BOLTZ  # noqa: E402
-from flavorbench.solvation import WATER_DENSITY_300K, volume_nm3  # noqa: E402
+from flavorbench.solvation import AMU_PER_NM3, WATER_DENSITY_300K, volume_nm3  # noqa: E402
 from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
 from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
 
 DRUDE_GROUP = 1
 E_NM_TO_DEBYE = 48.0321  # 1 e nm in debye
 WATER_MASS_AMU = (app.element.oxygen.mass + 2 * app.element.hydrogen.mass).value_in_unit(unit.dalton)
+
+
+def water_description(parameters):
+    """"256 molecules, 1.97-nm box, 1.00 g/cm^3" from a scene run's parameters (molecules and box_nm)."""
+    molecules, box = parameters["molecules"], parameters["box_nm"]
+    density = molecules * WATER_MASS_AMU / (box**3 * AMU_PER_NM3)
+    return f"{molecules} molecules, {box:.2f}-nm box, {density:.2f} g/cm³"
 
 
 def build_water(molecules, density=WATER_DENSITY_300K):
@@ -430,10 +437,13 @@ def seed_summary(paths, out):
     print("\n".join(lines))
     counts = sorted({e["t_com"][2] for e in summary["runs"].values() if "t_com" in e})
     seeds = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]}–{counts[-1]}"
-    plot_seed_summary(summary, seeds, loaded[0]["parameters"]["molecules"], os.path.join(out, "seed_summary.png"))
+    waters = {water_description(d["parameters"]) for d in loaded}
+    if len(waters) != 1:
+        raise ValueError(f"--seed-summary: the runs are of different boxes: {sorted(waters)}")
+    plot_seed_summary(summary, seeds, waters.pop(), os.path.join(out, "seed_summary.png"))
 
 
-def plot_seed_summary(summary, seeds, molecules, path):
+def plot_seed_summary(summary, seeds, water, path):
     """Each observable against H: the reference as a band of ± 2 s.e., every other peer as its seed means ± s.e."""
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
     reference_label = summary["reference"]
@@ -465,9 +475,13 @@ def plot_seed_summary(summary, seeds, molecules, path):
         ax.ticklabel_format(axis="y", useOffset=False)
     handles, names = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="lower center", ncol=2, fontsize=9, frameon=False)
-    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({molecules} molecules, PME, rigid, 300 K): the SIM and DrudeLangevin "
+    fig.suptitle(textwrap.fill(f"SWM4-NDP water ({water}, PME, rigid, 300 K): the SIM and DrudeLangevin "
                                f"peers (legend) against DrudeLangevin H = {reference['step_fs']:g} fs, each observable "
                                f"against the step H; mean ± s.e. over {seeds} seeds per peer", 130), fontsize=11)
+    failed = [f"{kind_label(e['integrator'])} H = {e['step_fs']:g} fs" for e in summary["runs"].values()
+              if e["failed"] == e["of"]]
+    if failed:
+        fig.text(0.01, 0.005, "failed in every run (not drawn): " + ", ".join(failed), color="tab:red", fontsize=9)
     fig.tight_layout(rect=(0, 0.09, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -575,7 +589,7 @@ def plot(data, path):
                   for kind in ("Strang", "Filtered", "Warped", "FilteredMiddle", "WarpedMiddle", "WarpedMiddleLimited",
                                "WarpedMiddleScaled", "WarpedMiddleLimitedScaled")}
     shown = [k for k in kind_names if any(runs[lb]["integrator"] == k for lb in labels)]
-    what = (f"SWM4-NDP water ({data['parameters']['molecules']} molecules, PME, rigid, 300 K): "
+    what = (f"SWM4-NDP water ({water_description(data['parameters'])}, PME, rigid, 300 K): "
             "StochasticImpulseIntegrator (" + ", ".join(f"{kind_names[k]} {colors[k][4:]}" for k in shown) +
             ") against DrudeLangevinIntegrator (black; with the hard wall setMaxDrudeDistance(%g nm): purple), "
             "reference DrudeLangevin H = %g fs" % (WALL_NM, reference["step_fs"]))

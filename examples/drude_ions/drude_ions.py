@@ -4,6 +4,7 @@ equilibrated state in one process.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py [--quick] [--out DIR] \
         [--production PS] [--burn-in PS] [--sim-steps 1.5 2] [--seed N]
+    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --seed-table JSON [JSON ...]
 
 Writes drude_ions.json to --out.  Observables (block averages; error = standard error of the block means): the induced
 dipoles relative to the self-consistent ones at the same nuclear positions (all Drude particles, and the ions' alone),
@@ -18,6 +19,7 @@ import numpy as np
 import openmm
 import openmm.app as app
 import openmm.unit as unit
+from flavorbench import seeds
 from flavorbench.runners import KB as BOLTZ
 from flavorbench.solvation import compress_to_volume, water_volume
 from flavorbench.timeseries import ProductionFrames, block_error
@@ -224,6 +226,29 @@ def print_runs(runs, names, width=24):
         print(row)
 
 
+# The observables of the seed table: JSON key, row name, format, scale.
+SEED_TABLE_ROWS = [("induced_ratio", "induced / SCF, all", "%.4f", 1), ("induced_ratio_ions", "induced / SCF, ions",
+                                                                         "%.4f", 1),
+                   ("t_drude", "T Drude (K)", "%.3f", 1), ("t_com", "T centre of mass (K)", "%.1f", 1),
+                   ("pe_per_pair", "PE per Drude pair (kJ/mol)", "%.2f", 1)]
+
+
+def seed_table(files):
+    """The Markdown table of several seeds' drude_ions.json: the DrudeLangevin runs at the reference step (the
+    smallest) against the other DrudeLangevin steps and the SIM's, mean over the seeds ± its standard error, t against
+    the reference in brackets; a column counts its runs that failed."""
+    runs = seeds.load_runs(files)
+    reference, *others = seeds.steps_of(runs, "DrudeLangevin")
+    columns = [(f"DrudeLangevin {reference:g} fs (reference)", seeds.runs_at(runs, "DrudeLangevin", reference))]
+    for h in others:
+        peers = seeds.runs_at(runs, "DrudeLangevin", h)
+        columns.append((f"DrudeLangevin {h:g} fs" + (" + wall" if peers[0]["wall_nm"] > 0 else ""), peers))
+    for h in seeds.steps_of(runs, "WarpedMiddle"):
+        peers = seeds.runs_at(runs, "WarpedMiddle", h)
+        columns.append((f"SIM {h:g} fs" + (" + wall" if peers[0]["wall_nm"] > 0 else ""), peers))
+    return seeds.markdown(columns, SEED_TABLE_ROWS)
+
+
 def main():
     repo_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -241,7 +266,12 @@ def main():
     parser.add_argument("--wall-peers", type=float, nargs="*", default=[], metavar="FS",
                         help="DrudeLangevin at these steps (fs) with the same --wall, the practitioner's peer "
                              "(default none)")
+    parser.add_argument("--seed-table", nargs="+", metavar="JSON",
+                        help="only print the table of these drude_ions.json files pooled over their seeds")
     args = parser.parse_args()
+    if args.seed_table:
+        print(seed_table(args.seed_table))
+        return
     if args.quick:
         waters, pairs, cutoff, equilibration_ps = 64, 2, 0.55, 0.1
         settings = dict(production_ps=0.1, burn_ps=0.02, samples=6, blocks=2, scf_frames=2)

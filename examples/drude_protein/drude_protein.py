@@ -32,7 +32,7 @@ import numpy as np
 import openmm
 import openmm.app as app
 import openmm.unit as unit
-from flavorbench.ensemble import mean_se
+from flavorbench import seeds
 from flavorbench.solvation import AMU_PER_NM3, PROTEIN_SPECIFIC_VOLUME, compress_to_volume, topology_mass, water_volume
 from openmmflavors import StochasticImpulseIntegrator
 
@@ -154,44 +154,29 @@ class PeptideGeometry:
                 "extended": float(psi > 60 or psi < -120)}
 
 
-# The observables of the seed table: JSON key, row name, format (bond widths are shown in pm).
-SEED_TABLE_ROWS = [("t_peptide", "T peptide (K)", "%.1f"), ("t_water", "T water (K)", "%.1f"),
-                   ("t_drude", "T Drude (K)", "%.3f"), ("induced_ratio_peptide", "induced / SCF, peptide", "%.4f"),
-                   ("induced_ratio_water", "induced / SCF, water", "%.4f"),
-                   ("induced_ratio_anisotropic", "induced / SCF, anisotropic", "%.4f"),
-                   ("rmsd_nm", "heavy-atom RMSD (nm)", "%.3f"), ("bond_width_nm", "bond width (pm)", "%.2f"),
-                   ("angle_width_deg", "angle width (°)", "%.2f"), ("phi_deg", "φ (°)", "%.0f"),
-                   ("pe_per_pair", "PE per Drude pair (kJ/mol)", "%.2f")]
+# The observables of the seed table: JSON key, row name, format, scale (bond widths are shown in pm).
+SEED_TABLE_ROWS = [("t_peptide", "T peptide (K)", "%.1f", 1), ("t_water", "T water (K)", "%.1f", 1),
+                   ("t_drude", "T Drude (K)", "%.3f", 1),
+                   ("induced_ratio_peptide", "induced / SCF, peptide", "%.4f", 1),
+                   ("induced_ratio_water", "induced / SCF, water", "%.4f", 1),
+                   ("induced_ratio_anisotropic", "induced / SCF, anisotropic", "%.4f", 1),
+                   ("rmsd_nm", "heavy-atom RMSD (nm)", "%.3f", 1), ("bond_width_nm", "bond width (pm)", "%.2f", 1000),
+                   ("angle_width_deg", "angle width (°)", "%.2f", 1), ("phi_deg", "φ (°)", "%.0f", 1),
+                   ("pe_per_pair", "PE per Drude pair (kJ/mol)", "%.2f", 1)]
 
 
 def seed_table(reference_files, sim_files):
-    """The Markdown table of several seeds: the DrudeLangevin 0.5-fs runs of reference_files against the SIM runs of
-    sim_files, per step; mean over the seeds ± its standard error, t against the reference in brackets."""
-    def runs_of(files, keep):
-        return [r for path in files for r in json.load(open(path))["runs"] if keep(r) and "failed" not in r]
-
-    def pooled(runs, key):
-        values = np.array([r[key][0] * (1000 if key == "bond_width_nm" else 1) for r in runs if key in r])
-        return mean_se(values) if len(values) > 1 else None
-
-    reference = runs_of(reference_files, lambda r: r["integrator"] == "DrudeLangevin" and r["step_fs"] == 0.5)
-    steps = sorted({r["step_fs"] for path in sim_files for r in json.load(open(path))["runs"]
-                    if r["integrator"] == "WarpedMiddle"})
-    columns = [("DrudeLangevin 0.5 fs (reference)", reference)]
-    columns += [(f"SIM {h:g} fs", runs_of(sim_files, lambda r, h=h: r["integrator"] == "WarpedMiddle" and
-                                          r["step_fs"] == h)) for h in steps]
-    lines = ["| observable | " + " | ".join(name for name, _ in columns) + " |", "|---" * (len(columns) + 1) + "|"]
-    for key, name, fmt in SEED_TABLE_ROWS:
-        cells, ref = [name], pooled(reference, key)
-        for index, (_, runs) in enumerate(columns):
-            value = pooled(runs, key)
-            cell = "—" if value is None else (fmt % value[0]) + " ± " + (fmt % value[1])
-            if value is not None and index and ref is not None:
-                cell += " (%+.1f)" % ((value[0] - ref[0]) / np.hypot(value[1], ref[1]))
-            cells.append(cell)
-        lines.append("| " + " | ".join(cells) + " |")
-    lines.append("| runs | " + " | ".join(str(len(runs)) for _, runs in columns) + " |")
-    return "\n".join(lines)
+    """The Markdown table of several seeds: the DrudeLangevin 0.5-fs runs of reference_files against the DrudeLangevin
+    runs at other steps (the --wall-peers) and the SIM runs of sim_files, per step; mean over the seeds ± its standard
+    error, t against the reference in brackets."""
+    runs = seeds.load_runs(sim_files)
+    columns = [("DrudeLangevin 0.5 fs (reference)", seeds.runs_at(seeds.load_runs(reference_files), "DrudeLangevin",
+                                                                   0.5))]
+    for h in seeds.steps_of(runs, "DrudeLangevin", lambda r: r["step_fs"] != 0.5):
+        peers = seeds.runs_at(runs, "DrudeLangevin", h)
+        columns.append((f"DrudeLangevin {h:g} fs" + (" + wall" if peers[0]["wall_nm"] > 0 else ""), peers))
+    columns += [(f"SIM {h:g} fs", seeds.runs_at(runs, "WarpedMiddle", h)) for h in seeds.steps_of(runs, "WarpedMiddle")]
+    return seeds.markdown(columns, SEED_TABLE_ROWS)
 
 
 def main():

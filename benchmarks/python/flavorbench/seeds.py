@@ -1,0 +1,54 @@
+"""Tables of a scene's runs pooled over seeds.  Each seed's JSON holds "runs"; a run names its "integrator" and
+"step_fs", holds each observable as [value, block error] and, when it did not finish, a true "failed".  A table gives,
+per peer, the mean over the seeds ± its standard error and, in brackets, its difference from the first peer (the
+reference) in combined standard errors."""
+import json
+
+import numpy as np
+
+from .ensemble import mean_se
+
+
+def load_runs(files):
+    """Every run of the JSON files, failed ones included."""
+    runs = []
+    for path in files:
+        with open(path) as f:
+            runs += json.load(f)["runs"]
+    return runs
+
+
+def steps_of(runs, integrator, keep=lambda run: True):
+    """The steps (fs) at which `integrator` ran, ascending."""
+    return sorted({r["step_fs"] for r in runs if r["integrator"] == integrator and keep(r)})
+
+
+def runs_at(runs, integrator, step_fs):
+    return [r for r in runs if r["integrator"] == integrator and r["step_fs"] == step_fs]
+
+
+def pooled(runs, key, scale=1.0):
+    """(mean, standard error) over the finished runs' values of `key`, or None with fewer than two."""
+    values = np.array([r[key][0] * scale for r in runs if not r.get("failed") and key in r])
+    return mean_se(values) if len(values) > 1 else None
+
+
+def markdown(columns, rows):
+    """The Markdown table: columns [(name, runs)], the first the reference; rows [(key, name, format, scale)].  The
+    last row counts the finished runs of each column ("n of m" where some failed)."""
+    lines = ["| observable | " + " | ".join(name for name, _ in columns) + " |", "|---" * (len(columns) + 1) + "|"]
+    for key, name, fmt, scale in rows:
+        cells, reference = [name], pooled(columns[0][1], key, scale)
+        for index, (_, runs) in enumerate(columns):
+            value = pooled(runs, key, scale)
+            cell = "—" if value is None else (fmt % value[0]) + " ± " + (fmt % value[1])
+            if value is not None and index and reference is not None:
+                cell += " (%+.1f)" % ((value[0] - reference[0]) / np.hypot(value[1], reference[1]))
+            cells.append(cell)
+        lines.append("| " + " | ".join(cells) + " |")
+    counts = []
+    for _, runs in columns:
+        finished = sum(1 for r in runs if not r.get("failed"))
+        counts.append(str(finished) if finished == len(runs) else f"{finished} of {len(runs)}")
+    lines.append("| runs | " + " | ".join(counts) + " |")
+    return "\n".join(lines)

@@ -7,6 +7,7 @@ import math
 import os
 
 import conftest
+import pytest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "drude_protein", "drude_protein.py")
@@ -45,12 +46,22 @@ def test_step_limit_probe_quick(tmp_path):
         assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run
 
 
-def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path):
-    stored = [os.path.join(REPO_ROOT, "examples", "drude_protein", "results", "friction_scaling", f"seed{s}",
-                           "drude_protein.json") for s in range(1, 6)]
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-table", *stored))
+def stored_runs(folder):
+    return [os.path.join(REPO_ROOT, "examples", "drude_protein", "results", *folder, f"seed{s}", "drude_protein.json")
+            for s in range(1, 6)]
+
+
+@pytest.mark.parametrize("sim_folder, reference_folder, columns", [
+    (("friction_scaling",), (), 4),        # the reference's five runs, SIM at 2, 2.5, 3 fs
+    (("density",), ("density",), 3),       # the reference, DrudeLangevin 1 fs + wall, SIM 2 fs
+    (("density_phase_limit_scaled",), ("density",), 3),   # the reference, SIM 2.5 and 3 fs
+])
+def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim_folder, reference_folder, columns):
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-table", *stored_runs(sim_folder),
+                                                         "--reference-files", *stored_runs(reference_folder)))
     assert result.returncode == 0, result.stderr[-3000:]
     with open(os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md")) as f:
         readme = f.read()
     rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
     assert len(rows) == 1 + 11 + 1 and all(row in readme for row in rows)  # header, observables, runs
+    assert rows[0].count(" | ") == columns

@@ -1,6 +1,6 @@
 """How often the SIM (Warped, Middle) blows up on NaCl in SWM4-NDP with Drude-2019 ions, with and without the hard
 wall (StochasticImpulseIntegrator.setMaxDrudeDistance): independent starts, each equilibrated with DrudeLangevin at
-1 fs, then a few ps of SIM per step size and wall setting; a run fails on a NaN energy, an exception, or a Drude
+0.5 fs, then a few ps of SIM per step size and wall setting; a run fails on a NaN energy, an exception, or a Drude
 temperature above 10 K in any frame.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/stability_probe.py [--seeds 1 2 3 4] \

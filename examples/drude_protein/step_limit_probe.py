@@ -1,5 +1,5 @@
 """Where the SIM's step ends on the polarizable peptide (examples/drude_protein), and why: independent starts, each
-equilibrated with DrudeLangevin at 1 fs, then a few ps of SIM (Warped, Middle, the 0.02-nm wall) per step size, on the
+equilibrated with DrudeLangevin at 0.5 fs, then a few ps of SIM (Warped, Middle, the 0.02-nm wall) per step size, on the
 System as it is and, with --thole-off, on one whose Thole-screened pairs have no dipole-dipole interaction left
 (screening parameter a = 0: a diagnostic that changes the force field, not a setting to run).  A run fails on an
 exception (the wall's check that no pair ends a step past twice the wall), a NaN energy or a Drude frame above 10 K.

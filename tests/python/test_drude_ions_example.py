@@ -6,6 +6,7 @@ import math
 import os
 
 import conftest
+import pytest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "drude_ions", "drude_ions.py")
@@ -38,3 +39,16 @@ def test_stability_probe_quick(tmp_path):
     assert sorted(run["wall_nm"] for run in runs) == [0.0, 0.02]
     for run in runs:
         assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run
+
+
+@pytest.mark.parametrize("folder, columns", [("density_wall", 4), ("density", 3)])
+def test_seed_table_reprints_the_readme_tables_from_the_stored_runs(tmp_path, folder, columns):
+    stored = [os.path.join(REPO_ROOT, "examples", "drude_ions", "results", folder, f"seed{s}", "drude_ions.json")
+              for s in range(1, 6)]
+    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-table", *stored))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(os.path.join(REPO_ROOT, "examples", "drude_ions", "README.md")) as f:
+        readme = f.read()
+    rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    assert len(rows) == 1 + 5 + 1 and all(row in readme for row in rows)  # header, observables, runs
+    assert rows[0].count(" | ") == columns

@@ -214,6 +214,18 @@ def run_quick(script, out, timeout=120, extra=()):
                           capture_output=True, text=True, timeout=timeout)
 
 
+def assert_readme_table_reprinted(script, out, args, readme, observables, columns):
+    """Run `script` with the table-printing `args` (and --quick --out OUT): it succeeds, and every row of the Markdown
+    table it prints (a header, one row per observable, a count of runs; `columns` data columns) is in `readme`."""
+    result = run_quick(script, out, extra=args)
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(readme) as f:
+        text = f.read()
+    rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    assert len(rows) == 1 + observables + 1, rows
+    assert [row for row in rows if row not in text] == []
+    assert rows[0].count(" | ") == columns
+
 
 def pytest_configure(config):
     # A correct configuration gives no openmmflavors.FlavorsWarning; tests that expect one say so (pytest.warns).

@@ -45,10 +45,5 @@ def test_stability_probe_quick(tmp_path):
 def test_seed_table_reprints_the_readme_tables_from_the_stored_runs(tmp_path, folder, columns):
     stored = [os.path.join(REPO_ROOT, "examples", "drude_ions", "results", folder, f"seed{s}", "drude_ions.json")
               for s in range(1, 6)]
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-table", *stored))
-    assert result.returncode == 0, result.stderr[-3000:]
-    with open(os.path.join(REPO_ROOT, "examples", "drude_ions", "README.md")) as f:
-        readme = f.read()
-    rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
-    assert len(rows) == 1 + 5 + 1 and all(row in readme for row in rows)  # header, observables, runs
-    assert rows[0].count(" | ") == columns
+    conftest.assert_readme_table_reprinted(SCRIPT, tmp_path, ("--seed-table", *stored),
+                                           os.path.join(REPO_ROOT, "examples", "drude_ions", "README.md"), 5, columns)

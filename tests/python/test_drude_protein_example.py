@@ -57,11 +57,6 @@ def stored_runs(folder):
     (("density_phase_limit_scaled",), ("density",), 3),   # the reference, SIM 2.5 and 3 fs
 ])
 def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim_folder, reference_folder, columns):
-    result = conftest.run_quick(SCRIPT, tmp_path, extra=("--seed-table", *stored_runs(sim_folder),
-                                                         "--reference-files", *stored_runs(reference_folder)))
-    assert result.returncode == 0, result.stderr[-3000:]
-    with open(os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md")) as f:
-        readme = f.read()
-    rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
-    assert len(rows) == 1 + 11 + 1 and all(row in readme for row in rows)  # header, observables, runs
-    assert rows[0].count(" | ") == columns
+    conftest.assert_readme_table_reprinted(
+        SCRIPT, tmp_path, ("--seed-table", *stored_runs(sim_folder), "--reference-files", *stored_runs(reference_folder)),
+        os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 11, columns)

@@ -141,8 +141,8 @@ def flexible_water(production_ps, quick):
           "    within the error bars; delta = 10 fs runs hot. The O-H stretch moves only during tau of each delta:\n"
           "    its band sits at tau/delta of the true frequency in simulated time\n"
           "    (flexible_water.py --seeds 1 2 3, about 70 min; in Modeller's 0.89-g/cm3 box. At water's density,\n"
-          "    three seeds with a 10-ps start: LangevinMiddle 2 fs and delta = 6 fs within every error bar, delta = 6 fs\n"
-          "    at 2.58x LangevinMiddle 2 fs; see the README).")
+          "    three seeds with a 10-ps start: LangevinMiddle 1-2 fs and delta = 4 / 6 / 7 fs within every error bar,\n"
+          "    delta = 7 fs at 2.92x LangevinMiddle 2 fs, delta = 8 fs out; see the README).")
 
 
 def main():

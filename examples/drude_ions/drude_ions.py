@@ -241,14 +241,10 @@ def seed_table(files):
     smallest) against the other DrudeLangevin steps and the SIM's, mean over the seeds ± its standard error, t against
     the reference in brackets; a column counts its runs that failed."""
     runs = seeds.load_runs(files)
-    reference, *others = seeds.steps_of(runs, "DrudeLangevin")
+    reference = seeds.steps_of(runs, "DrudeLangevin")[0]
     columns = [(f"DrudeLangevin {reference:g} fs (reference)", seeds.runs_at(runs, "DrudeLangevin", reference))]
-    for h in others:
-        peers = seeds.runs_at(runs, "DrudeLangevin", h)
-        columns.append((f"DrudeLangevin {h:g} fs" + (" + wall" if peers[0]["wall_nm"] > 0 else ""), peers))
-    for h in seeds.steps_of(runs, "WarpedMiddle"):
-        peers = seeds.runs_at(runs, "WarpedMiddle", h)
-        columns.append((f"SIM {h:g} fs" + (" + wall" if peers[0]["wall_nm"] > 0 else ""), peers))
+    columns += seeds.step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != reference)
+    columns += seeds.step_columns(runs, "WarpedMiddle", "SIM")
     return seeds.markdown(columns, SEED_TABLE_ROWS)
 
 

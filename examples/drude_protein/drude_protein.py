@@ -172,10 +172,8 @@ def seed_table(reference_files, sim_files):
     runs = seeds.load_runs(sim_files)
     columns = [("DrudeLangevin 0.5 fs (reference)", seeds.runs_at(seeds.load_runs(reference_files), "DrudeLangevin",
                                                                    0.5))]
-    for h in seeds.steps_of(runs, "DrudeLangevin", lambda r: r["step_fs"] != 0.5):
-        peers = seeds.runs_at(runs, "DrudeLangevin", h)
-        columns.append((f"DrudeLangevin {h:g} fs" + (" + wall" if peers[0]["wall_nm"] > 0 else ""), peers))
-    columns += [(f"SIM {h:g} fs", seeds.runs_at(runs, "WarpedMiddle", h)) for h in seeds.steps_of(runs, "WarpedMiddle")]
+    columns += seeds.step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != 0.5)
+    columns += seeds.step_columns(runs, "WarpedMiddle", "SIM", mark_wall=False)
     return seeds.markdown(columns, SEED_TABLE_ROWS)
 
 

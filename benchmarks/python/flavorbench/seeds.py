@@ -27,6 +27,17 @@ def runs_at(runs, integrator, step_fs):
     return [r for r in runs if r["integrator"] == integrator and r["step_fs"] == step_fs]
 
 
+def step_columns(runs, integrator, name, keep=lambda run: True, mark_wall=True):
+    """One table column per step of `integrator`: ("NAME H fs", its runs), " + wall" added where the runs had a hard
+    wall (wall_nm > 0) and mark_wall."""
+    columns = []
+    for h in steps_of(runs, integrator, keep):
+        peers = runs_at(runs, integrator, h)
+        wall = " + wall" if mark_wall and peers[0].get("wall_nm", 0) > 0 else ""
+        columns.append((f"{name} {h:g} fs{wall}", peers))
+    return columns
+
+
 def pooled(runs, key, scale=1.0):
     """(mean, standard error) over the finished runs' values of `key`, or None with fewer than two."""
     values = np.array([r[key][0] * scale for r in runs if not r.get("failed") and key in r])

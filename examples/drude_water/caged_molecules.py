@@ -1,0 +1,245 @@
+#!/usr/bin/env python3
+"""The molecules' lean in its smallest known setting: independent SWM4-NDP molecules, each in its own cage.
+
+In SWM4-NDP water the SIM's molecules read a little cold (docs/sim_drude.md section 7, "The molecules' lean"), and
+100-ps runs of the 256-molecule box take minutes per peer.  Here every molecule sits alone in a static cage: its
+atoms tethered to their start positions (harmonic, --trap-o on the oxygen, --trap-h on each hydrogen; the Drude
+particle and the virtual site free) and every charge in the same static potential about its molecule's oxygen site c,
+
+    phi(r) = -E0 . (r - c) - (g/2) (x^2 + y^2 - 2 z^2 + x y),   (x, y, z) = r - c,
+
+a field E0 + g (x + y/2, y + x/2, -2 z) (--e0 in kJ/mol/nm/e along (0.6, 0, 0.8), --gradient g in kJ/mol/nm^2/e),
+so that each Drude follows a field that changes as its molecule moves.  No intermolecular forces, no PME: 100 ps of
+512 molecules take about a minute on one core for the SIM at 2.5 fs, two for DrudeLangevin at 0.5 fs.  Peers: KIND:H (fs), KIND as in drude_water.make_integrator
+(DrudeLangevin, WarpedMiddle, WarpedMiddleScaled, FilteredMiddle, ...); "Twin:H:SIM_H:PHASE" runs DrudeLangevin at H
+on Drude particles as heavy as a SIM step SIM_H that flows the Drude by PHASE makes them act (drude_water.
+heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the SIM's).  --no-gradient and --no-field set
+g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no hydrogens, no constraints).  Every peer
+starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps and samples the molecules'
+temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis) and the Drude temperature
+every 10 fs; errors are standard errors of 20 block means.
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/caged_molecules.py \
+        --peers DrudeLangevin:0.5 WarpedMiddleScaled:2.5 Twin:0.5:2.5:2.05 [--friction 5] [--ps 100] [--out DIR]
+
+Writes caged_molecules.json to --out and prints each peer as it finishes.
+"""
+
+import argparse
+import copy
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+import openmm
+import openmm.unit as unit
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import drude_water  # noqa: E402
+
+FIELD_DIRECTION = np.array([0.6, 0.0, 0.8])
+CAGE_ENERGY = ("q*(-(e0x*dx + e0y*dy + e0z*dz) - 0.5*g*(dx*dx + dy*dy - 2*dz*dz + dx*dy))"
+               " + 0.5*tether*((x - x0)^2 + (y - y0)^2 + (z - z0)^2);"
+               " dx = x - cx; dy = y - cy; dz = z - cz")
+SAMPLE_FS = 10.0
+BLOCKS = 20
+BURN_IN_PS = 1.0
+# Molecules far apart: the cages do not interact, so the spacing only keeps coordinates readable.
+CAGE_DENSITY = 0.02  # g/cm^3
+
+
+def cage_field(e0, gradient, r):
+    """The cage's field (kJ/mol/nm/e) at r - c = r: minus the gradient of phi."""
+    x, y, z = r
+    return e0 * FIELD_DIRECTION + gradient * np.array([x + 0.5 * y, y + 0.5 * x, -2.0 * z])
+
+
+def build_caged(molecules, e0, gradient, trap_o, trap_h):
+    """(System, positions in nm, Analysis) of `molecules` caged SWM4-NDP molecules: swm4ndp.xml's molecules, their
+    NonbondedForce replaced by the cage (each particle's charge in phi about its oxygen's start position; oxygens and
+    hydrogens tethered to where they start)."""
+    system, _, positions, _ = drude_water.build_water(molecules, density=CAGE_DENSITY)
+    analysis = drude_water.Analysis(system)
+    nonbonded = next(f for f in system.getForces() if isinstance(f, openmm.NonbondedForce))
+    charges = [nonbonded.getParticleParameters(i)[0].value_in_unit(unit.elementary_charge)
+               for i in range(system.getNumParticles())]
+    for i in reversed(range(system.getNumForces())):
+        if isinstance(system.getForce(i), (openmm.NonbondedForce, openmm.CMMotionRemover)):
+            system.removeForce(i)
+    positions = np.array(positions.value_in_unit(unit.nanometer))
+    cage = openmm.CustomExternalForce(CAGE_ENERGY)
+    for name in ("q", "cx", "cy", "cz", "tether", "x0", "y0", "z0"):
+        cage.addPerParticleParameter(name)
+    for axis, value in zip("xyz", e0 * FIELD_DIRECTION):
+        cage.addGlobalParameter("e0" + axis, value)
+    cage.addGlobalParameter("g", gradient)
+    tethers = {int(o): trap_o for o in analysis.cores}
+    tethers.update({int(h): trap_h for h in analysis.hydrogens})
+    for block in analysis.blocks:
+        centre = positions[block[0]]
+        for i in block:
+            cage.addParticle(int(i), [charges[i], *centre, tethers.get(int(i), 0.0), *positions[i]])
+    system.addForce(cage)
+    # Every particle's momentum is free to change (tethers), so no degree of freedom is lost to a conserved momentum.
+    analysis.com_dof = 3 * (len(analysis.cores) + len(analysis.hydrogens)) - system.getNumConstraints()
+    return system, positions, analysis
+
+
+class FreePairAnalysis:
+    """drude_water.Analysis's temperatures for Drude pairs without hydrogens or constraints."""
+
+    def __init__(self, system, cores, drudes):
+        self.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton)
+                                for i in range(system.getNumParticles())])
+        self.cores, self.drudes, self.hydrogens = np.array(cores), np.array(drudes), np.array([], dtype=int)
+        self.com_dof, self.drude_dof = 3 * len(cores), 3 * len(drudes)
+
+    def temperatures(self, v):
+        mc, md = self.masses[self.cores][:, None], self.masses[self.drudes][:, None]
+        com = (mc * v[self.cores] + md * v[self.drudes]) / (mc + md)
+        rel = v[self.drudes] - v[self.cores]
+        return (np.sum((mc + md) * com**2) / (self.com_dof * drude_water.BOLTZ),
+                np.sum(mc * md / (mc + md) * rel**2) / (self.drude_dof * drude_water.BOLTZ))
+
+
+def build_free_pairs(pairs, e0, gradient, trap_o):
+    """(System, positions, analysis) of SWM4-NDP's Drude pair alone (its core's and Drude particle's masses, charges
+    and spring; no hydrogens, no constraints), each pair in its own cage, the core tethered."""
+    water, _, _, _ = drude_water.build_water(1, density=CAGE_DENSITY)
+    template = drude_water.Analysis(water)
+    spring = next(f for f in water.getForces() if isinstance(f, openmm.DrudeForce))
+    _, _, _, _, _, charge, alpha, _, _ = spring.getParticleParameters(0)
+    charge = charge.value_in_unit(unit.elementary_charge)
+    core_mass, drude_mass = (template.masses[template.cores[0]], template.masses[template.drudes[0]])
+    system = openmm.System()
+    drude = openmm.DrudeForce()
+    drude.setForceGroup(drude_water.DRUDE_GROUP)
+    cage = openmm.CustomExternalForce(CAGE_ENERGY)
+    for name in ("q", "cx", "cy", "cz", "tether", "x0", "y0", "z0"):
+        cage.addPerParticleParameter(name)
+    for axis, value in zip("xyz", e0 * FIELD_DIRECTION):
+        cage.addGlobalParameter("e0" + axis, value)
+    cage.addGlobalParameter("g", gradient)
+    side = int(math.ceil(pairs ** (1 / 3) - 1e-9))
+    positions, cores, drudes = [], [], []
+    for n in range(pairs):
+        centre = np.array([n % side, (n // side) % side, n // side**2], dtype=float)
+        core, particle = system.addParticle(core_mass), system.addParticle(drude_mass)
+        drude.addParticle(particle, core, -1, -1, -1, charge, alpha, 1, 1)
+        cage.addParticle(core, [-charge, *centre, trap_o, *centre])
+        cage.addParticle(particle, [charge, *centre, 0.0, *centre])
+        positions += [centre, centre]
+        cores.append(core)
+        drudes.append(particle)
+    system.addForce(drude)
+    system.addForce(cage)
+    system.setDefaultPeriodicBoxVectors(*(np.eye(3) * (side + 1)))
+    return system, np.array(positions), FreePairAnalysis(system, cores, drudes)
+
+
+def parse_peer(text):
+    """"KIND:H" or "Twin:H:SIM_H:PHASE" -> (label, kind, H, twin or None); ValueError naming what is wrong."""
+    parts = text.split(":")
+    try:
+        if parts[0] == "Twin" and len(parts) == 4:
+            step, sim_step, phase = (float(x) for x in parts[1:])
+            if not (step > 0 and sim_step > 0 and 0 < phase <= math.pi):
+                raise ValueError
+            return text, "DrudeLangevin", step, (sim_step, phase)
+        if len(parts) != 2 or parts[0] == "Twin" or not float(parts[1]) > 0:
+            raise ValueError
+        return text, parts[0], float(parts[1]), None
+    except ValueError:
+        raise ValueError(f"peer {text!r}: expected KIND:H or Twin:H:SIM_H:PHASE with positive steps and "
+                         "0 < PHASE <= pi") from None
+
+
+def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds, threads):
+    """The peer's mean molecular and Drude temperatures (K, with standard errors) and mean |d| (nm)."""
+    friction_scale = 1.0
+    if twin:
+        system, _, friction_scale = drude_water.heavy_drude_system(system, drude_water.response_frequency(*twin))
+        analysis = copy.copy(analysis)
+        analysis.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton)
+                                    for i in range(system.getNumParticles())])
+    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_friction_scale=friction_scale)
+    integrator.setFriction(friction / unit.picosecond)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": str(threads)})
+    context.setState(state)
+    integrator.step(int(round(BURN_IN_PS * 1000 / step_fs)))
+    every = max(1, int(round(SAMPLE_FS / step_fs)))
+    samples = max(BLOCKS, int(round(picoseconds * 1000 / step_fs)) // every)
+    series, displacement = [], 0.0
+    for _ in range(samples):
+        integrator.step(every)
+        frame = context.getState(getVelocities=True, getPositions=True)
+        v = frame.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
+        x = frame.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+        series.append(analysis.temperatures(v))
+        displacement += np.linalg.norm(x[analysis.drudes] - x[analysis.cores], axis=1).mean()
+    series = np.array(series)
+    usable = len(series) // BLOCKS * BLOCKS
+    blocks = series[:usable].reshape(BLOCKS, -1, 2).mean(axis=1)
+    result = {name: [float(series[:, k].mean()), float(blocks[:, k].std(ddof=1) / math.sqrt(BLOCKS))]
+              for k, name in enumerate(("t_com", "t_drude"))}
+    result["drude_displacement_nm"] = displacement / samples
+    return result
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--peers", nargs="+", required=True, metavar="KIND:H")
+    parser.add_argument("--molecules", type=int, default=512, help="caged molecules (default 512)")
+    parser.add_argument("--ps", type=float, default=100.0, help="picoseconds sampled per peer (default 100)")
+    parser.add_argument("--friction", type=float, default=5.0, help="the molecules' friction, 1/ps (default 5)")
+    parser.add_argument("--e0", type=float, default=1500.0, help="uniform field, kJ/mol/nm/e (default 1500)")
+    parser.add_argument("--gradient", type=float, default=3e4, help="field gradient g, kJ/mol/nm^2/e (default 3e4)")
+    parser.add_argument("--no-gradient", action="store_true", help="g = 0: each Drude's field stays what it is")
+    parser.add_argument("--no-field", action="store_true", help="E0 = g = 0")
+    parser.add_argument("--trap-o", type=float, default=1e5, help="oxygen tether, kJ/mol/nm^2 (default 1e5)")
+    parser.add_argument("--trap-h", type=float, default=2e4, help="hydrogen tether, kJ/mol/nm^2 (default 2e4)")
+    parser.add_argument("--free-pairs", action="store_true", help="SWM4-NDP's Drude pairs alone (no hydrogens, no "
+                        "constraints), each core tethered by --trap-o")
+    parser.add_argument("--threads", type=int, default=1, help="CPU platform threads (default 1)")
+    parser.add_argument("--out", default=".", help="folder for caged_molecules.json (default .)")
+    parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 32 molecules, "
+                        "0.2 ps sampled")
+    args = parser.parse_args()
+    try:
+        peers = [parse_peer(p) for p in args.peers]
+    except ValueError as error:
+        parser.error(str(error))
+    for name in ("ps", "friction", "trap_o", "trap_h"):
+        if not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')} must be positive (got {getattr(args, name):g})")
+    if args.molecules < 1 or args.threads < 1:
+        parser.error("--molecules and --threads must be at least 1")
+    e0 = 0.0 if args.no_field else args.e0
+    gradient = 0.0 if args.no_field or args.no_gradient else args.gradient
+    molecules, picoseconds = (32, 0.2) if args.quick else (args.molecules, args.ps)
+    if args.free_pairs:
+        system, positions, analysis = build_free_pairs(molecules, e0, gradient, args.trap_o)
+    else:
+        system, positions, analysis = build_caged(molecules, e0, gradient, args.trap_o, args.trap_h)
+    state = drude_water.equilibrated_state(system, positions * unit.nanometer, 0.5, 200 if args.quick else 4000, 7,
+                                           threads=args.threads)
+    report = {"molecules": molecules, "picoseconds": picoseconds, "friction_per_ps": args.friction, "e0": e0,
+              "gradient": gradient, "free_pairs": args.free_pairs, "trap_o": args.trap_o, "trap_h": args.trap_h,
+              "blocks": BLOCKS, "quick": args.quick, "peers": {}}
+    os.makedirs(args.out, exist_ok=True)
+    for label, kind, step_fs, twin in peers:
+        started = time.time()
+        result = run_peer(system, analysis, state, kind, step_fs, twin, args.friction, picoseconds, args.threads)
+        report["peers"][label] = result
+        print(f"{label:24s} T_COM {result['t_com'][0]:7.2f} ± {result['t_com'][1]:.2f} K   T_Drude "
+              f"{result['t_drude'][0]:.3f} ± {result['t_drude'][1]:.3f} K   |d| {result['drude_displacement_nm']:.5f} "
+              f"nm   ({time.time() - started:.0f} s)", flush=True)
+        with open(os.path.join(args.out, "caged_molecules.json"), "w") as f:
+            json.dump(report, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

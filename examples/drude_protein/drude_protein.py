@@ -165,14 +165,15 @@ SEED_TABLE_ROWS = [("t_peptide", "T peptide (K)", "%.1f", 1), ("t_water", "T wat
                    ("pe_per_pair", "PE per Drude pair (kJ/mol)", "%.2f", 1)]
 
 
-def seed_table(reference_files, sim_files):
-    """The Markdown table of several seeds: the DrudeLangevin 0.5-fs runs of reference_files against the DrudeLangevin
-    runs at other steps (the --wall-peers) and the SIM runs of sim_files, per step; mean over the seeds ± its standard
-    error, t against the reference in brackets."""
+def seed_table(reference_files, sim_files, reference_step=0.5):
+    """The Markdown table of several seeds: the DrudeLangevin runs at reference_step (fs) of reference_files against
+    the DrudeLangevin runs at other steps (the --wall-peers, or the 0.5-fs references of sim_files when the reference
+    is a smaller step) and the SIM runs of sim_files, per step; mean over the seeds ± its standard error, t against
+    the reference in brackets."""
     runs = seeds.load_runs(sim_files)
-    columns = [("DrudeLangevin 0.5 fs (reference)", seeds.runs_at(seeds.load_runs(reference_files), "DrudeLangevin",
-                                                                   0.5))]
-    columns += seeds.step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != 0.5)
+    columns = [(f"DrudeLangevin {reference_step:g} fs (reference)",
+                seeds.runs_at(seeds.load_runs(reference_files), "DrudeLangevin", reference_step))]
+    columns += seeds.step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != reference_step)
     columns += seeds.step_columns(runs, "WarpedMiddle", "SIM", mark_wall=False)
     return seeds.markdown(columns, SEED_TABLE_ROWS)
 
@@ -184,7 +185,9 @@ def main():
                         help="output folder")
     parser.add_argument("--production", type=float, default=10.0, help="ps sampled per run (default 10)")
     parser.add_argument("--burn-in", type=float, default=0.5, help="ps per run before sampling (default 0.5)")
-    parser.add_argument("--reference-step", type=float, default=0.5, help="DrudeLangevin's step in fs (default 0.5)")
+    parser.add_argument("--reference-step", type=float, default=0.5,
+                        help="DrudeLangevin's step in fs (default 0.5); with --seed-table, the step of the reference "
+                             "runs in --reference-files")
     parser.add_argument("--sim-steps", type=float, nargs="+", default=[2.0], help="SIM steps H in fs (default 2)")
     parser.add_argument("--wall", type=float, default=0.02,
                         help="the hard wall (setMaxDrudeDistance) in nm of the SIM runs and the --wall-peers "
@@ -206,7 +209,7 @@ def main():
                         help="only the SIM runs (to set beside the reference of a run with the same --seed)")
     args = parser.parse_args()
     if args.seed_table:
-        print(seed_table(args.reference_files, args.seed_table))
+        print(seed_table(args.reference_files, args.seed_table, args.reference_step))
         return
     if args.quick:
         waters, cutoff, equilibration_ps = 80, 0.55, 0.05

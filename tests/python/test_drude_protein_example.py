@@ -51,12 +51,16 @@ def stored_runs(folder):
             for s in range(1, 6)]
 
 
-@pytest.mark.parametrize("sim_folder, reference_folder, columns", [
-    (("friction_scaling",), (), 4),        # the reference's five runs, SIM at 2, 2.5, 3 fs
-    (("density",), ("density",), 3),       # the reference, DrudeLangevin 1 fs + wall, SIM 2 fs
-    (("density_phase_limit_scaled",), ("density",), 3),   # the reference, SIM 2.5 and 3 fs
+@pytest.mark.parametrize("sim_folder, reference_folder, reference_step, columns", [
+    (("friction_scaling",), (), 0.5, 4),        # the reference's five runs, SIM at 2, 2.5, 3 fs
+    (("density",), ("density",), 0.5, 3),       # the reference, DrudeLangevin 1 fs + wall, SIM 2 fs
+    (("density_phase_limit_scaled",), ("density",), 0.5, 3),   # the reference, SIM 2.5 and 3 fs
+    (("density",), ("density_dl025",), 0.25, 4),   # DrudeLangevin 0.25 fs, 0.5 fs, 1 fs + wall, SIM 2 fs
+    (("density_phase_limit_scaled",), ("density_dl025",), 0.25, 3),   # DrudeLangevin 0.25 fs, SIM 2.5 and 3 fs
 ])
-def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim_folder, reference_folder, columns):
+def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim_folder, reference_folder,
+                                                                  reference_step, columns):
     conftest.assert_readme_table_reprinted(
-        SCRIPT, tmp_path, ("--seed-table", *stored_runs(sim_folder), "--reference-files", *stored_runs(reference_folder)),
+        SCRIPT, tmp_path, ("--seed-table", *stored_runs(sim_folder), "--reference-files", *stored_runs(reference_folder),
+                           "--reference-step", str(reference_step)),
         os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 11, columns)

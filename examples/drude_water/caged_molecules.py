@@ -57,6 +57,17 @@ def cage_field(e0, gradient, r):
     return e0 * FIELD_DIRECTION + gradient * np.array([x + 0.5 * y, y + 0.5 * x, -2.0 * z])
 
 
+def make_cage(e0, gradient):
+    """The cage force, without particles: per particle (q, c, tether, start position)."""
+    cage = openmm.CustomExternalForce(CAGE_ENERGY)
+    for name in ("q", "cx", "cy", "cz", "tether", "x0", "y0", "z0"):
+        cage.addPerParticleParameter(name)
+    for axis, value in zip("xyz", e0 * FIELD_DIRECTION):
+        cage.addGlobalParameter("e0" + axis, value)
+    cage.addGlobalParameter("g", gradient)
+    return cage
+
+
 def build_caged(molecules, e0, gradient, trap_o, trap_h):
     """(System, positions in nm, Analysis) of `molecules` caged SWM4-NDP molecules: swm4ndp.xml's molecules, their
     NonbondedForce replaced by the cage (each particle's charge in phi about its oxygen's start position; oxygens and
@@ -70,12 +81,7 @@ def build_caged(molecules, e0, gradient, trap_o, trap_h):
         if isinstance(system.getForce(i), (openmm.NonbondedForce, openmm.CMMotionRemover)):
             system.removeForce(i)
     positions = np.array(positions.value_in_unit(unit.nanometer))
-    cage = openmm.CustomExternalForce(CAGE_ENERGY)
-    for name in ("q", "cx", "cy", "cz", "tether", "x0", "y0", "z0"):
-        cage.addPerParticleParameter(name)
-    for axis, value in zip("xyz", e0 * FIELD_DIRECTION):
-        cage.addGlobalParameter("e0" + axis, value)
-    cage.addGlobalParameter("g", gradient)
+    cage = make_cage(e0, gradient)
     tethers = {int(o): trap_o for o in analysis.cores}
     tethers.update({int(h): trap_h for h in analysis.hydrogens})
     for block in analysis.blocks:
@@ -117,12 +123,7 @@ def build_free_pairs(pairs, e0, gradient, trap_o):
     system = openmm.System()
     drude = openmm.DrudeForce()
     drude.setForceGroup(drude_water.DRUDE_GROUP)
-    cage = openmm.CustomExternalForce(CAGE_ENERGY)
-    for name in ("q", "cx", "cy", "cz", "tether", "x0", "y0", "z0"):
-        cage.addPerParticleParameter(name)
-    for axis, value in zip("xyz", e0 * FIELD_DIRECTION):
-        cage.addGlobalParameter("e0" + axis, value)
-    cage.addGlobalParameter("g", gradient)
+    cage = make_cage(e0, gradient)
     side = int(math.ceil(pairs ** (1 / 3) - 1e-9))
     positions, cores, drudes = [], [], []
     for n in range(pairs):

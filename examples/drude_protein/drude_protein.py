@@ -204,7 +204,7 @@ def main():
                              "reference runs of --reference-files")
     parser.add_argument("--reference-files", nargs="+", metavar="JSON", default=[
         os.path.join(HERE, "results", f"seed{s}", "drude_protein.json") for s in range(1, 6)],
-                        help="the runs with the DrudeLangevin 0.5-fs reference (default results/seed1..5)")
+                        help="the runs with the DrudeLangevin reference at --reference-step (default results/seed1..5)")
     parser.add_argument("--no-reference", action="store_true",
                         help="only the SIM runs (to set beside the reference of a run with the same --seed)")
     args = parser.parse_args()

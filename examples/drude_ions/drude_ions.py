@@ -230,8 +230,8 @@ def print_runs(runs, names, width=24):
 
 
 # The observables of the seed table: JSON key, row name, format, scale.
-SEED_TABLE_ROWS = [("induced_ratio", "induced / SCF, all", "%.4f", 1), ("induced_ratio_ions", "induced / SCF, ions",
-                                                                         "%.4f", 1),
+SEED_TABLE_ROWS = [("induced_ratio", "induced / SCF, all", "%.4f", 1),
+                   ("induced_ratio_ions", "induced / SCF, ions", "%.4f", 1),
                    ("t_drude", "T Drude (K)", "%.3f", 1), ("t_com", "T centre of mass (K)", "%.1f", 1),
                    ("pe_per_pair", "PE per Drude pair (kJ/mol)", "%.2f", 1)]
 
@@ -242,10 +242,7 @@ def seed_table(files):
     the reference in brackets; a column counts its runs that failed."""
     runs = seeds.load_runs(files)
     reference = seeds.steps_of(runs, "DrudeLangevin")[0]
-    columns = [(f"DrudeLangevin {reference:g} fs (reference)", seeds.runs_at(runs, "DrudeLangevin", reference))]
-    columns += seeds.step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != reference)
-    columns += seeds.step_columns(runs, "WarpedMiddle", "SIM")
-    return seeds.markdown(columns, SEED_TABLE_ROWS)
+    return seeds.markdown(seeds.drude_peer_columns(runs, runs, reference), SEED_TABLE_ROWS)
 
 
 def main():

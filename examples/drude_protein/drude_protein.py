@@ -170,11 +170,8 @@ def seed_table(reference_files, sim_files, reference_step=0.5):
     the DrudeLangevin runs at other steps (the --wall-peers, or the 0.5-fs references of sim_files when the reference
     is a smaller step) and the SIM runs of sim_files, per step; mean over the seeds ± its standard error, t against
     the reference in brackets."""
-    runs = seeds.load_runs(sim_files)
-    columns = [(f"DrudeLangevin {reference_step:g} fs (reference)",
-                seeds.runs_at(seeds.load_runs(reference_files), "DrudeLangevin", reference_step))]
-    columns += seeds.step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != reference_step)
-    columns += seeds.step_columns(runs, "WarpedMiddle", "SIM", mark_wall=False)
+    columns = seeds.drude_peer_columns(seeds.load_runs(reference_files), seeds.load_runs(sim_files), reference_step,
+                                       mark_sim_wall=False)
     return seeds.markdown(columns, SEED_TABLE_ROWS)
 
 

@@ -97,18 +97,13 @@ def build_caged(molecules, e0, gradient, trap_o, trap_h):
 class FreePairAnalysis:
     """drude_water.Analysis's temperatures for Drude pairs without hydrogens or constraints."""
 
+    temperatures = drude_water.Analysis.temperatures
+
     def __init__(self, system, cores, drudes):
         self.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton)
                                 for i in range(system.getNumParticles())])
         self.cores, self.drudes, self.hydrogens = np.array(cores), np.array(drudes), np.array([], dtype=int)
         self.com_dof, self.drude_dof = 3 * len(cores), 3 * len(drudes)
-
-    def temperatures(self, v):
-        mc, md = self.masses[self.cores][:, None], self.masses[self.drudes][:, None]
-        com = (mc * v[self.cores] + md * v[self.drudes]) / (mc + md)
-        rel = v[self.drudes] - v[self.cores]
-        return (np.sum((mc + md) * com**2) / (self.com_dof * drude_water.BOLTZ),
-                np.sum(mc * md / (mc + md) * rel**2) / (self.drude_dof * drude_water.BOLTZ))
 
 
 def build_free_pairs(pairs, e0, gradient, trap_o):

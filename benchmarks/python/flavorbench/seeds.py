@@ -38,6 +38,16 @@ def step_columns(runs, integrator, name, keep=lambda run: True, mark_wall=True):
     return columns
 
 
+def drude_peer_columns(reference_runs, runs, reference_step, mark_sim_wall=True):
+    """The columns of a Drude scene's seed table: DrudeLangevin at reference_step (fs) from reference_runs, then
+    DrudeLangevin at every other step and the SIM (WarpedMiddle) at every step from runs."""
+    columns = [(f"DrudeLangevin {reference_step:g} fs (reference)",
+                runs_at(reference_runs, "DrudeLangevin", reference_step))]
+    columns += step_columns(runs, "DrudeLangevin", "DrudeLangevin", lambda r: r["step_fs"] != reference_step)
+    columns += step_columns(runs, "WarpedMiddle", "SIM", mark_wall=mark_sim_wall)
+    return columns
+
+
 def pooled(runs, key, scale=1.0):
     """(mean, standard error) over the finished runs' values of `key`, or None with fewer than two."""
     values = np.array([r[key][0] * scale for r in runs if not r.get("failed") and key in r])

@@ -157,12 +157,17 @@ EQUILIBRATION_STEP_FS = 0.5
 def equilibrated(system, positions, seed, ps):
     """The original System minimized, then run ps with DrudeLangevin at 0.5 fs behind the 0.02-nm hard wall: the state
     every peer starts from.  At the solution's density DrudeLangevin at 1 fs blew up from the minimized box in one of
-    four starts without the wall (CHARMM's practice) and in one of ten with it."""
+    four starts without the wall (CHARMM's practice) and in one of ten with it.  The minimization runs on one thread:
+    with two the CPU platform's sums, and so the minimizer's path, change from run to run, and in the quick box one
+    path in about ten ran a Drude particle into its neighbour's field (NaN); on one thread it is the same every time."""
+    platform = openmm.Platform.getPlatformByName("CPU")
+    minimizer = openmm.Context(system, openmm.VerletIntegrator(0.001), platform, {"Threads": "1"})
+    minimizer.setPositions(positions)
+    openmm.LocalEnergyMinimizer.minimize(minimizer, 10, 500)
     integrator = make_integrator("DrudeLangevin", EQUILIBRATION_STEP_FS, seed)
     integrator.setMaxDrudeDistance(0.02 * unit.nanometer)
-    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "2"})
-    context.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
+    context = openmm.Context(system, integrator, platform, {"Threads": "2"})
+    context.setPositions(minimizer.getState(getPositions=True).getPositions())
     context.setVelocitiesToTemperature(300 * unit.kelvin, seed + 1)
     integrator.step(int(round(ps * 1000 / EQUILIBRATION_STEP_FS)))
     return context.getState(getPositions=True, getVelocities=True)

@@ -13,6 +13,7 @@ the centre-of-mass and Drude temperatures, the potential energy per Drude pair, 
 import argparse
 import json
 import os
+import random
 import time
 
 import numpy as np
@@ -31,14 +32,18 @@ SPRING_GROUP = 1  # the isotropic Drude springs after separateDrudeSprings; ever
 NACL_PAIR_VOLUME = 19.0 / 602.214076
 
 
-def build(waters, pairs, cutoff):
+def build(waters, pairs, cutoff, seed):
     """A cubic box of `waters` SWM4-NDP molecules and `pairs` Na+/Cl- pairs (Drude-2019 SOD and CLA), PME (cutoff in
     nm), rigid water, X-H bonds constrained; the box holds the waters at water's density at 300 K and the pairs at
-    NaCl's apparent molar volume."""
+    NaCl's apparent molar volume.  Modeller puts the ions in place of waters it draws from Python's `random`: drawn
+    here from `seed`, so that a seed names one box."""
     modeller = app.Modeller(app.Topology(), [])
+    outer = random.getstate()
+    random.seed(seed)
     # Modeller adds round(n_water * I / 55.4 M) pairs: ask for exactly `pairs`.
     modeller.addSolvent(app.ForceField("amber14/tip3p.xml"), model="tip3p", numAdded=waters + 2 * pairs,
                         positiveIon="Na+", negativeIon="Cl-", ionicStrength=pairs * 55.4 / waters * unit.molar)
+    random.setstate(outer)
     compress_to_volume(modeller, water_volume(modeller.topology) + pairs * NACL_PAIR_VOLUME)
     return polar_system(modeller, cutoff)
 
@@ -157,16 +162,18 @@ EQUILIBRATION_STEP_FS = 0.5
 def equilibrated(system, positions, seed, ps):
     """The original System minimized, then run ps with DrudeLangevin at 0.5 fs behind the 0.02-nm hard wall: the state
     every peer starts from.  At the solution's density DrudeLangevin at 1 fs blew up from the minimized box in one of
-    four starts without the wall (CHARMM's practice) and in one of ten with it.  The minimization runs on one thread:
-    with two the CPU platform's sums, and so the minimizer's path, change from run to run, and in the quick box one
-    path in about ten ran a Drude particle into its neighbour's field (NaN); on one thread it is the same every time."""
+    four starts without the wall (CHARMM's practice) and in one of ten with it.  Both run on one thread, so that a seed
+    names one equilibrated state: with two the CPU platform's sums change from run to run, and so the paths: in the
+    quick box about one minimizer path in ten ran a Drude particle into its neighbour's field (NaN), and about one
+    equilibration in two hundred moved a Drude particle past twice the wall in one step (OpenMM's exception)."""
     platform = openmm.Platform.getPlatformByName("CPU")
-    minimizer = openmm.Context(system, openmm.VerletIntegrator(0.001), platform, {"Threads": "1"})
+    one_thread = {"Threads": "1"}
+    minimizer = openmm.Context(system, openmm.VerletIntegrator(0.001), platform, one_thread)
     minimizer.setPositions(positions)
     openmm.LocalEnergyMinimizer.minimize(minimizer, 10, 500)
     integrator = make_integrator("DrudeLangevin", EQUILIBRATION_STEP_FS, seed)
     integrator.setMaxDrudeDistance(0.02 * unit.nanometer)
-    context = openmm.Context(system, integrator, platform, {"Threads": "2"})
+    context = openmm.Context(system, integrator, platform, one_thread)
     context.setPositions(minimizer.getState(getPositions=True).getPositions())
     context.setVelocitiesToTemperature(300 * unit.kelvin, seed + 1)
     integrator.step(int(round(ps * 1000 / EQUILIBRATION_STEP_FS)))
@@ -280,7 +287,7 @@ def main():
         waters, pairs, cutoff, equilibration_ps = 248, 4, 0.8, 1.0
         settings = dict(production_ps=args.production, burn_ps=args.burn_in, samples=60, blocks=6, scf_frames=6)
     begin = time.time()
-    system, topology, positions = build(waters, pairs, cutoff)
+    system, topology, positions = build(waters, pairs, cutoff, args.seed)
     analysis = Analysis(system, topology)
     print(f"{analysis.ions['NA']} Na+ and {analysis.ions['CL']} Cl- (SOD, CLA) in {waters} SWM4-NDP molecules: "
           f"{system.getNumParticles()} particles, {len(analysis.drudes)} Drude particles", flush=True)

@@ -69,12 +69,12 @@ def main():
     if args.quick:
         args.seeds, args.steps, args.ps = args.seeds[:1], args.steps[:1], 0.05
     begin = time.time()
-    system, topology, positions = build(waters, pairs, cutoff)
-    analysis = Analysis(system, topology)
-    separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
-    StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
     runs = []
     for seed in args.seeds:
+        system, topology, positions = build(waters, pairs, cutoff, seed)
+        analysis = Analysis(system, topology)
+        separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
+        StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
         state = equilibrated(system, positions, seed, equilibrate_ps)
         for step_fs in args.steps:
             for wall in args.walls:

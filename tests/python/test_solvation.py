@@ -86,7 +86,7 @@ def test_the_solution_scenes_hold_their_waters_at_water_density():
     sys.path.insert(0, os.path.join(REPO_ROOT, "examples", "drude_protein"))
     import drude_ions
     import drude_protein
-    _, topology, _ = drude_ions.build(248, 4, 0.8)
+    _, topology, _ = drude_ions.build(248, 4, 0.8, 1)
     edge = topology.getPeriodicBoxVectors()[0][0].value_in_unit(unit.nanometer)
     assert edge**3 == pytest.approx(solvation.water_volume(topology) + 4 * drude_ions.NACL_PAIR_VOLUME, rel=1e-9)
     _, topology, _ = drude_protein.build(250, 0.8)

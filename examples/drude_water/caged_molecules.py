@@ -16,8 +16,10 @@ on Drude particles as heavy as a SIM step SIM_H that flows the Drude by PHASE ma
 heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the SIM's).  --no-gradient and --no-field set
 g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no hydrogens, no constraints).  Every peer
 starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps and samples the molecules'
-temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis) and the Drude temperature
-every 10 fs; errors are standard errors of 20 block means.
+temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis), the Drude temperature and
+the cage's potential energy per molecule (a configurational reading of the molecules' temperature: calibrate it with
+--temperature) every 10 fs; errors are standard errors of 20 block means.  --seed S gives an independent replica
+(another start, other random numbers); --temperature sets the molecules' bath for every peer.
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/caged_molecules.py \
         --peers DrudeLangevin:0.5 WarpedMiddleScaled:2.5 Twin:0.5:2.5:2.05 [--friction 5] [--ps 100] [--out DIR]
@@ -153,34 +155,40 @@ def parse_peer(text):
                          "0 < PHASE <= pi") from None
 
 
-def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds, threads):
-    """The peer's mean molecular and Drude temperatures (K, with standard errors) and mean |d| (nm)."""
+def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds, threads, seed=11, kelvin=300.0):
+    """The peer's mean molecular and Drude temperatures (K), the cage's potential energy per molecule (kJ/mol: tethers
+    and field, a configurational measure of the molecules' temperature), each with its standard error, and the mean
+    |d| (nm); seed: the integrator's random number seed; kelvin: the molecules' bath."""
     friction_scale = 1.0
     if twin:
         system, _, friction_scale = drude_water.heavy_drude_system(system, drude_water.response_frequency(*twin))
         analysis = copy.copy(analysis)
         analysis.masses = np.array([system.getParticleMass(i).value_in_unit(unit.dalton)
                                     for i in range(system.getNumParticles())])
-    integrator = drude_water.make_integrator(kind, step_fs, 11, drude_friction_scale=friction_scale)
+    integrator = drude_water.make_integrator(kind, step_fs, seed, drude_friction_scale=friction_scale)
     integrator.setFriction(friction / unit.picosecond)
+    integrator.setTemperature(kelvin * unit.kelvin)
     context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": str(threads)})
     context.setState(state)
     integrator.step(int(round(BURN_IN_PS * 1000 / step_fs)))
     every = max(1, int(round(SAMPLE_FS / step_fs)))
     samples = max(BLOCKS, int(round(picoseconds * 1000 / step_fs)) // every)
     series, displacement = [], 0.0
+    cage_groups = {force.getForceGroup() for force in system.getForces() if isinstance(force, openmm.CustomExternalForce)}
     for _ in range(samples):
         integrator.step(every)
         frame = context.getState(getVelocities=True, getPositions=True)
         v = frame.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
         x = frame.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        series.append(analysis.temperatures(v))
+        cage = context.getState(getEnergy=True, groups=cage_groups).getPotentialEnergy()
+        series.append((*analysis.temperatures(v), cage.value_in_unit(unit.kilojoule_per_mole) / len(analysis.cores)))
         displacement += np.linalg.norm(x[analysis.drudes] - x[analysis.cores], axis=1).mean()
     series = np.array(series)
     usable = len(series) // BLOCKS * BLOCKS
-    blocks = series[:usable].reshape(BLOCKS, -1, 2).mean(axis=1)
+    names = ("t_com", "t_drude", "cage_energy")
+    blocks = series[:usable].reshape(BLOCKS, -1, len(names)).mean(axis=1)
     result = {name: [float(series[:, k].mean()), float(blocks[:, k].std(ddof=1) / math.sqrt(BLOCKS))]
-              for k, name in enumerate(("t_com", "t_drude"))}
+              for k, name in enumerate(names)}
     result["drude_displacement_nm"] = displacement / samples
     return result
 
@@ -191,6 +199,8 @@ def main():
     parser.add_argument("--molecules", type=int, default=512, help="caged molecules (default 512)")
     parser.add_argument("--ps", type=float, default=100.0, help="picoseconds sampled per peer (default 100)")
     parser.add_argument("--friction", type=float, default=5.0, help="the molecules' friction, 1/ps (default 5)")
+    parser.add_argument("--temperature", type=float, default=300.0,
+                        help="the molecules' bath, K (default 300; the start is equilibrated at 300 K)")
     parser.add_argument("--e0", type=float, default=1500.0, help="uniform field, kJ/mol/nm/e (default 1500)")
     parser.add_argument("--gradient", type=float, default=3e4, help="field gradient g, kJ/mol/nm^2/e (default 3e4)")
     parser.add_argument("--no-gradient", action="store_true", help="g = 0: each Drude's field stays what it is")
@@ -199,6 +209,8 @@ def main():
     parser.add_argument("--trap-h", type=float, default=2e4, help="hydrogen tether, kJ/mol/nm^2 (default 2e4)")
     parser.add_argument("--free-pairs", action="store_true", help="SWM4-NDP's Drude pairs alone (no hydrogens, no "
                         "constraints), each core tethered by --trap-o")
+    parser.add_argument("--seed", type=int, default=0, help="added to the start's and every peer's random number "
+                        "seeds: independent replicas (default 0)")
     parser.add_argument("--threads", type=int, default=1, help="CPU platform threads (default 1)")
     parser.add_argument("--out", default=".", help="folder for caged_molecules.json (default .)")
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 32 molecules, "
@@ -208,7 +220,7 @@ def main():
         peers = [parse_peer(p) for p in args.peers]
     except ValueError as error:
         parser.error(str(error))
-    for name in ("ps", "friction", "trap_o", "trap_h"):
+    for name in ("ps", "friction", "temperature", "trap_o", "trap_h"):
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive (got {getattr(args, name):g})")
     if args.molecules < 1 or args.threads < 1:
@@ -220,18 +232,21 @@ def main():
         system, positions, analysis = build_free_pairs(molecules, e0, gradient, args.trap_o)
     else:
         system, positions, analysis = build_caged(molecules, e0, gradient, args.trap_o, args.trap_h)
-    state = drude_water.equilibrated_state(system, positions * unit.nanometer, 0.5, 200 if args.quick else 4000, 7,
+    state = drude_water.equilibrated_state(system, positions * unit.nanometer, 0.5, 200 if args.quick else 4000, 7 + args.seed,
                                            threads=args.threads)
-    report = {"molecules": molecules, "picoseconds": picoseconds, "friction_per_ps": args.friction, "e0": e0,
+    report = {"molecules": molecules, "picoseconds": picoseconds, "friction_per_ps": args.friction,
+              "temperature": args.temperature, "e0": e0,
               "gradient": gradient, "free_pairs": args.free_pairs, "trap_o": args.trap_o, "trap_h": args.trap_h,
-              "blocks": BLOCKS, "quick": args.quick, "peers": {}}
+              "blocks": BLOCKS, "quick": args.quick, "seed": args.seed, "peers": {}}
     os.makedirs(args.out, exist_ok=True)
     for label, kind, step_fs, twin in peers:
         started = time.time()
-        result = run_peer(system, analysis, state, kind, step_fs, twin, args.friction, picoseconds, args.threads)
+        result = run_peer(system, analysis, state, kind, step_fs, twin, args.friction, picoseconds, args.threads,
+                          11 + args.seed, args.temperature)
         report["peers"][label] = result
         print(f"{label:24s} T_COM {result['t_com'][0]:7.2f} ± {result['t_com'][1]:.2f} K   T_Drude "
-              f"{result['t_drude'][0]:.3f} ± {result['t_drude'][1]:.3f} K   |d| {result['drude_displacement_nm']:.5f} "
+              f"{result['t_drude'][0]:.3f} ± {result['t_drude'][1]:.3f} K   cage {result['cage_energy'][0]:.4f} ± "
+              f"{result['cage_energy'][1]:.4f} kJ/mol   |d| {result['drude_displacement_nm']:.5f} "
               f"nm   ({time.time() - started:.0f} s)", flush=True)
         with open(os.path.join(args.out, "caged_molecules.json"), "w") as f:
             json.dump(report, f, indent=1)

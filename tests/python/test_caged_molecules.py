@@ -108,7 +108,19 @@ def test_caged_molecules_quick_writes_every_peer(tmp_path, extra):
     assert report["free_pairs"] == bool(extra)
     assert list(report["peers"]) == ["DrudeLangevin:0.5", "WarpedMiddleScaled:2.5", "Twin:0.5:2.5:2.05"]
     for peer in report["peers"].values():
-        for name in ("t_com", "t_drude"):
+        for name in ("t_com", "t_drude", "cage_energy"):
             assert math.isfinite(peer[name][0]) and peer[name][1] >= 0
         # A 1-K Drude bath holds the Drudes cold; the field polarizes them by about its q E / k.
         assert peer["t_drude"][0] < 20 and 0.003 < peer["drude_displacement_nm"] < 0.03
+
+
+def test_the_molecules_bath_temperature_and_the_seed_reach_the_run(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, timeout=300,
+                                extra=("--peers", "DrudeLangevin:0.5", "--temperature", "250", "--seed", "3"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "caged_molecules.json") as f:
+        report = json.load(f)
+    assert report["temperature"] == 250 and report["seed"] == 3
+    # 32 molecules, 0.2 ps: a standard error near 7 K; 1 ps of burn-in at 5/ps brings them from the 300-K start.
+    t_com, error = report["peers"]["DrudeLangevin:0.5"]["t_com"]
+    assert abs(t_com - 250) < 25 and error < 12

@@ -41,6 +41,7 @@ import openmm.unit as unit
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import drude_water  # noqa: E402
+from flavorbench import seeds  # noqa: E402
 
 FIELD_DIRECTION = np.array([0.6, 0.0, 0.8])
 CAGE_ENERGY = ("q*(-(e0x*dx + e0y*dy + e0z*dz) - 0.5*g*(dx*dx + dy*dy - 2*dz*dz + dx*dy))"
@@ -193,9 +194,34 @@ def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds
     return result
 
 
+def seed_table(files, reference):
+    """The Markdown table of several replicas' caged_molecules.json (--seed S): per peer the mean over the replicas ±
+    its standard error (from each run's block error) and, in brackets, its difference from the `reference` peer in
+    combined standard errors.  Peers
+    run with the molecules' bath at another temperature than 300 K are named with it ("@ 297 K")."""
+    columns = {}
+    for path in files:
+        with open(path) as f:
+            report = json.load(f)
+        bath = report.get("temperature", 300.0)
+        for label, result in report["peers"].items():
+            name = label if bath == 300.0 else f"{label} @ {bath:g} K"
+            columns.setdefault(name, []).append(result)
+    if reference not in columns:
+        raise ValueError(f"reference peer {reference!r} is in none of the files (peers: {', '.join(columns)})")
+    ordered = [(reference, columns.pop(reference))] + list(columns.items())
+    rows = [("t_com", "T molecules (K)", "%.2f", 1.0), ("t_drude", "T Drude (K)", "%.3f", 1.0),
+            ("cage_energy", "cage energy (kJ/mol per molecule)", "%.4f", 1.0)]
+    return seeds.markdown(ordered, rows, within=True)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--peers", nargs="+", required=True, metavar="KIND:H")
+    parser.add_argument("--peers", nargs="+", metavar="KIND:H", help="the peers to run (required unless --seed-table)")
+    parser.add_argument("--seed-table", nargs="+", metavar="JSON",
+                        help="only print the table of these caged_molecules.json files pooled over their replicas")
+    parser.add_argument("--reference", default="DrudeLangevin:0.25",
+                        help="the --seed-table's reference peer (default DrudeLangevin:0.25)")
     parser.add_argument("--molecules", type=int, default=512, help="caged molecules (default 512)")
     parser.add_argument("--ps", type=float, default=100.0, help="picoseconds sampled per peer (default 100)")
     parser.add_argument("--friction", type=float, default=5.0, help="the molecules' friction, 1/ps (default 5)")
@@ -216,6 +242,14 @@ def main():
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 32 molecules, "
                         "0.2 ps sampled")
     args = parser.parse_args()
+    if args.seed_table:
+        try:
+            print(seed_table(args.seed_table, args.reference))
+        except ValueError as error:
+            parser.error(str(error))
+        return
+    if not args.peers:
+        parser.error("--peers is required (or --seed-table)")
     try:
         peers = [parse_peer(p) for p in args.peers]
     except ValueError as error:

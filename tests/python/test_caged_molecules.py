@@ -124,3 +124,23 @@ def test_the_molecules_bath_temperature_and_the_seed_reach_the_run(tmp_path):
     # 32 molecules, 0.2 ps: a standard error near 7 K; 1 ps of burn-in at 5/ps brings them from the 300-K start.
     t_com, error = report["peers"]["DrudeLangevin:0.5"]["t_com"]
     assert abs(t_com - 250) < 25 and error < 12
+
+
+def test_the_seed_table_pools_replicas_and_names_other_baths(tmp_path):
+    module = _module()
+    files = []
+    for n, (bath, t_ref, t_sim) in enumerate([(300.0, 299.0, 298.0), (300.0, 299.4, 298.6), (297.0, 296.0, None)]):
+        peers = {"DrudeLangevin:0.25": {"t_com": [t_ref, 0.3], "t_drude": [1.5, 0.001], "cage_energy": [-208.6, 0.01]}}
+        if t_sim is not None:
+            peers["WarpedMiddle:1"] = {"t_com": [t_sim, 0.4], "t_drude": [1.4, 0.001], "cage_energy": [-208.7, 0.01]}
+        files.append(str(tmp_path / f"r{n}.json"))
+        with open(files[-1], "w") as f:
+            json.dump({"temperature": bath, "peers": peers}, f)
+    lines = module.seed_table(files, "DrudeLangevin:0.25").splitlines()
+    assert lines[0] == "| observable | DrudeLangevin:0.25 | WarpedMiddle:1 | DrudeLangevin:0.25 @ 297 K |"
+    reference_se, sim_se = math.hypot(0.3, 0.3) / 2, math.hypot(0.4, 0.4) / 2
+    assert lines[2].startswith("| T molecules (K) | 299.20 ± %.2f | 298.30 ± %.2f (%+.1f) | 296.00 ± 0.30 (" % (
+        reference_se, sim_se, -0.9 / math.hypot(reference_se, sim_se)))
+    assert lines[-1] == "| runs | 2 | 2 | 1 |"
+    with pytest.raises(ValueError, match="Twin:0.5:2.5:2.05"):
+        module.seed_table(files, "Twin:0.5:2.5:2.05")

@@ -37,3 +37,12 @@ def test_a_table_pools_each_peer_over_the_seeds_and_counts_the_failed_runs(tmp_p
     assert lines[2] == "| T (K) | 301.00 ± 1.00 | 298.00 ± 1.00 (%+.1f) | — |" % t
     assert lines[3] == "| width (pm) | 2.2 ± 0.2 | 3.1 ± 0.1 (%+.1f) | — |" % ((3.1 - 2.2) / math.hypot(0.1, 0.2))
     assert lines[4] == "| runs | 2 | 2 | 1 of 2 |"
+
+
+def test_within_run_errors_pool_each_runs_block_error():
+    runs = [{"t": [300.0, 0.3]}, {"t": [302.0, 0.4]}, {"t": [0.0, 9.0], "failed": "NaN"}]
+    mean, se = seeds.pooled(runs, "t", within=True)
+    assert mean == 301.0 and math.isclose(se, 0.25)         # sqrt(0.3^2 + 0.4^2) / 2
+    assert seeds.pooled(runs[:1], "t", within=True) == (300.0, 0.3)   # one run is enough
+    lines = seeds.markdown([("a", runs[:1]), ("b", runs[1:2])], [("t", "T", "%.1f", 1)], within=True).splitlines()
+    assert lines[2] == "| T | 300.0 ± 0.3 | 302.0 ± 0.4 (%+.1f) |" % (2.0 / 0.5)

@@ -48,20 +48,26 @@ def drude_peer_columns(reference_runs, runs, reference_step, mark_sim_wall=True)
     return columns
 
 
-def pooled(runs, key, scale=1.0):
-    """(mean, standard error) over the finished runs' values of `key`, or None with fewer than two."""
-    values = np.array([r[key][0] * scale for r in runs if not r.get("failed") and key in r])
+def pooled(runs, key, scale=1.0, within=False):
+    """(mean, standard error) over the finished runs' values of `key`, or None with fewer than two.  within: the
+    error from each run's own block error instead of the spread between runs (sqrt(sum e_i^2) / n; one run is enough):
+    steadier than the spread of two or three runs."""
+    finished = [r[key] for r in runs if not r.get("failed") and key in r]
+    values = np.array([v[0] * scale for v in finished])
+    if within and finished:
+        return values.mean(), np.sqrt(sum((v[1] * scale)**2 for v in finished)) / len(finished)
     return mean_se(values) if len(values) > 1 else None
 
 
-def markdown(columns, rows):
-    """The Markdown table: columns [(name, runs)], the first the reference; rows [(key, name, format, scale)].  The
-    last row counts the finished runs of each column ("n of m" where some failed)."""
+def markdown(columns, rows, within=False):
+    """The Markdown table: columns [(name, runs)], the first the reference; rows [(key, name, format, scale)]; within:
+    errors as pooled(within=True).  The last row counts the finished runs of each column ("n of m" where some
+    failed)."""
     lines = ["| observable | " + " | ".join(name for name, _ in columns) + " |", "|---" * (len(columns) + 1) + "|"]
     for key, name, fmt, scale in rows:
-        cells, reference = [name], pooled(columns[0][1], key, scale)
+        cells, reference = [name], pooled(columns[0][1], key, scale, within)
         for index, (_, runs) in enumerate(columns):
-            value = pooled(runs, key, scale)
+            value = pooled(runs, key, scale, within)
             cell = "—" if value is None else (fmt % value[0]) + " ± " + (fmt % value[1])
             if value is not None and index and reference is not None:
                 cell += " (%+.1f)" % ((value[0] - reference[0]) / np.hypot(value[1], reference[1]))

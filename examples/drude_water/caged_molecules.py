@@ -19,7 +19,8 @@ starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps a
 temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis), the Drude temperature and
 the cage's potential energy per molecule (a configurational reading of the molecules' temperature: calibrate it with
 --temperature) every 10 fs; errors are standard errors of 20 block means.  --seed S gives an independent replica
-(another start, other random numbers); --temperature sets the molecules' bath for every peer.
+(another start, other random numbers); --temperature sets the molecules' bath for every peer; --nve turns both baths
+off and reports each peer's energy drift per molecule (KIND Verlet: OpenMM's VerletIntegrator as the exact peer).
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/caged_molecules.py \
         --peers DrudeLangevin:0.5 WarpedMiddleScaled:2.5 Twin:0.5:2.5:2.05 [--friction 5] [--ps 100] [--out DIR]
@@ -194,6 +195,38 @@ def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds
     return result
 
 
+def energy_drift(system, analysis, state, kind, step_fs, picoseconds, threads, seed=11):
+    """Both baths off: the slope of the total energy per molecule (kJ/mol/ps, a line fitted to frames every 20 fs) and
+    the molecules' and Drude temperatures over the first and the last picosecond.  KIND "Verlet" runs OpenMM's
+    VerletIntegrator (DrudeLangevin has no zero friction); the SIM runs with friction 0 on both baths."""
+    if kind == "Verlet":
+        integrator = openmm.VerletIntegrator(step_fs * unit.femtosecond)
+    elif kind == "DrudeLangevin":
+        raise ValueError("--nve: DrudeLangevin cannot run without friction; use Verlet:H")
+    else:
+        integrator = drude_water.make_integrator(kind, step_fs, seed)
+        integrator.setFriction(0.0)
+        integrator.setStiffModeFriction(0.0)
+    context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": str(threads)})
+    context.setState(state)
+    every = max(1, int(round(20.0 / step_fs)))
+    frames = max(100, int(round(picoseconds * 1000 / (every * step_fs))))
+    times, energies, temperatures = [], [], []
+    for n in range(frames):
+        integrator.step(every)
+        frame = context.getState(getEnergy=True, getVelocities=True)
+        times.append((n + 1) * every * step_fs / 1000)
+        energies.append((frame.getKineticEnergy() + frame.getPotentialEnergy()).value_in_unit(unit.kilojoule_per_mole)
+                        / len(analysis.cores))
+        temperatures.append(analysis.temperatures(frame.getVelocities(asNumpy=True).value_in_unit(
+            unit.nanometer / unit.picosecond)))
+    temperatures = np.array(temperatures)
+    edge = max(1, int(round(1.0 / (every * step_fs / 1000))))
+    return {"drift_per_molecule": float(np.polyfit(times, energies, 1)[0]),
+            "t_com_first_last": [float(temperatures[:edge, 0].mean()), float(temperatures[-edge:, 0].mean())],
+            "t_drude_first_last": [float(temperatures[:edge, 1].mean()), float(temperatures[-edge:, 1].mean())]}
+
+
 def seed_table(files, reference):
     """The Markdown table of several replicas' caged_molecules.json (--seed S): per peer the mean over the replicas ±
     its standard error (from each run's block error) and, in brackets, its difference from the `reference` peer in
@@ -237,6 +270,8 @@ def main():
                         "constraints), each core tethered by --trap-o")
     parser.add_argument("--seed", type=int, default=0, help="added to the start's and every peer's random number "
                         "seeds: independent replicas (default 0)")
+    parser.add_argument("--nve", action="store_true", help="both baths off: each peer's energy drift per molecule "
+                        "(kJ/mol/ps) over --ps (KIND Verlet: OpenMM's VerletIntegrator)")
     parser.add_argument("--threads", type=int, default=1, help="CPU platform threads (default 1)")
     parser.add_argument("--out", default=".", help="folder for caged_molecules.json (default .)")
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 32 molecules, "
@@ -271,10 +306,23 @@ def main():
     report = {"molecules": molecules, "picoseconds": picoseconds, "friction_per_ps": args.friction,
               "temperature": args.temperature, "e0": e0,
               "gradient": gradient, "free_pairs": args.free_pairs, "trap_o": args.trap_o, "trap_h": args.trap_h,
-              "blocks": BLOCKS, "quick": args.quick, "seed": args.seed, "peers": {}}
+              "blocks": BLOCKS, "quick": args.quick, "seed": args.seed, "nve": args.nve, "peers": {}}
     os.makedirs(args.out, exist_ok=True)
     for label, kind, step_fs, twin in peers:
         started = time.time()
+        if args.nve:
+            try:
+                result = energy_drift(system, analysis, state, kind, step_fs, picoseconds, args.threads, 11 + args.seed)
+            except ValueError as error:
+                parser.error(str(error))
+            report["peers"][label] = result
+            print(f"{label:24s} drift {result['drift_per_molecule']:+.5f} kJ/mol/ps per molecule   T_COM "
+                  f"{result['t_com_first_last'][0]:.2f} -> {result['t_com_first_last'][1]:.2f} K   T_Drude "
+                  f"{result['t_drude_first_last'][0]:.3f} -> {result['t_drude_first_last'][1]:.3f} K   "
+                  f"({time.time() - started:.0f} s)", flush=True)
+            with open(os.path.join(args.out, "caged_molecules.json"), "w") as f:
+                json.dump(report, f, indent=1)
+            continue
         result = run_peer(system, analysis, state, kind, step_fs, twin, args.friction, picoseconds, args.threads,
                           11 + args.seed, args.temperature)
         report["peers"][label] = result

@@ -144,3 +144,18 @@ def test_the_seed_table_pools_replicas_and_names_other_baths(tmp_path):
     assert lines[-1] == "| runs | 2 | 2 | 1 |"
     with pytest.raises(ValueError, match="Twin:0.5:2.5:2.05"):
         module.seed_table(files, "Twin:0.5:2.5:2.05")
+
+
+def test_nve_reports_each_peers_energy_drift_and_verlet_keeps_the_energy(tmp_path):
+    result = conftest.run_quick(SCRIPT, tmp_path, timeout=300,
+                                extra=("--nve", "--peers", "Verlet:0.25", "WarpedMiddle:2.5"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "caged_molecules.json") as f:
+        report = json.load(f)
+    assert report["nve"] is True
+    verlet, sim = report["peers"]["Verlet:0.25"], report["peers"]["WarpedMiddle:2.5"]
+    # Velocity Verlet with rigid water at 0.25 fs keeps the energy (measured 1e-6 kJ/mol/ps per molecule).
+    assert abs(verlet["drift_per_molecule"]) < 1e-3
+    assert math.isfinite(sim["drift_per_molecule"]) and all(t > 0 for t in sim["t_com_first_last"])
+    refused = conftest.run_quick(SCRIPT, tmp_path, timeout=300, extra=("--nve", "--peers", "DrudeLangevin:0.5"))
+    assert refused.returncode != 0 and "Verlet:H" in refused.stderr

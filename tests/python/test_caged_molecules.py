@@ -159,3 +159,20 @@ def test_nve_reports_each_peers_energy_drift_and_verlet_keeps_the_energy(tmp_pat
     assert math.isfinite(sim["drift_per_molecule"]) and all(t > 0 for t in sim["t_com_first_last"])
     refused = conftest.run_quick(SCRIPT, tmp_path, timeout=300, extra=("--nve", "--peers", "DrudeLangevin:0.5"))
     assert refused.returncode != 0 and "Verlet:H" in refused.stderr
+
+
+def test_the_readme_replica_table_is_the_stored_replicas():
+    module = _module()
+    results = os.path.join(REPO_ROOT, "examples", "drude_water", "results", "caged")
+    files = [os.path.join(results, "field", "caged_molecules.json")]
+    replicas = os.path.join(results, "replicas")
+    files += [os.path.join(replicas, name, "caged_molecules.json") for name in sorted(os.listdir(replicas))]
+    table = module.seed_table(files, "DrudeLangevin:0.25").splitlines()
+    header = [cell.strip() for cell in table[0].split("|")[1:-1]]
+    temperatures = dict(zip(header, (cell.strip() for cell in table[2].split("|")[1:-1])))
+    with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md")) as f:
+        readme = f.read()
+    for peer in ("DrudeLangevin:0.25", "DrudeLangevin:0.125", "DrudeLangevin:0.5", "WarpedMiddle:0.25",
+                 "WarpedMiddle:0.5", "WarpedMiddle:1", "WarpedMiddleScaled:2.5", "DrudeLangevin:0.25 @ 297 K"):
+        cell = temperatures[peer].split(" (")[0]
+        assert cell in readme, (peer, cell)

@@ -10,10 +10,11 @@ particle and the virtual site free) and every charge in the same static potentia
 
 a field E0 + g (x + y/2, y + x/2, -2 z) (--e0 in kJ/mol/nm/e along (0.6, 0, 0.8), --gradient g in kJ/mol/nm^2/e),
 so that each Drude follows a field that changes as its molecule moves.  No intermolecular forces, no PME: 100 ps of
-512 molecules take about a minute on one core for the SIM at 2.5 fs, two for DrudeLangevin at 0.5 fs.  Peers: KIND:H (fs), KIND as in drude_water.make_integrator
-(DrudeLangevin, WarpedMiddle, WarpedMiddleScaled, FilteredMiddle, ...); "Twin:H:SIM_H:PHASE" runs DrudeLangevin at H
-on Drude particles as heavy as a SIM step SIM_H that flows the Drude by PHASE makes them act (drude_water.
-heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the SIM's).  --no-gradient and --no-field set
+512 molecules take about a minute on one core for the SIM at 2.5 fs, two for DrudeLangevin at 0.5 fs.  Peers:
+KIND:H (fs), KIND as in drude_water.make_integrator (DrudeLangevin, WarpedMiddle, WarpedMiddleScaled, FilteredMiddle,
+...); "Twin:H:SIM_H:PHASE" runs DrudeLangevin at H on Drude particles as heavy as a SIM step SIM_H that flows the
+Drude by PHASE makes them act (drude_water.heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the
+SIM's).  --no-gradient and --no-field set
 g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no hydrogens, no constraints).  Every peer
 starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps and samples the molecules'
 temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis), the Drude temperature and
@@ -176,7 +177,7 @@ def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds
     every = max(1, int(round(SAMPLE_FS / step_fs)))
     samples = max(BLOCKS, int(round(picoseconds * 1000 / step_fs)) // every)
     series, displacement = [], 0.0
-    cage_groups = {force.getForceGroup() for force in system.getForces() if isinstance(force, openmm.CustomExternalForce)}
+    cage_groups = {f.getForceGroup() for f in system.getForces() if isinstance(f, openmm.CustomExternalForce)}
     for _ in range(samples):
         integrator.step(every)
         frame = context.getState(getVelocities=True, getPositions=True)
@@ -230,8 +231,8 @@ def energy_drift(system, analysis, state, kind, step_fs, picoseconds, threads, s
 def seed_table(files, reference):
     """The Markdown table of several replicas' caged_molecules.json (--seed S): per peer the mean over the replicas ±
     its standard error (from each run's block error) and, in brackets, its difference from the `reference` peer in
-    combined standard errors.  Peers
-    run with the molecules' bath at another temperature than 300 K are named with it ("@ 297 K")."""
+    combined standard errors.  Peers run with the molecules' bath at another temperature than 300 K are named with it
+    ("@ 297 K")."""
     columns = {}
     for path in files:
         with open(path) as f:
@@ -301,8 +302,8 @@ def main():
         system, positions, analysis = build_free_pairs(molecules, e0, gradient, args.trap_o)
     else:
         system, positions, analysis = build_caged(molecules, e0, gradient, args.trap_o, args.trap_h)
-    state = drude_water.equilibrated_state(system, positions * unit.nanometer, 0.5, 200 if args.quick else 4000, 7 + args.seed,
-                                           threads=args.threads)
+    state = drude_water.equilibrated_state(system, positions * unit.nanometer, 0.5, 200 if args.quick else 4000,
+                                           7 + args.seed, threads=args.threads)
     report = {"molecules": molecules, "picoseconds": picoseconds, "friction_per_ps": args.friction,
               "temperature": args.temperature, "e0": e0,
               "gradient": gradient, "free_pairs": args.free_pairs, "trap_o": args.trap_o, "trap_h": args.trap_h,
@@ -311,6 +312,8 @@ def main():
     for label, kind, step_fs, twin in peers:
         started = time.time()
         if args.nve:
+            if twin:
+                parser.error(f"--nve: {label} runs DrudeLangevin, which cannot run without friction; use Verlet:H")
             try:
                 result = energy_drift(system, analysis, state, kind, step_fs, picoseconds, args.threads, 11 + args.seed)
             except ValueError as error:

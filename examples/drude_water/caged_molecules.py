@@ -14,8 +14,8 @@ so that each Drude follows a field that changes as its molecule moves.  No inter
 KIND:H (fs), KIND as in drude_water.make_integrator (DrudeLangevin, WarpedMiddle, WarpedMiddleScaled, FilteredMiddle,
 ...); "Twin:H:SIM_H:PHASE" runs DrudeLangevin at H on Drude particles as heavy as a SIM step SIM_H that flows the
 Drude by PHASE makes them act (drude_water.heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the
-SIM's).  --no-gradient and --no-field set
-g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no hydrogens, no constraints).  Every peer
+SIM's).  --no-gradient and --no-field set g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no
+hydrogens, no constraints).  Every peer
 starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps and samples the molecules'
 temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis), the Drude temperature and
 the cage's potential energy per molecule (a configurational reading of the molecules' temperature: calibrate it with

@@ -9,19 +9,19 @@ particle and the virtual site free) and every charge in the same static potentia
     phi(r) = -E0 . (r - c) - (g/2) (x^2 + y^2 - 2 z^2 + x y),   (x, y, z) = r - c,
 
 a field E0 + g (x + y/2, y + x/2, -2 z) (--e0 in kJ/mol/nm/e along (0.6, 0, 0.8), --gradient g in kJ/mol/nm^2/e),
-so that each Drude follows a field that changes as its molecule moves.  No intermolecular forces, no PME: 100 ps of
-512 molecules take about a minute on one core for the SIM at 2.5 fs, two for DrudeLangevin at 0.5 fs.  Peers:
-KIND:H (fs), KIND as in drude_water.make_integrator (DrudeLangevin, WarpedMiddle, WarpedMiddleScaled, FilteredMiddle,
-...); "Twin:H:SIM_H:PHASE" runs DrudeLangevin at H on Drude particles as heavy as a SIM step SIM_H that flows the
-Drude by PHASE makes them act (drude_water.heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the
-SIM's).  --no-gradient and --no-field set g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no
-hydrogens, no constraints).  Every peer
-starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps and samples the molecules'
-temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis), the Drude temperature and
-the cage's potential energy per molecule (a configurational reading of the molecules' temperature: calibrate it with
---temperature) every 10 fs; errors are standard errors of 20 block means.  --seed S gives an independent replica
-(another start, other random numbers); --temperature sets the molecules' bath for every peer; --nve turns both baths
-off and reports each peer's energy drift per molecule (KIND Verlet: OpenMM's VerletIntegrator as the exact peer).
+so that each Drude follows a field that changes as its molecule moves. No intermolecular forces, no PME: 100 ps of 512
+molecules take about a minute on one core for the SIM at 2.5 fs, two for DrudeLangevin at 0.5 fs. Peers: KIND:H (fs),
+KIND as in drude_water.make_integrator (DrudeLangevin, WarpedMiddle, WarpedMiddleScaled, FilteredMiddle, ...);
+"Twin:H:SIM_H:PHASE" runs DrudeLangevin at H on Drude particles as heavy as a SIM step SIM_H that flows the Drude by
+PHASE makes them act (drude_water.heavy_drude_system, friction scaled as setWarpedFrictionScaling scales the SIM's).
+--no-gradient and --no-field set g = 0 or E0 = g = 0; --free-pairs cages SWM4-NDP's Drude pair alone (no hydrogens, no
+constraints). Every peer starts from one equilibrated state (DrudeLangevin 0.5 fs, 2 ps), burns in 1 ps and samples the
+molecules' temperature (centres of mass of the Drude pairs and the hydrogens, as drude_water.Analysis), the Drude
+temperature and the cage's potential energy per molecule (a configurational reading of the molecules' temperature:
+calibrate it with --temperature) every 10 fs; errors are standard errors of 20 block means. --seed S gives an
+independent replica (another start, other random numbers); --temperature sets the molecules' bath for every peer; --nve
+turns both baths off and reports each peer's energy drift per molecule (KIND Verlet: OpenMM's VerletIntegrator as the
+exact peer).
 
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/caged_molecules.py \
         --peers DrudeLangevin:0.5 WarpedMiddleScaled:2.5 Twin:0.5:2.5:2.05 [--friction 5] [--ps 100] [--out DIR]

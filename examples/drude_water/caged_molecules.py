@@ -318,24 +318,20 @@ def main():
                 result = energy_drift(system, analysis, state, kind, step_fs, picoseconds, args.threads, 11 + args.seed)
             except ValueError as error:
                 parser.error(str(error))
-            report["peers"][label] = result
-            print(f"{label:24s} drift {result['drift_per_molecule']:+.5f} kJ/mol/ps per molecule   T_COM "
-                  f"{result['t_com_first_last'][0]:.2f} -> {result['t_com_first_last'][1]:.2f} K   T_Drude "
-                  f"{result['t_drude_first_last'][0]:.3f} -> {result['t_drude_first_last'][1]:.3f} K   "
-                  f"({time.time() - started:.0f} s)", flush=True)
-            with open(os.path.join(args.out, "caged_molecules.json"), "w") as f:
-                json.dump(report, f, indent=1)
-            continue
-        result = run_peer(system, analysis, state, kind, step_fs, twin, args.friction, picoseconds, args.threads,
-                          11 + args.seed, args.temperature)
+            line = (f"drift {result['drift_per_molecule']:+.5f} kJ/mol/ps per molecule   T_COM "
+                    f"{result['t_com_first_last'][0]:.2f} -> {result['t_com_first_last'][1]:.2f} K   T_Drude "
+                    f"{result['t_drude_first_last'][0]:.3f} -> {result['t_drude_first_last'][1]:.3f} K")
+        else:
+            result = run_peer(system, analysis, state, kind, step_fs, twin, args.friction, picoseconds, args.threads,
+                              11 + args.seed, args.temperature)
+            line = (f"T_COM {result['t_com'][0]:7.2f} ± {result['t_com'][1]:.2f} K   T_Drude "
+                    f"{result['t_drude'][0]:.3f} ± {result['t_drude'][1]:.3f} K   cage "
+                    f"{result['cage_energy'][0]:.4f} ± {result['cage_energy'][1]:.4f} kJ/mol   |d| "
+                    f"{result['drude_displacement_nm']:.5f} nm")
         report["peers"][label] = result
-        print(f"{label:24s} T_COM {result['t_com'][0]:7.2f} ± {result['t_com'][1]:.2f} K   T_Drude "
-              f"{result['t_drude'][0]:.3f} ± {result['t_drude'][1]:.3f} K   cage {result['cage_energy'][0]:.4f} ± "
-              f"{result['cage_energy'][1]:.4f} kJ/mol   |d| {result['drude_displacement_nm']:.5f} "
-              f"nm   ({time.time() - started:.0f} s)", flush=True)
+        print(f"{label:24s} {line}   ({time.time() - started:.0f} s)", flush=True)
         with open(os.path.join(args.out, "caged_molecules.json"), "w") as f:
             json.dump(report, f, indent=1)
-
 
 if __name__ == "__main__":
     main()

@@ -44,6 +44,7 @@ import openmm.unit as unit
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import drude_water  # noqa: E402
 from flavorbench import seeds  # noqa: E402
+from flavorbench.timeseries import block_error  # noqa: E402
 
 FIELD_DIRECTION = np.array([0.6, 0.0, 0.8])
 CAGE_ENERGY = ("q*(-(e0x*dx + e0y*dy + e0z*dz) - 0.5*g*(dx*dx + dy*dy - 2*dz*dz + dx*dy))"
@@ -187,11 +188,8 @@ def run_peer(system, analysis, state, kind, step_fs, twin, friction, picoseconds
         series.append((*analysis.temperatures(v), cage.value_in_unit(unit.kilojoule_per_mole) / len(analysis.cores)))
         displacement += np.linalg.norm(x[analysis.drudes] - x[analysis.cores], axis=1).mean()
     series = np.array(series)
-    usable = len(series) // BLOCKS * BLOCKS
-    names = ("t_com", "t_drude", "cage_energy")
-    blocks = series[:usable].reshape(BLOCKS, -1, len(names)).mean(axis=1)
-    result = {name: [float(series[:, k].mean()), float(blocks[:, k].std(ddof=1) / math.sqrt(BLOCKS))]
-              for k, name in enumerate(names)}
+    result = {name: list(block_error(series[:, k], BLOCKS))
+              for k, name in enumerate(("t_com", "t_drude", "cage_energy"))}
     result["drude_displacement_nm"] = displacement / samples
     return result
 

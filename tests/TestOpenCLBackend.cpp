@@ -478,9 +478,9 @@ TEST(OpenCLBackend, DrudeWatersWithPmeFollowReferenceInDoublePrecision) {
 TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
     if (!haveOpenCL())
         GTEST_SKIP() << "no OpenCL platform";
-    // A constraint between the stiff pairs of an FPU chain: each of its particles carries its pair through the
-    // constraint solve, which runs on the host through the engine's ConstraintProjector, and the share forces of the
-    // constraint impulses enter the next step's kicks and force responses.
+    // A constraint between the stiff pairs of an FPU chain: the constraint solve runs on the host through the engine's
+    // ConstraintProjector, and each pair's flow carries the constraint impulses on its constrained particle to the
+    // other.
     using S = StochasticImpulseIntegrator;
     FpuChains chains;
     std::unique_ptr<System> system(fpuSystem(3, 50.0, 2));
@@ -519,7 +519,7 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
         return s;
     });
     expectSettingsFollowReference(sims, "SIM with constraints,", settings, chains);
-    // A checkpoint holds the share forces that the next step's kicks and force responses add.
+    // A checkpoint holds the step history (the Middle placement's constraint processing among it).
     std::stringstream checkpoint;
     sims.openclContext->createCheckpoint(checkpoint);
     sims.opencl->step(10);

@@ -35,7 +35,7 @@ public:
      */
     virtual void saveContextState(OpenMM::ContextImpl& context, bool withParameters) = 0;
     /**
-     * Forget what the next step would take from the last one (constraint shares, velocity processing): the Context's
+     * Forget what the next step would take from the last one (velocity processing): the Context's
      * positions or velocities were set.
      */
     virtual void forgetStepHistory() = 0;

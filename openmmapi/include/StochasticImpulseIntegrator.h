@@ -31,13 +31,14 @@ class IntegrateStochasticImpulseStepKernel;
  *
  * Constraints may join a stiff component to particles outside it (rigid water whose oxygen is the core of a Drude
  * pair), with at most one constrained particle per stiff component; a constraint between two particles of one stiff
- * component is an error.  The constrained particle carries its component through the constraint solve: it enters the
- * solve with the total mass of its component, and the component's other particles move by the same correction, so the
- * solve leaves the stiff (relative) coordinates as the stiff flow made them.  The true constraint force acts on the
- * carrier alone; the share of it that moves the relative coordinates (each carried particle's mass over the
- * component's: 0.4/16 = 2.5% of the oxygen's in SWM4-NDP water) acts in the next step as a soft force, from the
- * constraint impulses of this one, so that a Filtered or Warped step gives it the exact mean response too.  It is part
- * of the integrator's checkpoint.
+ * component is an error.  The constraints act as RATTLE makes them act around a drift: the constraint force is an
+ * impulse on the constrained particle alone at the start of the stiff flow (the position correction) and at its end
+ * (the velocity projection), and the component's exact flow carries it to the component's other particles (the
+ * Drude particle's part of its core's constraint force, 2.5% in SWM4-NDP water, moves it within the step).  In the
+ * stiff modes the impulses are scaled as the step's kicks are, so that under Filtered and Warped a constant constraint
+ * force has the exact mean response, as a soft force has.  With the Middle placement the velocities a step returns
+ * hold the closing half of the stiff modes' constraint impulse, estimated from the step's own and taken off by the
+ * next step; it is part of the integrator's checkpoint.
  */
 class OPENMM_EXPORT_FLAVORS StochasticImpulseIntegrator : public OpenMM::Integrator {
 public:

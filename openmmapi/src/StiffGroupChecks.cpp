@@ -74,8 +74,8 @@ void FlavorPlugin::rejectConstraintsInsideStiffComponents(const ContextImpl& con
                     "StochasticImpulseIntegrator: " + constraint + " touches particle " + std::to_string(p) +
                     ", and particle " + std::to_string(found->second) +
                     " of the same stiff component is constrained too; at most one particle of each stiff component "
-                    "may be constrained (it carries its component, e.g. a Drude particle with its core, through the "
-                    "constraint solve)");
+                    "may be constrained (the component's flow carries its constraint impulses to the others, e.g. to "
+                    "a Drude particle from its core)");
         }
     }
 }

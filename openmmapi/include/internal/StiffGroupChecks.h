@@ -21,8 +21,8 @@ OPENMM_EXPORT_FLAVORS std::vector<int> bondedStiffComponents(OpenMM::ContextImpl
 /**
  * Throws unless the constraints of the System can be applied beside the exact stiff flow: every particle of a stiff
  * component (componentOf[i] >= 0 names the component of particle i) may be constrained only to particles outside its
- * component, and at most one particle of each component may be constrained (it carries its component through the
- * constraint solve).
+ * component, and at most one particle of each component may be constrained (the component's flow carries the
+ * constraint impulses on it to the others).
  */
 OPENMM_EXPORT_FLAVORS void rejectConstraintsInsideStiffComponents(const OpenMM::ContextImpl& context,
                                                                   const std::vector<int>& componentOf);

@@ -109,11 +109,8 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     slotValid.assign(MaxForceSlots, false);
     initializeMixed4(cc, forceDifferences, numParticles, "flavorForceDifferences");
     initializeMixed4(cc, openingForces, numParticles, "flavorOpeningForces");
-    initializeMixed4(cc, shareForces, numParticles, "flavorShareForces");
-    if (hostConstraints && hasConstraints) {
+    if (hostConstraints && hasConstraints)
         projector = std::make_unique<ConstraintProjector>(system, particles, true);
-        unconstrained.resize(numParticles);
-    }
     slotClock.assign(MaxForceSlots, SlotClock());
     copyForcesKernel->addArg(cc.getLongForceBuffer());
     copyForcesKernel->addArg(slotForces[0]);
@@ -197,12 +194,12 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     uploadInts(cc, responseOffset, responseOffsets, "flavorResponseOffset");
     uploadMixed(cc, responseScratch, vector<double>(12 * particleList.size(), 0.0), "flavorResponseScratch");
     // The modes are measured again after parameter changes and checkpoints: the history of particles that are still
-    // carried or stiff stays, as in the CPU engine.
+    // stiff stays, as in the CPU engine.
     if (projector)
         projector->setStiffModes(modes.get());
     hardWall.setStiffModes(modes.get(), particles);
     downloadHistory(history);
-    history.keepOnly(projector ? projector->getShareParticles() : vector<int>(), modes.get());
+    history.keepOnly(modes.get());
     uploadHistory();
     prepare();
 }
@@ -255,7 +252,8 @@ void CommonFlowStepper::prepare() {
     responses.resize(plan.passes.size());
     processings.clear();
     processings.resize(plan.passes.size());
-    correctionScales.assign(plan.passes.size(), ConstraintProjector::CorrectionScales());
+    carrying.clear();
+    carrying.resize(plan.passes.size());
     bool haveBath = false;
     Bath bath;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
@@ -263,6 +261,11 @@ void CommonFlowStepper::prepare() {
         for (size_t k = 0; k < pass.flows.size(); ++k) {
             const SubFlow& flow = pass.flows[k];
             ComputeKernel kernel;
+            // As in the CPU engine: how constraint corrections around a stiff flow move its components.
+            const bool stiffFlow = flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::HarmonicFlow ||
+                                   flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
+            if (stiffFlow && modes && projector)
+                carrying[p] = projector->carryingThrough(*modes, flow);
             switch (flow.kind) {
             case SubFlow::Kick:
                 kernel = program->createKernel("kick");
@@ -298,13 +301,11 @@ void CommonFlowStepper::prepare() {
             }
             case SubFlow::StiffFlow:
             case SubFlow::HarmonicFlow:
-                correctionScales[p] = ConstraintProjector::stiffFlowScales(flow);
                 if (modes) // else prepared again when the modes are measured
                     kernel = createStiffFlowKernel(flow, p);
                 break;
             case SubFlow::FilteredStiffFlow:
                 // The flow, then the response to the forces where it began.
-                correctionScales[p] = ConstraintProjector::stiffFlowScales(flow);
                 if (modes) {
                     passKernels[p].push_back(createStiffFlowKernel(flow, p));
                     kernel = createForceResponseKernel(flow, pass.slots[k], p);
@@ -403,9 +404,6 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
     kernel->addArg(responseOffset);
     kernel->addArg(responseScratch);
     kernel->addArg(slotForces[slot]);
-    // The share forces of carried components add to the forces the response reads (not to their change).
-    kernel->addArg(shareForces);
-    kernel->addArg(projector && !projector->getShareParticles().empty() ? 1 : 0);
     kernel->addArg(openingForces);
     kernel->addArg(forceDifferences);
     kernel->addArg(closing ? 1 : 0);
@@ -473,7 +471,7 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
     if (drifts)
         invalidateForces();
     else if (projector)
-        constrainAfterKicks(&pass, constraintTolerance);
+        constrainVelocitiesOnHost(constraintTolerance);
     else if (hasConstraints)
         cc.getIntegrationUtilities().applyVelocityConstraints(constraintTolerance);
 }
@@ -493,35 +491,22 @@ void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passInde
     mirror.download(true, true);
     vector<Vec3>& positions = mirror.positions;
     vector<Vec3>& velocities = mirror.velocities;
-    unconstrained = positions;
-    const ConstraintProjector::CorrectionScales& scales = correctionScales[passIndex];
-    projector->constrainPositions(positions, constraintTolerance, scales.impulse);
-    for (int i = 0; i < numParticles; ++i)
-        if (particles.inverseMasses[i] != 0.0)
-            velocities[i] += (positions[i] - unconstrained[i]) * scales.velocity;
+    projector->constrainPositions(positions, velocities, constraintTolerance, &carrying[passIndex]);
     if (!pass.nextProjectsVelocities)
-        projector->constrainVelocities(positions, velocities, constraintTolerance);
+        projector->constrainVelocities(positions, velocities, constraintTolerance, &carrying[passIndex]);
     mirror.upload(true, true);
 }
 
-void CommonFlowStepper::constrainAfterKicks(const FlowPass* kicks, double constraintTolerance) {
+void CommonFlowStepper::constrainVelocitiesOnHost(double constraintTolerance,
+                                                  const ConstraintProjector::StiffFlowCarrying* carrying) {
     mirror.download(true, true);
     vector<Vec3>& velocities = mirror.velocities;
-    // As ParticlePassExecutor::run: each kick adds the share forces of the last step's constraint solves.
-    if (kicks)
-        for (const SubFlow& flow : kicks->flows)
-            if (flow.kind == SubFlow::Kick)
-                for (int p : projector->getShareParticles())
-                    velocities[p] += history.shareForces[p] * (flow.h * particles.inverseMasses[p]);
-    projector->constrainVelocities(mirror.positions, velocities, constraintTolerance);
+    // A Filtered kick ends the step: its velocities take the constraint impulses' processing, then the projection
+    // (as in the CPU engine).
+    if (carrying && !carrying->processing.empty())
+        projector->processVelocities(velocities, *carrying, history.constraintProcessing);
+    projector->constrainVelocities(mirror.positions, velocities, constraintTolerance, carrying);
     mirror.upload(false, true);
-}
-
-void CommonFlowStepper::uploadShareForces() {
-    if (!projector)
-        return;
-    staging.fromVec3(history.shareForces);
-    shareForces.upload(staging.data());
 }
 
 void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
@@ -568,6 +553,11 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     if (!forcesValid)
         invalidateForces();
     history.stepStarted();
+    if (projector && projector->carriesStiffComponents()) {
+        mirror.download(false, true);
+        projector->startStep(mirror.velocities, history.constraintProcessing);
+        mirror.upload(false, true);
+    }
     const double clockAtStart = stiffClock.startStep(cc.getTime());
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const FlowPass& pass = plan.passes[p];
@@ -605,7 +595,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
             // Its position response is zero: the forces stay valid for the next step's opening.
             runForceResponse(p, 0);
             if (projector)
-                constrainAfterKicks(nullptr, constraintTolerance);
+                constrainVelocitiesOnHost(constraintTolerance, &carrying[p]);
             break;
         default:
             runParticlePass(pass, p, constraintTolerance);
@@ -613,10 +603,6 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         }
     }
     nextStream += (std::uint64_t)plan.noiseStreams;
-    if (projector && !projector->getShareParticles().empty()) {
-        projector->takeShares(stepSize, history.shareForces);
-        uploadShareForces();
-    }
     placeVirtualSites();
     cc.setTime(cc.getTime() + stepSize);
     cc.setStepCount(cc.getStepCount() + 1);
@@ -655,7 +641,6 @@ void CommonFlowStepper::downloadHistory(StepHistory& target) const {
 void CommonFlowStepper::uploadHistory() {
     staging.fromVec3(history.forceDifferences);
     forceDifferences.upload(staging.data());
-    uploadShareForces();
 }
 
 void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& stream) {

@@ -109,11 +109,10 @@ private:
      * StiffFlowExecutor makes it.
      */
     void constrainAfterFlow(const FlowPass& pass, size_t passIndex, double constraintTolerance);
-    /** With host constraints: a kick pass's share forces (kicks: their steps; none for a FilteredKick), then the
-     * velocity projection. */
-    void constrainAfterKicks(const FlowPass* kicks, double constraintTolerance);
+    /** With host constraints: the velocity projection after kicks (after a FilteredKick with its carrying). */
+    void constrainVelocitiesOnHost(double constraintTolerance,
+                                   const ConstraintProjector::StiffFlowCarrying* carrying = nullptr);
     /** Copies the host's share forces onto the device, for the force responses. */
-    void uploadShareForces();
     void runFrozenPass(const FlowPass& pass, double constraintTolerance);
     /** The hard wall (HardWall) on host copies of the positions and velocities, written back where it moved any. */
     void runHardWall(const SubFlow& flow);
@@ -174,12 +173,9 @@ private:
     HostStateMirror mirror;
     HostFrozenStage frozenStage;
     HardWall hardWall;
-    // With host constraints: the projector, the positions after a stiff flow before their correction, per pass the
-    // scales of that correction, the share forces on the device (system order).
+    // With host constraints: the projector and, per stiff flow pass, how its correction moves the particles.
     std::unique_ptr<ConstraintProjector> projector;
-    std::vector<OpenMM::Vec3> unconstrained;
-    std::vector<ConstraintProjector::CorrectionScales> correctionScales;
-    OpenMM::ComputeArray shareForces;
+    std::vector<ConstraintProjector::StiffFlowCarrying> carrying;
     // The host side of the history's and the share forces' transfers (scratch, so also for a const checkpoint).
     mutable Mixed4Staging staging;
     int fusedSlot = -1;

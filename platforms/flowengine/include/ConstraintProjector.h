@@ -7,6 +7,7 @@
 #include "internal/windowsExportFlavors.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
+#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -22,18 +23,19 @@ namespace FlavorPlugin {
  * The System's constraints, applied as OpenMM's VerletIntegrator applies them: positions against the positions a
  * move started from (with the velocity set to the constrained displacement by the caller), velocities by projection.
  *
- * A constrained particle of a stiff component (the core of a Drude pair in rigid water) carries its component through
- * the constraint solve: it enters the solve with the inverse of its component's total mass, and every other particle
- * of the component moves by the correction of its carrier, so the component's internal (stiff) coordinates are left
- * exactly as the stiff flow made them.  The true constraint force acts on the carrier alone, and a share of it (its
- * carried particles' mass over the component's) moves the internal coordinates; takeShares() turns the constraint
- * impulses of a step into that share, as a soft force pair (on each carried particle and, opposite, on its carrier)
- * for the next step's kicks.
+ * A constrained particle of a stiff component (the core of a Drude pair in rigid water) is corrected around a stiff
+ * flow as RATTLE corrects around a drift: the position correction is an impulse on that particle alone at the start
+ * of the flow, the velocity projection one at its end, and the component's flow carries the impulse to each of its
+ * particles (StiffModes::ImpulseResponse: in its stiff modes scaled as a Filtered step scales its kicks, so that a
+ * constraint force acts on them as a soft force does).  Through the flow an impulse J moves the constrained particle
+ * by X J / m, X its block of the response (h for a free particle), the other particles of its component by their own
+ * blocks, and changes their velocities likewise; each solve takes the constrained particle with the inverse mass that
+ * its block gives (StiffFlowCarrying).  After a drift or a plain kick an impulse moves no other particle.
  *
  * The solves work on position and velocity vectors in the System's order: the Reference and CPU platforms' own (the
- * ContextImpl overloads, which solve constraints outside carried components with the platform's solver), or host
- * copies of a device's state (the common compute platforms; built with ownSolver, the projector holds a solver of
- * the same System).
+ * ContextImpl overloads, which solve with the platform's solver where no stiff flow is carried), or host copies of a
+ * device's state (the common compute platforms; built with ownSolver, the projector holds a solver of the same
+ * System).
  */
 class OPENMM_EXPORT_FLAVORS ConstraintProjector {
 public:
@@ -41,7 +43,7 @@ public:
     ConstraintProjector(const OpenMM::System& system, const ParticleTable& particles, bool ownSolver = false);
     ~ConstraintProjector();
     /**
-     * How a stiff flow's constraint correction, an impulse at the start of the flow in a zero mode, changes the
+     * How a constraint correction after a stiff flow, an impulse at the start of the flow in a zero mode, changes the
      * velocities (velocity: per unit correction) and how much impulse it is (impulse: per unit correction and mass).
      */
     struct CorrectionScales {
@@ -49,64 +51,124 @@ public:
     };
     static CorrectionScales stiffFlowScales(const SubFlow& flow);
     /**
-     * Throws unless the projector can carry the stiff components of modes through the System's constraints (a
+     * How the corrections around one stiff flow move the particles: built for each pass of a stiff flow or a
+     * Filtered kick by carryingThrough() from the pass's impulse response.
+     */
+    struct StiffFlowCarrying {
+        /**
+         * A particle of a constrained stiff component (carried: the component's index among them; carrier: its
+         * constrained particle), moved per unit correction of the carrier (per unit impulse in processing).
+         */
+        struct Motion {
+            int particle, carrier, carried;
+            double position[3][3], velocity[3][3];
+        };
+        /** The impulse on a carrier per unit of its correction. */
+        struct Impulse {
+            int carrier, carried;
+            double perCorrection[3][3];
+        };
+        /**
+         * A solver whose constrained particles of stiff components have their own inverse masses, and the motions of
+         * their components; no solver where these are the particles' own (the plain solve).
+         */
+        struct Solve {
+            std::shared_ptr<OpenMM::ReferenceConstraints> solver;
+            // OpenMM's solvers take the inverse masses by non-const reference.
+            mutable std::vector<double> inverseMasses;
+            std::vector<Motion> motions;
+            std::vector<Impulse> impulses;
+        };
+        /** The position correction at the start of the flow and the velocity projection at its end. */
+        Solve positions, velocities;
+        /** The velocity processing at the end of a step (StiffModes::ImpulseResponse; a Filtered kick's only). */
+        std::vector<Motion> processing;
+        /** The velocity per unit position correction of every particle outside constrained stiff components. */
+        double velocityPerCorrection = 0.0;
+    };
+    /**
+     * Throws unless the projector can correct the stiff components of modes through the System's constraints (a
      * constraint may join a stiff component to particles outside it, at most one particle of each component;
      * rejectConstraintsInsideStiffComponents).
      */
     static void rejectUncarriedConstraints(const OpenMM::ContextImpl& context, const StiffModes& modes);
-    /** Finds the carriers of the stiff components of modes (none without modes). */
+    /** Finds the constrained particle of each stiff component of modes (none without modes). */
     void setStiffModes(const StiffModes* modes);
-    /** The carried particles and their carriers, each once (whose share forces the next step's kicks add). */
-    const std::vector<int>& getShareParticles() const { return shareParticles; }
+    /**
+     * The carrying of a StiffFlow, HarmonicFlow, FilteredStiffFlow or FilteredKick over the modes last set (its
+     * flow as StiffFlowExecutor computes it).  Throws if the step would move a constrained particle against an
+     * impulse on it.
+     */
+    StiffFlowCarrying carryingThrough(const StiffModes& modes, const SubFlow& flow);
     /** Remembers the positions a move starts from, the reference of the next constrainPositions(). */
     void rememberPositions(const std::vector<OpenMM::Vec3>& positions) { reference = positions; }
     const std::vector<OpenMM::Vec3>& getReferencePositions() const { return reference; }
     /**
-     * Constrains the Context's positions against the remembered ones, carrying stiff components.  A carrier's
-     * correction, times its component's mass and impulsePerCorrection (the impulse per unit correction), adds to its
-     * constraint impulse of this step.
+     * Constrains the Context's positions against the remembered ones.  After a stiff flow (carrying not null) the
+     * correction also moves the other particles of constrained stiff components and changes all velocities.
      */
-    void constrainPositions(OpenMM::ContextImpl& context, double tolerance, double impulsePerCorrection);
-    /** The same on positions in the System's order, with the projector's own solver (ownSolver). */
-    void constrainPositions(std::vector<OpenMM::Vec3>& positions, double tolerance, double impulsePerCorrection);
-    /** Projects the Context's velocities onto the constraints, carrying stiff components. */
-    void constrainVelocities(OpenMM::ContextImpl& context, double tolerance);
+    void constrainPositions(OpenMM::ContextImpl& context, double tolerance,
+                            const StiffFlowCarrying* carrying = nullptr);
+    /**
+     * The same on positions and velocities in the System's order, with the projector's own solver (ownSolver) where
+     * carrying is null; velocities are changed only with carrying.
+     */
+    void constrainPositions(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
+                            double tolerance, const StiffFlowCarrying* carrying = nullptr);
+    /** Whether a stiff component has a constrained particle (setStiffModes()). */
+    bool carriesStiffComponents() const { return !carriedComponents.empty(); }
+    /**
+     * A step starts: takes off the velocity processing of the last one (applied, which is zeroed) and forgets the
+     * constraint impulses so far.
+     */
+    void startStep(std::vector<OpenMM::Vec3>& velocities, std::vector<OpenMM::Vec3>& applied);
+    /**
+     * The step ends with the carrying's Filtered kick: adds its velocity processing of the step's constraint impulses
+     * to velocities and to applied.
+     */
+    void processVelocities(std::vector<OpenMM::Vec3>& velocities, const StiffFlowCarrying& carrying,
+                           std::vector<OpenMM::Vec3>& applied) const;
+    /** Projects the Context's velocities onto the constraints; at the end of a stiff flow with its carrying. */
+    void constrainVelocities(OpenMM::ContextImpl& context, double tolerance,
+                             const StiffFlowCarrying* carrying = nullptr);
     /** The same on velocities at positions in the System's order, with the projector's own solver (ownSolver). */
     void constrainVelocities(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
-                             double tolerance);
-    /**
-     * Turns the constraint impulses of a step of length stepSize into the share forces of the next step (written for
-     * the share particles) and resets them.
-     */
-    void takeShares(double stepSize, std::vector<OpenMM::Vec3>& shareForces);
+                             double tolerance, const StiffFlowCarrying* carrying = nullptr);
 
 private:
-    /** The solves; solver: the one for a System without carried components. */
-    void solvePositions(OpenMM::ReferenceConstraints& solver, std::vector<OpenMM::Vec3>& positions, double tolerance,
-                        double impulsePerCorrection);
-    void solveVelocities(OpenMM::ReferenceConstraints& solver, std::vector<OpenMM::Vec3>& positions,
-                         std::vector<OpenMM::Vec3>& velocities, double tolerance);
+    /** The solves; plain: the solver with the particles' own masses (called only where needed). */
+    void solvePositions(const std::function<OpenMM::ReferenceConstraints&()>& plain,
+                        std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities, double tolerance,
+                        const StiffFlowCarrying* carrying);
+    void solveVelocities(const std::function<OpenMM::ReferenceConstraints&()>& plain,
+                         std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities, double tolerance,
+                         const StiffFlowCarrying* carrying);
+    /**
+     * Adds the carriers' impulses of a solve to the step's, then moves the other particles of constrained stiff
+     * components by their motions per correction (now - before).
+     */
+    void moveCarried(const StiffFlowCarrying::Solve& solve, const std::vector<OpenMM::Vec3>& now,
+                     const std::vector<OpenMM::Vec3>& before, std::vector<OpenMM::Vec3>* positions,
+                     std::vector<OpenMM::Vec3>& velocities);
+    /** A solve of constraintSystem with the given inverse masses (its masses restored after). */
+    std::shared_ptr<OpenMM::ReferenceConstraints> solverWith(const std::vector<double>& inverseMasses);
     OpenMM::ReferenceConstraints& ownConstraints();
-    /** Adds each carrier's correction (now minus carrierBefore) times its mass and scale to its step's impulse. */
-    void addCarrierImpulses(const std::vector<OpenMM::Vec3>& corrected, double impulsePerCorrection);
     const ParticleTable& particles;
     // OpenMM's solvers take the inverse masses by non-const reference.
     std::vector<double> inverseMasses;
     std::vector<OpenMM::Vec3> reference;
-    // The System's particles and constraints (and angles, which CCMA uses), from which the solver of carried
-    // constraints is built with each carrier's mass replaced by its component's.
+    // The System's particles and constraints (and angles, which CCMA uses), from which the solver of each stiff flow
+    // is built with its constrained particles' masses.
     std::unique_ptr<OpenMM::System> constraintSystem;
     // With ownSolver: the solver of constraintSystem with the particles' own masses.
     std::unique_ptr<OpenMM::ReferenceConstraints> solver;
-    // When stiff components are constrained: the solver with carrier masses, its inverse masses, the (carried,
-    // carrier) particle pairs and room for each carrier's coordinates before the solve.
-    std::unique_ptr<OpenMM::ReferenceConstraints> carriedConstraints;
-    std::vector<double> carriedInverseMasses;
-    std::vector<std::pair<int, int>> carriedParticles;
-    std::vector<OpenMM::Vec3> carrierBefore;
-    // Per carried pair: its carrier's constraint impulse so far in this step.
-    std::vector<OpenMM::Vec3> carrierImpulses;
-    std::vector<int> shareParticles;
+    // Per constrained stiff component: the component and its constrained particle's index in it, and the impulse on
+    // that particle so far in this step; the particles of these components; room for all positions or velocities
+    // before a solve.
+    std::vector<std::pair<int, int>> carriedComponents;
+    std::vector<OpenMM::Vec3> stepImpulses;
+    std::vector<int> carriedMembers;
+    std::vector<OpenMM::Vec3> uncorrected;
 };
 
 } // namespace FlavorPlugin

@@ -104,12 +104,10 @@ private:
     std::unique_ptr<StiffFlowTask> flowTask;
     std::unique_ptr<ForceResponseTask> responseTask;
     // Per pass: the exact flow over its step, the Filtered response to the forces of its slot and the velocity
-    // processing (StiffModes), and the constraint scales of a correction at the start of the flow in a zero mode.
+    // processing (StiffModes), and how a constraint correction at the start of the flow moves the particles.
     std::vector<StiffModes::Propagator> propagators;
     std::vector<StiffModes::ForceResponse> responses, processing;
-    std::vector<ConstraintProjector::CorrectionScales> scales;
-    // The positions after a stiff flow, before their constraint correction.
-    std::vector<OpenMM::Vec3> unconstrained;
+    std::vector<ConstraintProjector::StiffFlowCarrying> carrying;
 };
 
 /** FrozenDrift and FrozenKick: along the zero modes of the stiff potential, or with the stiff distances held. */

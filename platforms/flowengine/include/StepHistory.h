@@ -13,10 +13,11 @@ namespace FlavorPlugin {
 class StiffModes;
 
 /**
- * What the next step takes from the last one, per particle: the constraint share forces that its kicks add (zero
- * outside carried components; ConstraintProjector), and, for Filtered steps, the change of the soft force on stiff
- * particles over the last step, whose velocity processing the next step undoes (docs/sim_drude.md).  Part of the
- * integrator's checkpoint; forgotten when the Context's positions or velocities are set from outside.
+ * What the next step takes from the last one, per particle: for Filtered steps, the change of the soft force on stiff
+ * particles over the last step, whose velocity processing the next step undoes, and the velocity processing of the
+ * constraint impulses that the last step added (ConstraintProjector::processVelocities), which the next step takes
+ * off (docs/sim_drude.md).  Part of the integrator's checkpoint; forgotten when the Context's positions or velocities
+ * are set from outside.
  */
 class OPENMM_EXPORT_FLAVORS StepHistory {
 public:
@@ -26,24 +27,28 @@ public:
     /** A step starts: what forget() is asked from now on is a new state set from outside. */
     void stepStarted() { loaded = false; }
     /**
-     * Keeps the history of particles that are still carried (shareParticles) or stiff after the stiff modes were
-     * measured again (after parameter changes and checkpoints).
+     * Keeps the history of particles that are still stiff after the stiff modes were measured again (after parameter
+     * changes and checkpoints).
      */
-    void keepOnly(const std::vector<int>& shareParticles, const StiffModes* modes);
+    void keepOnly(const StiffModes* modes);
     /** Writes the history (the number of nonzero entries, then index and value of each, for both vectors). */
     void write(std::ostream& stream) const;
     /** A history as read from a checkpoint: (particle, value) of its nonzero entries. */
     struct Stored {
-        std::vector<std::pair<int, OpenMM::Vec3>> shares, differences;
+        std::vector<std::pair<int, OpenMM::Vec3>> differences, processing;
     };
-    /** Reads what write() wrote; false if the stream holds no valid history for this many particles. */
-    bool read(std::istream& stream, Stored& stored) const;
+    /**
+     * Reads what write() wrote; false if the stream holds no valid history for this many particles.  olderFormat: the
+     * history of checkpoint versions 2 to 4 (the constraint share forces of an older treatment of constrained stiff
+     * components, skipped, then the force differences).
+     */
+    bool read(std::istream& stream, Stored& stored, bool olderFormat) const;
     /**
      * Makes a history read from a checkpoint the current one, kept through the forget() that OpenMM's announcement of
      * the checkpoint's positions and velocities makes before the next step.
      */
     void load(const Stored& stored);
-    std::vector<OpenMM::Vec3> shareForces, forceDifferences;
+    std::vector<OpenMM::Vec3> forceDifferences, constraintProcessing;
     /** The soft forces on stiff particles where the current Filtered step began (not part of the history). */
     std::vector<OpenMM::Vec3> openingForces;
 

@@ -62,8 +62,6 @@ public:
 
     const StiffModes::ForceResponse* response = nullptr;
     const OpenMM::Vec3* forces = nullptr;
-    /** When not null, forces added to forces (the constraint shares of carried components). */
-    const OpenMM::Vec3* extraForces = nullptr;
     /**
      * When not null, the velocity processing of a Filtered kick, applied in stiff components to the change of the
      * forces over the step: the opening kick (closing false) reads the changes and records forces in openingForces,

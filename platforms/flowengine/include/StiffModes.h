@@ -109,7 +109,38 @@ public:
     void computePropagator(double h, double gamma, double kT, double stiffGamma, double stiffKT, Propagator& propagator,
                            bool warped = false, bool middleZeroModes = false,
                            const WarpedFlowSettings& warp = WarpedFlowSettings()) const;
-
+    /**
+     * How an impulse on a particle moves its component over a step: per mode, the position and velocity at the end of
+     * the step per unit velocity change at its start (the flow's Phi_xv and Phi_vv) and the velocity per unit velocity
+     * change at its end, each scaled by the mode's kick scale (the half kick of a Filtered step over h/2, see
+     * computeForceResponse; 1 in zero modes and without Filtered kicks), so that a constraint force, given as impulses
+     * at the ends of the step, acts on the stiff modes as the step's kicks make a soft force act.  With Middle zero
+     * modes the impulse at the start is h times the force and holds both half kicks of the stiff modes at that
+     * instant (the closing one of the last step and the opening one of this); the velocities at the step's end, which
+     * the next impulse completes, are processed by the closing half kick of an impulse (per unit impulse, its last
+     * value standing in for the next), added at the step's end and taken off at the next step's start.
+     */
+    struct ImpulseResponse {
+        /** The blocks of getImpulseBlocks, in this order. */
+        enum Block { ThroughX, ThroughV, AtEnd, Processing, NumBlocks };
+        std::vector<std::size_t> offset;
+        std::vector<double> data;
+    };
+    /**
+     * Computes the impulse response of a step h whose flow is computePropagator's with the same arguments; filtered:
+     * the step has Filtered kicks of kind kickResponse.
+     */
+    void computeImpulseResponse(double h, double gamma, double stiffGamma, bool warped, bool middleZeroModes,
+                                const WarpedFlowSettings& warp, bool filtered, SubFlow::KickResponse kickResponse,
+                                ImpulseResponse& response) const;
+    /**
+     * The 3 x 3 blocks of an impulse response that take a velocity change of particle source of component c (an index
+     * into getComponentParticles(c)) to particle target: its position (ThroughX) and velocity (ThroughV) at the end of
+     * the step for a change at the start, its velocity for a change at the end (AtEnd) and its velocity processing
+     * (Processing).
+     */
+    void getImpulseBlocks(const ImpulseResponse& response, int c, int target, int source,
+                          double blocks[ImpulseResponse::NumBlocks][3][3]) const;
     /**
      * The response of positions and velocities to a force F held by each mode: per component, for each of its D modes
      * k the pair (rx_k, rv_k), so that in mass-weighted mode coordinates x_k += rx_k f_k and v_k += rv_k f_k with

@@ -22,7 +22,8 @@ ReferencePlatform::PlatformData& platformData(ContextImpl& context) {
 } // namespace
 
 ConstraintProjector::ConstraintProjector(const System& system, const ParticleTable& particles, bool ownSolver)
-    : particles(particles), inverseMasses(particles.inverseMasses), reference(particles.numParticles) {
+    : particles(particles), inverseMasses(particles.inverseMasses), reference(particles.numParticles),
+      uncorrected(particles.numParticles) {
     constraintSystem = std::make_unique<System>();
     for (int i = 0; i < particles.numParticles; ++i)
         constraintSystem->addParticle(particles.masses[i]);
@@ -77,119 +78,257 @@ ReferenceConstraints& ConstraintProjector::ownConstraints() {
 }
 
 void ConstraintProjector::setStiffModes(const StiffModes* modes) {
-    carriedConstraints.reset();
-    carriedParticles.clear();
-    if (modes) {
-        // The constrained particle of each stiff component (the API checks allow at most one) carries the others.
-        vector<int> componentOf(particles.numParticles, -1);
-        for (int c = 0; c < modes->getNumComponents(); ++c)
-            if (modes->getComponent(c).stiff)
-                for (int k = 0; k < modes->getComponent(c).numParticles; ++k)
-                    componentOf[modes->getComponentParticles(c)[k]] = c;
-        vector<int> carrierOf(modes->getNumComponents(), -1);
-        for (int c = 0; c < constraintSystem->getNumConstraints(); ++c) {
-            int p1, p2;
-            double distance;
-            constraintSystem->getConstraintParameters(c, p1, p2, distance);
-            for (int p : {p1, p2})
-                if (componentOf[p] >= 0)
-                    carrierOf[componentOf[p]] = p;
-        }
-        carriedInverseMasses = particles.inverseMasses;
-        for (int c = 0; c < modes->getNumComponents(); ++c) {
-            const int carrier = carrierOf[c];
-            if (carrier < 0)
-                continue;
-            double total = 0;
+    carriedComponents.clear();
+    carriedMembers.clear();
+    stepImpulses.clear();
+    if (!modes)
+        return;
+    // The constrained particle of each stiff component (the API checks allow at most one).
+    vector<int> componentOf(particles.numParticles, -1), rowOf(particles.numParticles, -1);
+    for (int c = 0; c < modes->getNumComponents(); ++c)
+        if (modes->getComponent(c).stiff)
             for (int k = 0; k < modes->getComponent(c).numParticles; ++k) {
-                const int p = modes->getComponentParticles(c)[k];
-                total += particles.masses[p];
-                if (p != carrier)
-                    carriedParticles.emplace_back(p, carrier);
+                componentOf[modes->getComponentParticles(c)[k]] = c;
+                rowOf[modes->getComponentParticles(c)[k]] = k;
             }
-            carriedInverseMasses[carrier] = 1.0 / total;
-            constraintSystem->setParticleMass(carrier, total);
+    vector<bool> found(modes->getNumComponents(), false);
+    for (int c = 0; c < constraintSystem->getNumConstraints(); ++c) {
+        int p1, p2;
+        double distance;
+        constraintSystem->getConstraintParameters(c, p1, p2, distance);
+        for (int p : {p1, p2})
+            if (componentOf[p] >= 0 && !found[componentOf[p]]) {
+                found[componentOf[p]] = true;
+                carriedComponents.emplace_back(componentOf[p], rowOf[p]);
+            }
+    }
+    stepImpulses.assign(carriedComponents.size(), Vec3());
+    for (const auto& carried : carriedComponents)
+        for (int k = 0; k < modes->getComponent(carried.first).numParticles; ++k)
+            carriedMembers.push_back(modes->getComponentParticles(carried.first)[k]);
+}
+
+namespace {
+
+double trace(const double m[3][3]) {
+    return m[0][0] + m[1][1] + m[2][2];
+}
+
+/** out = a b^-1 for 3 x 3 matrices. */
+void multiplyByInverse(const double a[3][3], const double b[3][3], double out[3][3]) {
+    const double det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) -
+                       b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0]) +
+                       b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
+    double inverse[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            // The cofactor of b_ji over det.
+            const int r1 = (j + 1) % 3, r2 = (j + 2) % 3, c1 = (i + 1) % 3, c2 = (i + 2) % 3;
+            inverse[i][j] = (b[r1][c1] * b[r2][c2] - b[r1][c2] * b[r2][c1]) / det;
         }
-        if (!carriedParticles.empty())
-            carriedConstraints = std::make_unique<ReferenceConstraints>(*constraintSystem);
-        for (int i = 0; i < particles.numParticles; ++i)
-            constraintSystem->setParticleMass(i, particles.masses[i]);
-        carrierBefore.resize(carriedParticles.size());
-    }
-    carrierImpulses.assign(carriedParticles.size(), Vec3());
-    shareParticles.clear();
-    for (const auto& pair : carriedParticles)
-        for (int p : {pair.first, pair.second})
-            if (std::find(shareParticles.begin(), shareParticles.end(), p) == shareParticles.end())
-                shareParticles.push_back(p);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            out[i][j] = a[i][0] * inverse[0][j] + a[i][1] * inverse[1][j] + a[i][2] * inverse[2][j];
 }
 
-void ConstraintProjector::constrainPositions(ContextImpl& context, double tolerance, double impulsePerCorrection) {
+} // namespace
+
+std::shared_ptr<ReferenceConstraints> ConstraintProjector::solverWith(const vector<double>& solveInverseMasses) {
+    for (int i = 0; i < particles.numParticles; ++i)
+        if (solveInverseMasses[i] != particles.inverseMasses[i])
+            constraintSystem->setParticleMass(i, 1.0 / solveInverseMasses[i]);
+    auto made = std::make_shared<ReferenceConstraints>(*constraintSystem);
+    for (int i = 0; i < particles.numParticles; ++i)
+        constraintSystem->setParticleMass(i, particles.masses[i]);
+    return made;
+}
+
+ConstraintProjector::StiffFlowCarrying ConstraintProjector::carryingThrough(const StiffModes& modes,
+                                                                            const SubFlow& flow) {
+    // The flow of computePropagator as the executors call it: HarmonicFlow exact, the others as the SubFlow says.
+    const bool harmonic = flow.kind == SubFlow::HarmonicFlow;
+    const bool filtered = flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
+    StiffModes::ImpulseResponse response;
+    modes.computeImpulseResponse(flow.h, flow.bath.friction, flow.stiffBath.friction,
+                                 !harmonic && flow.frequency == SubFlow::StiffFrequency::Warped,
+                                 !harmonic && flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0,
+                                 harmonic ? WarpedFlowSettings() : flow.warp, filtered, flow.response, response);
+    const CorrectionScales scales = stiffFlowScales(flow);
+    using Block = StiffModes::ImpulseResponse::Block;
+    StiffFlowCarrying carrying;
+    carrying.velocityPerCorrection = scales.velocity;
+    StiffFlowCarrying::Solve &positionSolve = carrying.positions, &velocitySolve = carrying.velocities;
+    positionSolve.inverseMasses = velocitySolve.inverseMasses = particles.inverseMasses;
+    bool velocitiesCarried = false, processed = false;
+    for (size_t k = 0; k < carriedComponents.size(); ++k) {
+        const int c = carriedComponents[k].first, row = carriedComponents[k].second;
+        const int* members = modes.getComponentParticles(c);
+        const int carrier = members[row];
+        const double mass = particles.masses[carrier];
+        double own[Block::NumBlocks][3][3], blocks[Block::NumBlocks][3][3];
+        modes.getImpulseBlocks(response, c, row, row, own);
+        // An impulse J on the carrier moves it by X J / m at the flow's end where a free particle moves by J / (m
+        // scales.impulse), and its velocity at the end by E J / m: the solves' inverse masses (the mean over
+        // directions where the component is anisotropic).
+        const double inverseMass = trace(own[Block::ThroughX]) / 3.0 * scales.impulse / mass;
+        const double endInverseMass = trace(own[Block::AtEnd]) / 3.0 / mass;
+        if (!(inverseMass > 0.0) || !(endInverseMass > 0.0))
+            throw OpenMMException("ConstraintProjector: the stiff flow of this step moves constrained particle " +
+                                  std::to_string(carrier) +
+                                  " against an impulse on it (its constraint correction needs a shorter step)");
+        positionSolve.inverseMasses[carrier] = inverseMass;
+        velocitySolve.inverseMasses[carrier] = endInverseMass;
+        StiffFlowCarrying::Impulse positionImpulse{carrier, (int)k, {}}, endImpulse{carrier, (int)k, {}};
+        const double identity[3][3] = {{mass, 0, 0}, {0, mass, 0}, {0, 0, mass}};
+        multiplyByInverse(identity, own[Block::ThroughX], positionImpulse.perCorrection);
+        multiplyByInverse(identity, own[Block::AtEnd], endImpulse.perCorrection);
+        positionSolve.impulses.push_back(positionImpulse);
+        velocitySolve.impulses.push_back(endImpulse);
+        for (int m = 0; m < modes.getComponent(c).numParticles; ++m) {
+            modes.getImpulseBlocks(response, c, m, row, blocks);
+            StiffFlowCarrying::Motion motion{members[m], carrier, (int)k, {}, {}};
+            multiplyByInverse(blocks[Block::ThroughX], own[Block::ThroughX], motion.position);
+            multiplyByInverse(blocks[Block::ThroughV], own[Block::ThroughX], motion.velocity);
+            // The carrier's own velocity change is counted with everyone's; here only its difference.
+            if (m == row)
+                for (int a = 0; a < 3; ++a)
+                    motion.velocity[a][a] -= scales.velocity;
+            positionSolve.motions.push_back(motion);
+            StiffFlowCarrying::Motion processing{members[m], carrier, (int)k, {}, {}};
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b) {
+                    processing.velocity[a][b] = blocks[Block::Processing][a][b] / mass;
+                    processed = processed || processing.velocity[a][b] != 0.0;
+                }
+            if (flow.kind == SubFlow::FilteredKick)
+                carrying.processing.push_back(processing);
+            if (m == row)
+                continue;
+            StiffFlowCarrying::Motion atEnd{members[m], carrier, (int)k, {}, {}};
+            multiplyByInverse(blocks[Block::AtEnd], own[Block::AtEnd], atEnd.velocity);
+            velocitySolve.motions.push_back(atEnd);
+        }
+        // Kicks scaled in some mode (not 1 per unit impulse) make an impulse at the end move the component.
+        for (int mode = 0; mode < modes.getComponent(c).rows(); ++mode)
+            velocitiesCarried =
+                velocitiesCarried || response.data[response.offset[c] + Block::NumBlocks * mode + Block::AtEnd] != 1.0;
+    }
+    if (!processed)
+        carrying.processing.clear();
+    // Without constrained stiff components the position solve is the plain one; so is the velocity projection where
+    // the step's kicks are plain (an impulse at the end moves the constrained particle alone).
+    if (!carriedComponents.empty())
+        positionSolve.solver = solverWith(positionSolve.inverseMasses);
+    if (velocitiesCarried) {
+        velocitySolve.solver = solverWith(velocitySolve.inverseMasses);
+    } else {
+        velocitySolve.inverseMasses = particles.inverseMasses;
+        velocitySolve.motions.clear();
+    }
+    return carrying;
+}
+
+void ConstraintProjector::startStep(vector<Vec3>& velocities, vector<Vec3>& applied) {
+    for (int p : carriedMembers) {
+        velocities[p] -= applied[p];
+        applied[p] = Vec3();
+    }
+    std::fill(stepImpulses.begin(), stepImpulses.end(), Vec3());
+}
+
+void ConstraintProjector::processVelocities(vector<Vec3>& velocities, const StiffFlowCarrying& carrying,
+                                            vector<Vec3>& applied) const {
+    for (const StiffFlowCarrying::Motion& motion : carrying.processing) {
+        const Vec3& impulse = stepImpulses[motion.carried];
+        Vec3 change;
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+                change[a] += motion.velocity[a][b] * impulse[b];
+        velocities[motion.particle] += change;
+        applied[motion.particle] += change;
+    }
+}
+
+void ConstraintProjector::constrainPositions(ContextImpl& context, double tolerance,
+                                             const StiffFlowCarrying* carrying) {
     ReferencePlatform::PlatformData& data = platformData(context);
-    solvePositions(*data.constraints, *data.positions, tolerance, impulsePerCorrection);
+    solvePositions([&]() -> ReferenceConstraints& { return *data.constraints; }, *data.positions, *data.velocities,
+                   tolerance, carrying);
 }
 
-void ConstraintProjector::constrainPositions(vector<Vec3>& positions, double tolerance, double impulsePerCorrection) {
-    solvePositions(ownConstraints(), positions, tolerance, impulsePerCorrection);
+void ConstraintProjector::constrainPositions(vector<Vec3>& positions, vector<Vec3>& velocities, double tolerance,
+                                             const StiffFlowCarrying* carrying) {
+    solvePositions([this]() -> ReferenceConstraints& { return ownConstraints(); }, positions, velocities, tolerance,
+                   carrying);
 }
 
-void ConstraintProjector::constrainVelocities(ContextImpl& context, double tolerance) {
+void ConstraintProjector::constrainVelocities(ContextImpl& context, double tolerance,
+                                              const StiffFlowCarrying* carrying) {
     ReferencePlatform::PlatformData& data = platformData(context);
-    solveVelocities(*data.constraints, *data.positions, *data.velocities, tolerance);
+    solveVelocities([&]() -> ReferenceConstraints& { return *data.constraints; }, *data.positions, *data.velocities,
+                    tolerance, carrying);
 }
 
-void ConstraintProjector::constrainVelocities(vector<Vec3>& positions, vector<Vec3>& velocities, double tolerance) {
-    solveVelocities(ownConstraints(), positions, velocities, tolerance);
+void ConstraintProjector::constrainVelocities(vector<Vec3>& positions, vector<Vec3>& velocities, double tolerance,
+                                              const StiffFlowCarrying* carrying) {
+    solveVelocities([this]() -> ReferenceConstraints& { return ownConstraints(); }, positions, velocities, tolerance,
+                    carrying);
 }
 
-void ConstraintProjector::solvePositions(ReferenceConstraints& uncarried, vector<Vec3>& positions, double tolerance,
-                                         double impulsePerCorrection) {
-    if (!carriedConstraints) {
-        uncarried.apply(reference, positions, inverseMasses, tolerance);
+void ConstraintProjector::solvePositions(const std::function<ReferenceConstraints&()>& plain, vector<Vec3>& positions,
+                                         vector<Vec3>& velocities, double tolerance,
+                                         const StiffFlowCarrying* carrying) {
+    if (!carrying) {
+        plain().apply(reference, positions, inverseMasses, tolerance);
         return;
     }
-    for (size_t k = 0; k < carriedParticles.size(); ++k)
-        carrierBefore[k] = positions[carriedParticles[k].second];
-    carriedConstraints->apply(reference, positions, carriedInverseMasses, tolerance);
-    addCarrierImpulses(positions, impulsePerCorrection);
-    for (size_t k = 0; k < carriedParticles.size(); ++k)
-        positions[carriedParticles[k].first] += positions[carriedParticles[k].second] - carrierBefore[k];
+    const StiffFlowCarrying::Solve& solve = carrying->positions;
+    uncorrected = positions;
+    if (solve.solver)
+        solve.solver->apply(reference, positions, solve.inverseMasses, tolerance);
+    else
+        plain().apply(reference, positions, inverseMasses, tolerance);
+    const double velocityScale = carrying->velocityPerCorrection;
+    for (int i = 0; i < particles.numParticles; ++i)
+        if (particles.inverseMasses[i] != 0.0)
+            velocities[i] += (positions[i] - uncorrected[i]) * velocityScale;
+    moveCarried(solve, positions, uncorrected, &positions, velocities);
 }
 
-void ConstraintProjector::solveVelocities(ReferenceConstraints& uncarried, vector<Vec3>& positions,
-                                          vector<Vec3>& velocities, double tolerance) {
-    if (!carriedConstraints) {
-        uncarried.applyToVelocities(positions, velocities, inverseMasses, tolerance);
+void ConstraintProjector::solveVelocities(const std::function<ReferenceConstraints&()>& plain, vector<Vec3>& positions,
+                                          vector<Vec3>& velocities, double tolerance,
+                                          const StiffFlowCarrying* carrying) {
+    if (!carrying) {
+        plain().applyToVelocities(positions, velocities, inverseMasses, tolerance);
         return;
     }
-    for (size_t k = 0; k < carriedParticles.size(); ++k)
-        carrierBefore[k] = velocities[carriedParticles[k].second];
-    carriedConstraints->applyToVelocities(positions, velocities, carriedInverseMasses, tolerance);
-    addCarrierImpulses(velocities, 1.0);
-    for (size_t k = 0; k < carriedParticles.size(); ++k)
-        velocities[carriedParticles[k].first] += velocities[carriedParticles[k].second] - carrierBefore[k];
+    const StiffFlowCarrying::Solve& solve = carrying->velocities;
+    uncorrected = velocities;
+    if (solve.solver)
+        solve.solver->applyToVelocities(positions, velocities, solve.inverseMasses, tolerance);
+    else
+        plain().applyToVelocities(positions, velocities, inverseMasses, tolerance);
+    moveCarried(solve, velocities, uncorrected, nullptr, velocities);
 }
 
-void ConstraintProjector::addCarrierImpulses(const vector<Vec3>& corrected, double impulsePerCorrection) {
-    for (size_t k = 0; k < carriedParticles.size(); ++k) {
-        const int carrier = carriedParticles[k].second;
-        carrierImpulses[k] +=
-            (corrected[carrier] - carrierBefore[k]) * (impulsePerCorrection / carriedInverseMasses[carrier]);
+void ConstraintProjector::moveCarried(const StiffFlowCarrying::Solve& solve, const vector<Vec3>& now,
+                                      const vector<Vec3>& before, vector<Vec3>* positions, vector<Vec3>& velocities) {
+    for (const StiffFlowCarrying::Impulse& impulse : solve.impulses) {
+        const Vec3 correction = now[impulse.carrier] - before[impulse.carrier];
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+                stepImpulses[impulse.carried][a] += impulse.perCorrection[a][b] * correction[b];
     }
-}
-
-void ConstraintProjector::takeShares(double stepSize, vector<Vec3>& shareForces) {
-    if (carriedParticles.empty())
-        return;
-    // The carrier's mean constraint force over the step is J / stepSize; carrying gave the carried particle the
-    // share m_p / M of it, which the true dynamics gives the carrier.
-    for (int p : shareParticles)
-        shareForces[p] = Vec3();
-    for (size_t k = 0; k < carriedParticles.size(); ++k) {
-        const int carried = carriedParticles[k].first, carrier = carriedParticles[k].second;
-        const Vec3 share = carrierImpulses[k] * (-particles.masses[carried] * carriedInverseMasses[carrier] / stepSize);
-        shareForces[carried] += share;
-        shareForces[carrier] -= share;
-        carrierImpulses[k] = Vec3();
+    for (const StiffFlowCarrying::Motion& motion : solve.motions) {
+        const Vec3 correction = now[motion.carrier] - before[motion.carrier];
+        Vec3 position, velocity;
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) {
+                position[a] += motion.position[a][b] * correction[b];
+                velocity[a] += motion.velocity[a][b] * correction[b];
+            }
+        if (positions && motion.particle != motion.carrier)
+            (*positions)[motion.particle] += position;
+        velocities[motion.particle] += velocity;
     }
 }

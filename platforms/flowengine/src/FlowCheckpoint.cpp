@@ -10,10 +10,11 @@ namespace {
 // the seed and the stream counter, (version 2) the step history (StepHistory::write), (version 3) the stiff clock
 // and the time at which it holds, (version 4) the proposal counts, EndTag.  Version 1 checkpoints (no history) still
 // load, with an empty history; versions 1 and 2 with a stiff clock that starts afresh; versions 1 to 3 with no
-// proposals counted.
+// proposals counted; versions 2 to 4 (whose history is the constraint share forces of an older treatment of
+// constrained stiff components, skipped, and the force differences) with no constraint processing.
 const char CheckpointTag[] = "openmm-flavors integrator state\n";
 const char CheckpointEndTag[] = "end of openmm-flavors integrator state\n";
-const std::uint32_t CheckpointVersion = 4;
+const std::uint32_t CheckpointVersion = 5;
 const std::uint32_t MaxNameLength = 64;
 
 template <class T> bool readValue(std::istream& stream, T& value) {
@@ -76,8 +77,8 @@ std::string FlavorPlugin::readFlowCheckpoint(std::istream& stream, const std::st
                   std::to_string(CheckpointVersion);
     else if (!readValue(stream, storedSeed) || !readValue(stream, storedStream))
         problem = "it is truncated (the random streams are incomplete)";
-    else if (version >= 2 && !history.read(stream, storedHistory))
-        problem = "it is truncated or corrupt (the step history (constraint shares and force differences) is "
+    else if (version >= 2 && !history.read(stream, storedHistory, version < 5))
+        problem = "it is truncated or corrupt (the step history (force differences and constraint processing) is "
                   "incomplete or names particles this System does not have)";
     else if (version >= 3 && (!readValue(stream, storedClock.clock) || !readValue(stream, storedClock.time)))
         problem = "it is truncated (the stiff clock is incomplete)";

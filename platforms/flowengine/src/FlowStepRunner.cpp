@@ -60,8 +60,8 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     if (constraints)
         constraints->setStiffModes(modes.get());
     // The modes are measured again after parameter changes and checkpoints: the history of particles that are still
-    // carried or stiff stays.
-    history.keepOnly(constraints ? constraints->getShareParticles() : vector<int>(), modes.get());
+    // stiff stays.
+    history.keepOnly(modes.get());
     prepare();
 }
 
@@ -101,6 +101,8 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     }
     history.stepStarted();
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
+    if (constraints)
+        constraints->startStep(*data.velocities, history.constraintProcessing);
     StepState state{context, constraintTolerance, nextStream};
     state.stiffClock = stiffClock.startStep(data.time);
     for (size_t p = 0; p < plan.passes.size(); ++p) {
@@ -115,8 +117,6 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
         passExecutors[p]->run(pass, p, state);
     }
     nextStream += plan.noiseStreams;
-    if (constraints)
-        constraints->takeShares(stepSize, history.shareForces);
     // Positions that forces were evaluated at already have their virtual sites.
     forces.placeVirtualSites(context);
     data.time += stepSize;

@@ -63,7 +63,7 @@ void FrozenFlowExecutor::runOnStiffModes(const FlowPass& pass, StepState& state)
             // Constrained particles belong to no stiff component (StiffModesMeasurement): for them this was a plain
             // drift, and their velocities take the constrained displacement as after any drift.  The velocities of
             // stiff particles keep the rates of their frozen coordinates.
-            constraints->constrainPositions(state.context, state.constraintTolerance, 1.0);
+            constraints->constrainPositions(state.context, state.constraintTolerance);
             const vector<Vec3>& before = constraints->getReferencePositions();
             const double inverseTime = 1.0 / flow.h;
             for (int i = 0; i < particles.numParticles; ++i)

@@ -89,12 +89,8 @@ void ParticlePassExecutor::run(const FlowPass& flowPass, size_t passIndex, StepS
     if (!constraints)
         return;
     // With constraints a pass is one sub-flow or a run of kicks and thermostats (analyzeStep).
-    for (const PreparedFlow& flow : flows)
-        if (flow.kind == SubFlow::Kick)
-            for (int p : constraints->getShareParticles())
-                velocities[p] += parts.history.shareForces[p] * (flow.h * particles.inverseMasses[p]);
     if (drifts) {
-        constraints->constrainPositions(state.context, state.constraintTolerance, 1.0 / driftTime);
+        constraints->constrainPositions(state.context, state.constraintTolerance);
         const double inverseTime = 1.0 / driftTime;
         const vector<Vec3>& before = constraints->getReferencePositions();
         for (int i = 0; i < particles.numParticles; ++i)

@@ -55,44 +55,41 @@ bool readVector(std::istream& stream, int numParticles, vector<std::pair<int, Ve
 } // namespace
 
 StepHistory::StepHistory(int numParticles)
-    : shareForces(numParticles), forceDifferences(numParticles), openingForces(numParticles) {}
+    : forceDifferences(numParticles), constraintProcessing(numParticles), openingForces(numParticles) {}
 
 void StepHistory::forget() {
     // OpenMM announces the positions and velocities of a checkpoint after the integrator has read its part.
     if (loaded)
         return;
-    std::fill(shareForces.begin(), shareForces.end(), Vec3());
     std::fill(forceDifferences.begin(), forceDifferences.end(), Vec3());
+    std::fill(constraintProcessing.begin(), constraintProcessing.end(), Vec3());
 }
 
-void StepHistory::keepOnly(const vector<int>& shareParticles, const StiffModes* modes) {
-    vector<bool> keepShare(shareForces.size(), false);
-    for (int p : shareParticles)
-        keepShare[p] = true;
-    for (size_t i = 0; i < shareForces.size(); ++i) {
-        if (!keepShare[i])
-            shareForces[i] = Vec3();
+void StepHistory::keepOnly(const StiffModes* modes) {
+    for (size_t i = 0; i < forceDifferences.size(); ++i)
         if (!modes || !modes->isStiffParticle((int)i))
-            forceDifferences[i] = Vec3();
-    }
+            forceDifferences[i] = constraintProcessing[i] = Vec3();
 }
 
 void StepHistory::write(std::ostream& stream) const {
-    writeVector(stream, shareForces);
     writeVector(stream, forceDifferences);
+    writeVector(stream, constraintProcessing);
 }
 
-bool StepHistory::read(std::istream& stream, Stored& stored) const {
-    const int numParticles = (int)shareForces.size();
-    return readVector(stream, numParticles, stored.shares) && readVector(stream, numParticles, stored.differences);
+bool StepHistory::read(std::istream& stream, Stored& stored, bool olderFormat) const {
+    const int numParticles = (int)forceDifferences.size();
+    vector<std::pair<int, Vec3>> shares;
+    if (olderFormat)
+        return readVector(stream, numParticles, shares) && readVector(stream, numParticles, stored.differences);
+    return readVector(stream, numParticles, stored.differences) && readVector(stream, numParticles, stored.processing);
 }
 
 void StepHistory::load(const Stored& stored) {
     loaded = false;
     forget();
     loaded = true;
-    for (const auto& entry : stored.shares)
-        shareForces[entry.first] = entry.second;
     for (const auto& entry : stored.differences)
         forceDifferences[entry.first] = entry.second;
+    for (const auto& entry : stored.processing)
+        constraintProcessing[entry.first] = entry.second;
 }

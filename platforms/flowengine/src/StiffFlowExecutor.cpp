@@ -21,9 +21,8 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
     propagators.assign(n, StiffModes::Propagator());
     responses.assign(n, StiffModes::ForceResponse());
     processing.assign(n, StiffModes::ForceResponse());
-    scales.assign(n, ConstraintProjector::CorrectionScales());
-    if (parts.constraints)
-        unconstrained.resize(parts.particles.numParticles);
+    carrying.clear();
+    carrying.resize(n);
     for (size_t p = 0; p < n; ++p) {
         const SubFlow& flow = plan.passes[p].flows[0];
         const bool filtered = flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
@@ -31,7 +30,6 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
         if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
             const bool middleFlow = middle && flow.h > 0;
             const double friction = flow.bath.friction;
-            scales[p] = ConstraintProjector::stiffFlowScales(flow);
             if (modes)
                 modes->computePropagator(flow.h, friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
                                          propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow,
@@ -47,6 +45,9 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
         if (flow.kind == SubFlow::HarmonicFlow && modes)
             modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
                                      flow.stiffBath.kT, propagators[p]);
+        const bool stiffFlow = flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::HarmonicFlow || filtered;
+        if (stiffFlow && modes && parts.constraints)
+            carrying[p] = parts.constraints->carryingThrough(*modes, flow);
     }
 }
 
@@ -90,9 +91,6 @@ void StiffFlowExecutor::runFlow(const FlowPass& pass, size_t passIndex, StepStat
         ForceResponseTask& response = *responseTask;
         response.response = &responses[passIndex];
         response.forces = openingForces;
-        response.extraForces = parts.constraints && !parts.constraints->getShareParticles().empty()
-                                   ? parts.history.shareForces.data()
-                                   : nullptr;
         // It also undoes the velocity processing of the last closing kick, in the flow's image.
         setProcessing(passIndex, false);
         response.positions = positions.data();
@@ -102,17 +100,12 @@ void StiffFlowExecutor::runFlow(const FlowPass& pass, size_t passIndex, StepStat
     parts.forces.invalidate();
     if (!parts.constraints)
         return;
-    // Constrained particles of stiff components carry their components (ConstraintProjector).  The correction of the
-    // positions is an impulse at the start of the flow (as in RATTLE), so it also changes the velocities: in a zero
-    // mode an impulse dv0 moves the position by Phi_xv dv0 and the velocity by Phi_vv dv0.  The projection after it
-    // removes what is left along the constraints.
-    unconstrained = positions;
-    parts.constraints->constrainPositions(state.context, state.constraintTolerance, scales[passIndex].impulse);
-    for (int i = 0; i < particles.numParticles; ++i)
-        if (particles.inverseMasses[i] != 0.0)
-            velocities[i] += (positions[i] - unconstrained[i]) * scales[passIndex].velocity;
+    // The correction of the positions is an impulse at the start of the flow (as in RATTLE): it changes the
+    // velocities, and those of a constrained particle's stiff component through the component's flow.  The
+    // projection after it removes what is left along the constraints.
+    parts.constraints->constrainPositions(state.context, state.constraintTolerance, &carrying[passIndex]);
     if (!pass.nextProjectsVelocities)
-        parts.constraints->constrainVelocities(state.context, state.constraintTolerance);
+        parts.constraints->constrainVelocities(state.context, state.constraintTolerance, &carrying[passIndex]);
 }
 
 void StiffFlowExecutor::runClosingKick(const SubFlow& /*flow*/, int slot, size_t passIndex, StepState& state) {
@@ -120,16 +113,17 @@ void StiffFlowExecutor::runClosingKick(const SubFlow& /*flow*/, int slot, size_t
     ForceResponseTask& response = *responseTask;
     response.response = &responses[passIndex];
     response.forces = parts.forces.get(state.context, slot).data();
-    response.extraForces = parts.constraints && !parts.constraints->getShareParticles().empty()
-                               ? parts.history.shareForces.data()
-                               : nullptr;
     // With the velocity processing: beta times the change of the soft force over the step off the stiff modes.
     setProcessing(passIndex, true);
     response.positions = data.positions->data();
     response.velocities = data.velocities->data();
     parts.loop.run(response, parts.modes->getNumComponents());
-    if (parts.constraints)
-        parts.constraints->constrainVelocities(state.context, state.constraintTolerance);
+    if (!parts.constraints)
+        return;
+    // The step ends here: its velocities take the constraint impulses' processing, then the projection.
+    if (!carrying[passIndex].processing.empty())
+        parts.constraints->processVelocities(*data.velocities, carrying[passIndex], parts.history.constraintProcessing);
+    parts.constraints->constrainVelocities(state.context, state.constraintTolerance, &carrying[passIndex]);
 }
 
 void StiffFlowExecutor::setProcessing(size_t passIndex, bool closing) {

@@ -306,7 +306,7 @@ void ForceResponseTask::applyComponent(int c, const double* r, const double* q) 
     for (int p = 0; p < numParticles; ++p) {
         const int particle = particles[p];
         const double scale = 1.0 / modes.getSqrtMass(particle);
-        const OpenMM::Vec3 force = extraForces ? forces[particle] + extraForces[particle] : forces[particle];
+        const OpenMM::Vec3& force = forces[particle];
         OpenMM::Vec3 change;
         if (processed && closing) {
             change = forceChanges[particle] = forces[particle] - openingForces[particle];

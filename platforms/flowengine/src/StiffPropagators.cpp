@@ -217,3 +217,65 @@ void StiffModes::computeVelocityProcessing(double h, double stiffGamma, bool clo
         out[1] = closing ? -kicks.beta : kicks.beta * kicks.flow.vv;
     });
 }
+
+void StiffModes::computeImpulseResponse(double h, double gamma, double stiffGamma, bool warped, bool middleZeroModes,
+                                        const WarpedFlowSettings& warp, bool filtered,
+                                        SubFlow::KickResponse kickResponse, ImpulseResponse& response) const {
+    const int perMode = ImpulseResponse::NumBlocks;
+    response.offset.resize(components.size());
+    size_t size = 0;
+    for (size_t c = 0; c < components.size(); ++c) {
+        response.offset[c] = size;
+        size += perMode * (size_t)components[c].rows();
+    }
+    response.data.assign(size, 0.0);
+    for (size_t c = 0; c < components.size(); ++c) {
+        const Component& comp = components[c];
+        for (int k = 0; k < comp.rows(); ++k) {
+            const double w = omega[comp.firstMode + comp.columns() * k];
+            const ModeFlow f = stepFlow(w, gamma, stiffGamma, h, warped, middleZeroModes, warp);
+            // Per unit impulse: with exact zero modes the constraint force gives h/2 times it at each end, which the
+            // stiff modes take as the opening and the closing half kick (lambda moved from the closing to the
+            // opening one as computeForceResponse moves it); with Middle zero modes h times it at the start.
+            double opening = 1.0, closing = 1.0, processing = 0.0;
+            if (filtered && w > 0.0) {
+                const FilteredModeKicks kicks = filteredModeKicks(w, stiffGamma, h, kickResponse, warp);
+                const double kappa = kicks.halfKick / (0.5 * h);
+                opening = middleZeroModes ? kappa : (kicks.halfKick + kicks.lambda) / (0.5 * h);
+                closing = middleZeroModes ? kappa : (kicks.halfKick - kicks.lambda) / (0.5 * h);
+                processing = middleZeroModes ? (kicks.halfKick - kicks.lambda) / h : 0.0;
+            }
+            double* out = &response.data[response.offset[c] + perMode * k];
+            out[ImpulseResponse::ThroughX] = opening * f.xv;
+            out[ImpulseResponse::ThroughV] = opening * f.vv;
+            out[ImpulseResponse::AtEnd] = closing;
+            out[ImpulseResponse::Processing] = processing;
+        }
+    }
+}
+
+void StiffModes::getImpulseBlocks(const ImpulseResponse& response, int c, int target, int source,
+                                  double blocks[ImpulseResponse::NumBlocks][3][3]) const {
+    const int perMode = ImpulseResponse::NumBlocks;
+    const Component& comp = components[c];
+    const int D = comp.rows(), C = comp.columns();
+    const double* u = getEigenvectors(c);
+    const double* modeValues = &response.data[response.offset[c]];
+    const int* particles = getComponentParticles(c);
+    // In particle coordinates a mode-diagonal map is S^-1 U f U^T S, S the square roots of the masses; row i of an
+    // isotropic component is a particle, of another one a particle coordinate.
+    const double massRatio = sqrtMass[particles[source]] / sqrtMass[particles[target]];
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+            for (int m = 0; m < perMode; ++m)
+                blocks[m][a][b] = 0.0;
+            if (C == 3 && a != b)
+                continue;
+            const int i = C == 3 ? target : 3 * target + a, j = C == 3 ? source : 3 * source + b;
+            for (int k = 0; k < D; ++k) {
+                const double weight = u[k * D + i] * u[k * D + j] * massRatio;
+                for (int m = 0; m < perMode; ++m)
+                    blocks[m][a][b] += weight * modeValues[perMode * k + m];
+            }
+        }
+}

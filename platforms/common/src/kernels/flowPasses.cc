@@ -438,13 +438,12 @@ DEVICE void responseOfElement(int i, int col, int D, int C, GLOBAL const mixed* 
 /**
  * A force response of the Filtered and Warped splittings (StiffModes::ForceResponse), one component per work-item,
  * as the CPU engine's ForceResponseTask: x += M^-1/2 U diag(rx) U^T M^-1/2 F and likewise v with rv, for the forces
- * of a slot (system order), plus extraForces (system order; the constraint share forces of carried components) where
- * useExtra is 1.  In stiff components (stiff: 1) also the velocity processing, applied to the change of the slot's
- * force over the step: the opening response (closing 0) reads the changes from forceChanges and records the slot's
- * forces in openingForces, the closing one (closing 1) records forces - openingForces in forceChanges and applies
- * that (both system order; the step history).  response and processing hold two values per mode from responseOffset;
- * eigenvectors are column-major D x D from eigenvectorOffset; scratch holds 12 values per particle, from 12 times the
- * component's first index into particles.
+ * of a slot (system order).  In stiff components (stiff: 1) also the velocity processing, applied to the change of
+ * the slot's force over the step: the opening response (closing 0) reads the changes from forceChanges and records
+ * the slot's forces in openingForces, the closing one (closing 1) records forces - openingForces in forceChanges and
+ * applies that (both system order; the step history).  response and processing hold two values per mode from
+ * responseOffset; eigenvectors are column-major D x D from eigenvectorOffset; scratch holds 12 values per particle,
+ * from 12 times the component's first index into particles.
  */
 KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT components, GLOBAL const int* RESTRICT stiff,
                           GLOBAL const int* RESTRICT particles, GLOBAL const int* RESTRICT slotOf,
@@ -452,7 +451,6 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
                           GLOBAL const mixed* RESTRICT sqrtMass, GLOBAL const mixed* RESTRICT response,
                           GLOBAL const mixed* RESTRICT processing, GLOBAL const int* RESTRICT responseOffset,
                           GLOBAL mixed* RESTRICT scratch, GLOBAL const mixed4* RESTRICT forces,
-                          GLOBAL const mixed4* RESTRICT extraForces, int useExtra,
                           GLOBAL mixed4* RESTRICT openingForces, GLOBAL mixed4* RESTRICT forceChanges, int closing,
                           GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
                           GLOBAL mixed4* RESTRICT velm) {
@@ -472,7 +470,6 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
             const int particle = particles[first + p];
             const mixed scale = 1 / sqrtMass[particle];
             const mixed4 slotForce = forces[particle];
-            const mixed4 force = useExtra ? slotForce + extraForces[particle] : slotForce;
             mixed4 change = make_mixed4(0, 0, 0, 0);
             if (processed && closing) {
                 change = slotForce - openingForces[particle];
@@ -481,9 +478,9 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
                 change = forceChanges[particle];
                 openingForces[particle] = slotForce;
             }
-            particleForce[3 * p] = scale * force.x;
-            particleForce[3 * p + 1] = scale * force.y;
-            particleForce[3 * p + 2] = scale * force.z;
+            particleForce[3 * p] = scale * slotForce.x;
+            particleForce[3 * p + 1] = scale * slotForce.y;
+            particleForce[3 * p + 2] = scale * slotForce.z;
             particleChange[3 * p] = scale * change.x;
             particleChange[3 * p + 1] = scale * change.y;
             particleChange[3 * p + 2] = scale * change.z;

@@ -43,14 +43,6 @@ public:
     ConstraintProjector(const OpenMM::System& system, const ParticleTable& particles, bool ownSolver = false);
     ~ConstraintProjector();
     /**
-     * How a constraint correction after a stiff flow, an impulse at the start of the flow in a zero mode, changes the
-     * velocities (velocity: per unit correction) and how much impulse it is (impulse: per unit correction and mass).
-     */
-    struct CorrectionScales {
-        double velocity = 0.0, impulse = 0.0;
-    };
-    static CorrectionScales stiffFlowScales(const SubFlow& flow);
-    /**
      * How the corrections around one stiff flow move the particles: built for each pass of a stiff flow or a
      * Filtered kick by carryingThrough() from the pass's impulse response.
      */
@@ -136,6 +128,14 @@ public:
                              double tolerance, const StiffFlowCarrying* carrying = nullptr);
 
 private:
+    /**
+     * How a constraint correction after a stiff flow, an impulse at the start of the flow in a zero mode, changes the
+     * velocities (velocity: per unit correction) and how much impulse it is (impulse: per unit correction and mass).
+     */
+    struct CorrectionScales {
+        double velocity = 0.0, impulse = 0.0;
+    };
+    static CorrectionScales stiffFlowScales(const SubFlow& flow);
     /** The solves; plain: the solver with the particles' own masses (called only where needed). */
     void solvePositions(const std::function<OpenMM::ReferenceConstraints&()>& plain,
                         std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities, double tolerance,

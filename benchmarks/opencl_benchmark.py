@@ -8,8 +8,9 @@ drained before the clock stops.
 Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
   drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs against the
                   scene's SIM (Warped splitting, Middle placement, 2.5 fs).  The SIM's constraint solves run on the
-                  host (each oxygen core carries its Drude particle through them), with a copy of the positions and
-                  velocities from and to the device around each: expect that to cost on a GPU.
+                  host (each oxygen core's constraint impulses reach its Drude particle through the pair's flow),
+                  with a copy of the positions and velocities from and to the device around each: expect that to
+                  cost on a GPU.
   flexible_water  flexible TIP3P water (PME; examples/flexible_water): LangevinMiddle flexible 0.5, 1 and 2 fs against
                   the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,
                   tau = 0.5 fs), and the scene's artificial FLAVOR (ArtificialProjected, bonds and angles frozen,

@@ -7,7 +7,6 @@
 #include "internal/windowsExportFlavors.h"
 #include "openmm/System.h"
 #include "openmm/Vec3.h"
-#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -136,13 +135,14 @@ private:
         double velocity = 0.0, impulse = 0.0;
     };
     static CorrectionScales stiffFlowScales(const SubFlow& flow);
-    /** The solves; plain: the solver with the particles' own masses (called only where needed). */
-    void solvePositions(const std::function<OpenMM::ReferenceConstraints&()>& plain,
-                        std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities, double tolerance,
-                        const StiffFlowCarrying* carrying);
-    void solveVelocities(const std::function<OpenMM::ReferenceConstraints&()>& plain,
-                         std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities, double tolerance,
-                         const StiffFlowCarrying* carrying);
+    /** The solver of a solve (plain, with the particles' own masses, where it has none) and its inverse masses. */
+    std::pair<OpenMM::ReferenceConstraints*, std::vector<double>*> solverOf(const StiffFlowCarrying::Solve* solve,
+                                                                            OpenMM::ReferenceConstraints& plain);
+    /** The solves; plain: the solver with the particles' own masses. */
+    void solvePositions(OpenMM::ReferenceConstraints& plain, std::vector<OpenMM::Vec3>& positions,
+                        std::vector<OpenMM::Vec3>& velocities, double tolerance, const StiffFlowCarrying* carrying);
+    void solveVelocities(OpenMM::ReferenceConstraints& plain, std::vector<OpenMM::Vec3>& positions,
+                         std::vector<OpenMM::Vec3>& velocities, double tolerance, const StiffFlowCarrying* carrying);
     /**
      * Adds the carriers' impulses of a solve to the step's, then moves the other particles of constrained stiff
      * components by their motions per correction (now - before).

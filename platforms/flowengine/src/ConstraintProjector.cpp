@@ -252,63 +252,58 @@ void ConstraintProjector::processVelocities(vector<Vec3>& velocities, const Stif
 void ConstraintProjector::constrainPositions(ContextImpl& context, double tolerance,
                                              const StiffFlowCarrying* carrying) {
     ReferencePlatform::PlatformData& data = platformData(context);
-    solvePositions([&]() -> ReferenceConstraints& { return *data.constraints; }, *data.positions, *data.velocities,
-                   tolerance, carrying);
+    solvePositions(*data.constraints, *data.positions, *data.velocities, tolerance, carrying);
 }
 
 void ConstraintProjector::constrainPositions(vector<Vec3>& positions, vector<Vec3>& velocities, double tolerance,
                                              const StiffFlowCarrying* carrying) {
-    solvePositions([this]() -> ReferenceConstraints& { return ownConstraints(); }, positions, velocities, tolerance,
-                   carrying);
+    solvePositions(ownConstraints(), positions, velocities, tolerance, carrying);
 }
 
 void ConstraintProjector::constrainVelocities(ContextImpl& context, double tolerance,
                                               const StiffFlowCarrying* carrying) {
     ReferencePlatform::PlatformData& data = platformData(context);
-    solveVelocities([&]() -> ReferenceConstraints& { return *data.constraints; }, *data.positions, *data.velocities,
-                    tolerance, carrying);
+    solveVelocities(*data.constraints, *data.positions, *data.velocities, tolerance, carrying);
 }
 
 void ConstraintProjector::constrainVelocities(vector<Vec3>& positions, vector<Vec3>& velocities, double tolerance,
                                               const StiffFlowCarrying* carrying) {
-    solveVelocities([this]() -> ReferenceConstraints& { return ownConstraints(); }, positions, velocities, tolerance,
-                    carrying);
+    solveVelocities(ownConstraints(), positions, velocities, tolerance, carrying);
 }
 
-void ConstraintProjector::solvePositions(const std::function<ReferenceConstraints&()>& plain, vector<Vec3>& positions,
-                                         vector<Vec3>& velocities, double tolerance,
-                                         const StiffFlowCarrying* carrying) {
-    if (!carrying) {
-        plain().apply(reference, positions, inverseMasses, tolerance);
+std::pair<ReferenceConstraints*, vector<double>*> ConstraintProjector::solverOf(const StiffFlowCarrying::Solve* solve,
+                                                                                ReferenceConstraints& plain) {
+    if (solve && solve->solver)
+        return {solve->solver.get(), &solve->inverseMasses};
+    return {&plain, &inverseMasses};
+}
+
+void ConstraintProjector::solvePositions(ReferenceConstraints& plain, vector<Vec3>& positions, vector<Vec3>& velocities,
+                                         double tolerance, const StiffFlowCarrying* carrying) {
+    const StiffFlowCarrying::Solve* solve = carrying ? &carrying->positions : nullptr;
+    const auto solver = solverOf(solve, plain);
+    if (solve)
+        uncorrected = positions;
+    solver.first->apply(reference, positions, *solver.second, tolerance);
+    if (!solve)
         return;
-    }
-    const StiffFlowCarrying::Solve& solve = carrying->positions;
-    uncorrected = positions;
-    if (solve.solver)
-        solve.solver->apply(reference, positions, solve.inverseMasses, tolerance);
-    else
-        plain().apply(reference, positions, inverseMasses, tolerance);
     const double velocityScale = carrying->velocityPerCorrection;
     for (int i = 0; i < particles.numParticles; ++i)
         if (particles.inverseMasses[i] != 0.0)
             velocities[i] += (positions[i] - uncorrected[i]) * velocityScale;
-    moveCarried(solve, positions, uncorrected, &positions, velocities);
+    moveCarried(*solve, positions, uncorrected, &positions, velocities);
 }
 
-void ConstraintProjector::solveVelocities(const std::function<ReferenceConstraints&()>& plain, vector<Vec3>& positions,
+void ConstraintProjector::solveVelocities(ReferenceConstraints& plain, vector<Vec3>& positions,
                                           vector<Vec3>& velocities, double tolerance,
                                           const StiffFlowCarrying* carrying) {
-    if (!carrying) {
-        plain().applyToVelocities(positions, velocities, inverseMasses, tolerance);
-        return;
-    }
-    const StiffFlowCarrying::Solve& solve = carrying->velocities;
-    uncorrected = velocities;
-    if (solve.solver)
-        solve.solver->applyToVelocities(positions, velocities, solve.inverseMasses, tolerance);
-    else
-        plain().applyToVelocities(positions, velocities, inverseMasses, tolerance);
-    moveCarried(solve, velocities, uncorrected, nullptr, velocities);
+    const StiffFlowCarrying::Solve* solve = carrying ? &carrying->velocities : nullptr;
+    const auto solver = solverOf(solve, plain);
+    if (solve)
+        uncorrected = velocities;
+    solver.first->applyToVelocities(positions, velocities, *solver.second, tolerance);
+    if (solve)
+        moveCarried(*solve, velocities, uncorrected, nullptr, velocities);
 }
 
 void ConstraintProjector::moveCarried(const StiffFlowCarrying::Solve& solve, const vector<Vec3>& now,

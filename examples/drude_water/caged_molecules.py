@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""The molecules' lean in its smallest known setting: independent SWM4-NDP molecules, each in its own cage.
+"""The molecules' lean in its smallest setting: independent SWM4-NDP molecules, each in its own cage.
 
 In SWM4-NDP water the SIM's molecules read a little cold (docs/sim_drude.md section 7, "The molecules' lean"), and
-100-ps runs of the 256-molecule box take minutes per peer.  Here every molecule sits alone in a static cage: its
+100-ps runs of the 256-molecule box take minutes per peer.  Here, with both baths off (--nve), the earlier treatment
+of constrained Drude cores showed the step's energy loss that caused most of it (docs/sim_drude.md section 2).  Every
+molecule sits alone in a static cage: its
 atoms tethered to their start positions (harmonic, --trap-o on the oxygen, --trap-h on each hydrogen; the Drude
 particle and the virtual site free) and every charge in the same static potential about its molecule's oxygen site c,
 

@@ -131,13 +131,15 @@ def test_checkpoint_continues_the_clock_and_a_version_2_checkpoint_still_loads()
     integrator.step(5)
     assert (context.getState(getPositions=True).getPositions(asNumpy=True) == expected).all()
     # Version 2 had no stiff clock and no proposal counts (version 4): their 16 + 16 bytes before the end tag gone,
-    # the clock restarts from the Context's time times tau/delta, the same clock to rounding.
+    # the clock restarts from the Context's time times tau/delta, the same clock to rounding.  Its step history (the
+    # constraint shares, the force differences) is, both empty here, the bytes of version 5's (the force differences,
+    # the constraint processing).
     tag = b"openmm-flavors integrator state\n"
     end = b"end of openmm-flavors integrator state\n"
     start, stop = checkpoint.index(tag), checkpoint.index(end)
     name_length = int.from_bytes(checkpoint[start + len(tag):start + len(tag) + 4], "little")
     version_at = start + len(tag) + 4 + name_length
-    assert int.from_bytes(checkpoint[version_at:version_at + 4], "little") == 4
+    assert int.from_bytes(checkpoint[version_at:version_at + 4], "little") == 5
     old = (checkpoint[:version_at] + (2).to_bytes(4, "little") + checkpoint[version_at + 4:stop - 32] +
            checkpoint[stop:])
     context.loadCheckpoint(old)

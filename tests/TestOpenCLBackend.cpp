@@ -65,10 +65,10 @@ struct FpuChains {
 /**
  * SWM4-NDP-like waters with PME: each an oxygen core, two hydrogens and a Drude particle on a zero-length spring (the
  * stiff group), the M site's charge on the oxygen, on a 3 x 3 x 3 lattice in a 1.5 nm box; flexible (soft O-H bonds
- * and H-O-H angle) or rigid (O-H and H-H constraints, SWM4-NDP's geometry: the oxygen core carries its Drude particle
- * through the constraint solve).  Small repulsive cores on the hydrogens and Drude particles, which SWM4-NDP does not
- * have, keep this dilute lattice from the polarization collapse of a hydrogen onto another molecule's Drude particle
- * (after about 175 steps without them).
+ * and H-O-H angle) or rigid (O-H and H-H constraints, SWM4-NDP's geometry: the oxygen core is constrained, its
+ * constraint impulses reaching its Drude particle through the pair's flow).  Small repulsive cores on the hydrogens and
+ * Drude particles, which SWM4-NDP does not have, keep this dilute lattice from the polarization collapse of a hydrogen
+ * onto another molecule's Drude particle (after about 175 steps without them).
  */
 struct DrudeWaters {
     System system;
@@ -533,7 +533,7 @@ TEST(OpenCLBackend, RigidDrudeWatersWithPmeFollowReference) {
     if (!haveOpenCL())
         GTEST_SKIP() << "no OpenCL platform";
     // Rigid SWM4-NDP-like waters, the drude_water scene's model: the Warped step with Middle zero modes and a cold
-    // Drude bath, each oxygen core carrying its Drude particle through SETTLE.  What is left is the difference of the
+    // Drude bath, each oxygen core held by SETTLE.  What is left is the difference of the
     // platforms' PME: 1.6e-8 nm at its error tolerance 1e-6 (2.4e-5 nm at 1e-5; 1.5e-6 nm with a 0.74 nm cutoff).
     // About 15 s on PoCL, most of it PME's 96^3 grid on both platforms.
     using S = StochasticImpulseIntegrator;
@@ -585,7 +585,7 @@ TEST(OpenCLBackend, FilteredAndWarpedFollowReferenceInSingleAndMixedPrecision) {
 TEST(OpenCLBackend, ConstrainedDrudePairsFollowReferenceInSingleAndMixedPrecision) {
     if (!haveOpenCL())
         GTEST_SKIP() << "no OpenCL platform";
-    // Two Drude cores held at their distance, each carrying its Drude particle: the host's copies of the state in the
+    // Two Drude cores held at their distance, each with its Drude particle: the host's copies of the state in the
     // precisions that keep positions in single (with a correction in mixed).
     using S = StochasticImpulseIntegrator;
     DrudePairs pairs;

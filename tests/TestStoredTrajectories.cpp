@@ -103,7 +103,7 @@ TestSystem bentMoleculesAndWater() {
     return t;
 }
 
-/** Four rigid SWM4-NDP-like waters whose constrained oxygen carries its Drude particle, tethered in a field. */
+/** Four rigid SWM4-NDP-like waters whose constrained oxygen is a Drude core, tethered in a field. */
 TestSystem drudeWater() {
     auto water = std::make_shared<DrudeWater>(4, false);
     TestSystem t;

@@ -147,7 +147,7 @@ def test_step_size_change_after_checkpoint_is_used(platform_name):
 
 
 def rigid_drude_water(molecules=8):
-    """Rigid waters (O, H, H, D) whose oxygens carry their Drude particles through SETTLE; tethers on every particle and
+    """Rigid waters (O, H, H, D) whose oxygens are Drude cores held by SETTLE; tethers on every particle and
     a field on the Drude particles are the soft forces, the Drude springs (group 1) the stiff ones."""
     system = openmm.System()
     springs = openmm.HarmonicBondForce()

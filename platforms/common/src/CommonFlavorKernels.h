@@ -42,12 +42,12 @@ namespace FlavorPlugin {
  * setSchedule(), naming the setting that asks for them.
  *
  * With hostConstraints (the SIM) the System's constraints around the stiff flows and kicks are solved on the host by
- * the CPU engine's ConstraintProjector, the one implementation of their math: a constrained particle of a stiff
- * component carries its component through the solve, and the constraint share forces of a step (StepHistory's share
- * forces, kept on the host and copied to the device once a step) enter the next step's kicks and force responses.
- * Each such pass copies the positions and velocities from the device and the corrected ones back (HostStateMirror):
- * a device constraint solve for carried components is future work.  Without it, constraints are applied on the
- * device by IntegrationUtilities.
+ * the CPU engine's ConstraintProjector, the one implementation of their math: around a stiff flow the constraint
+ * impulses on a constrained particle of a stiff component reach the component's other particles through its flow,
+ * and with the Middle placement the step's velocities are processed for them (StepHistory's constraint processing,
+ * kept on the host).  Each such pass copies the positions and velocities from the device and the corrected ones back
+ * (HostStateMirror): a device constraint solve for constrained stiff components is future work.  Without it,
+ * constraints are applied on the device by IntegrationUtilities.
  *
  * Two more kinds of passes run the engine's host code on such copies: the artificial FLAVOR's frozen stage
  * (FrozenDrift, FrozenKick: HostFrozenStage) and the SIM's hard wall (HardWall).  The Metropolis proposals are not
@@ -112,7 +112,6 @@ private:
     /** With host constraints: the velocity projection after kicks (after a FilteredKick with its carrying). */
     void constrainVelocitiesOnHost(double constraintTolerance,
                                    const ConstraintProjector::StiffFlowCarrying* carrying = nullptr);
-    /** Copies the host's share forces onto the device, for the force responses. */
     void runFrozenPass(const FlowPass& pass, double constraintTolerance);
     /** The hard wall (HardWall) on host copies of the positions and velocities, written back where it moved any. */
     void runHardWall(const SubFlow& flow);
@@ -176,7 +175,7 @@ private:
     // With host constraints: the projector and, per stiff flow pass, how its correction moves the particles.
     std::unique_ptr<ConstraintProjector> projector;
     std::vector<ConstraintProjector::StiffFlowCarrying> carrying;
-    // The host side of the history's and the share forces' transfers (scratch, so also for a const checkpoint).
+    // The host side of the history's transfers (scratch, so also for a const checkpoint).
     mutable Mixed4Staging staging;
     int fusedSlot = -1;
     double fusedStep = 0.0;

@@ -8,8 +8,8 @@
 namespace FlavorPlugin {
 
 /**
- * Host staging for a per-particle device array of `mixed4` in the System's order (force slots, force differences,
- * share forces): double or float as the Context keeps `mixed`, converted from and to Vec3.  Sized once; the fourth
+ * Host staging for a per-particle device array of `mixed4` in the System's order (force slots, force differences):
+ * double or float as the Context keeps `mixed`, converted from and to Vec3.  Sized once; the fourth
  * component goes to the device as zero.
  */
 class Mixed4Staging {

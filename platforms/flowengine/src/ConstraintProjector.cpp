@@ -51,7 +51,7 @@ ConstraintProjector::ConstraintProjector(const System& system, const ParticleTab
 ConstraintProjector::~ConstraintProjector() = default;
 
 ConstraintProjector::CorrectionScales ConstraintProjector::stiffFlowScales(const SubFlow& flow) {
-    // Constrained particles are free particles or carry their component as a rigid body: zero modes.
+    // The flow of a free particle: the zero modes' (exact, or Middle's with friction).
     const bool middleFlow = flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
     const double friction = flow.bath.friction;
     const ModeFlow zeroMode = middleFlow ? computeMiddleFreeFlow(friction, flow.h)

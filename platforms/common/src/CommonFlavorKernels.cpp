@@ -262,9 +262,7 @@ void CommonFlowStepper::prepare() {
             const SubFlow& flow = pass.flows[k];
             ComputeKernel kernel;
             // As in the CPU engine: how constraint corrections around a stiff flow move its components.
-            const bool stiffFlow = flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::HarmonicFlow ||
-                                   flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
-            if (stiffFlow && modes && projector)
+            if (ConstraintProjector::hasCarrying(flow) && modes && projector)
                 carrying[p] = projector->carryingThrough(*modes, flow);
             switch (flow.kind) {
             case SubFlow::Kick:
@@ -553,10 +551,14 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     if (!forcesValid)
         invalidateForces();
     history.stepStarted();
-    if (projector && projector->carriesStiffComponents()) {
-        mirror.download(false, true);
-        projector->startStep(mirror.velocities, history.constraintProcessing);
-        mirror.upload(false, true);
+    if (projector) {
+        projector->startStep();
+        // The copies only where the last step processed its velocities (the Middle placement's constraint impulses).
+        if (projector->hasProcessing(history.constraintProcessing)) {
+            mirror.download(false, true);
+            projector->takeOffProcessing(mirror.velocities, history.constraintProcessing);
+            mirror.upload(false, true);
+        }
     }
     const double clockAtStart = stiffClock.startStep(cc.getTime());
     for (size_t p = 0; p < plan.passes.size(); ++p) {

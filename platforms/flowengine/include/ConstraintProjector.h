@@ -85,10 +85,11 @@ public:
     static void rejectUncarriedConstraints(const OpenMM::ContextImpl& context, const StiffModes& modes);
     /** Finds the constrained particle of each stiff component of modes (none without modes). */
     void setStiffModes(const StiffModes* modes);
+    /** Whether a pass of this sub-flow has a carrying: a StiffFlow, HarmonicFlow, FilteredStiffFlow or FilteredKick. */
+    static bool hasCarrying(const SubFlow& flow);
     /**
-     * The carrying of a StiffFlow, HarmonicFlow, FilteredStiffFlow or FilteredKick over the modes last set (its
-     * flow as StiffFlowExecutor computes it).  Throws if the step would move a constrained particle against an
-     * impulse on it.
+     * The carrying of a sub-flow that has one (hasCarrying) over the modes last set (its flow as StiffFlowExecutor
+     * computes it).  Throws if the step would move a constrained particle against an impulse on it.
      */
     StiffFlowCarrying carryingThrough(const StiffModes& modes, const SubFlow& flow);
     /** Remembers the positions a move starts from, the reference of the next constrainPositions(). */
@@ -106,13 +107,12 @@ public:
      */
     void constrainPositions(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
                             double tolerance, const StiffFlowCarrying* carrying = nullptr);
-    /** Whether a stiff component has a constrained particle (setStiffModes()). */
-    bool carriesStiffComponents() const { return !carriedComponents.empty(); }
-    /**
-     * A step starts: takes off the velocity processing of the last one (applied, which is zeroed) and forgets the
-     * constraint impulses so far.
-     */
-    void startStep(std::vector<OpenMM::Vec3>& velocities, std::vector<OpenMM::Vec3>& applied);
+    /** A step starts: forgets the constraint impulses so far. */
+    void startStep();
+    /** Whether the last step's velocity processing (applied) is still on the velocities. */
+    bool hasProcessing(const std::vector<OpenMM::Vec3>& applied) const;
+    /** Takes the last step's velocity processing (applied, which is zeroed) off the velocities. */
+    void takeOffProcessing(std::vector<OpenMM::Vec3>& velocities, std::vector<OpenMM::Vec3>& applied) const;
     /**
      * The step ends with the carrying's Filtered kick: adds its velocity processing of the step's constraint impulses
      * to velocities and to applied.

@@ -143,6 +143,11 @@ std::shared_ptr<ReferenceConstraints> ConstraintProjector::solverWith(const vect
     return made;
 }
 
+bool ConstraintProjector::hasCarrying(const SubFlow& flow) {
+    return flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::HarmonicFlow ||
+           flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
+}
+
 ConstraintProjector::StiffFlowCarrying ConstraintProjector::carryingThrough(const StiffModes& modes,
                                                                             const SubFlow& flow) {
     // The flow of computePropagator as the executors call it: HarmonicFlow exact, the others as the SubFlow says.
@@ -179,9 +184,9 @@ ConstraintProjector::StiffFlowCarrying ConstraintProjector::carryingThrough(cons
         positionSolve.inverseMasses[carrier] = inverseMass;
         velocitySolve.inverseMasses[carrier] = endInverseMass;
         StiffFlowCarrying::Impulse positionImpulse{carrier, (int)k, {}}, endImpulse{carrier, (int)k, {}};
-        const double identity[3][3] = {{mass, 0, 0}, {0, mass, 0}, {0, 0, mass}};
-        multiplyByInverse(identity, own[Block::ThroughX], positionImpulse.perCorrection);
-        multiplyByInverse(identity, own[Block::AtEnd], endImpulse.perCorrection);
+        const double massMatrix[3][3] = {{mass, 0, 0}, {0, mass, 0}, {0, 0, mass}};
+        multiplyByInverse(massMatrix, own[Block::ThroughX], positionImpulse.perCorrection);
+        multiplyByInverse(massMatrix, own[Block::AtEnd], endImpulse.perCorrection);
         positionSolve.impulses.push_back(positionImpulse);
         velocitySolve.impulses.push_back(endImpulse);
         for (int m = 0; m < modes.getComponent(c).numParticles; ++m) {
@@ -194,14 +199,16 @@ ConstraintProjector::StiffFlowCarrying ConstraintProjector::carryingThrough(cons
                 for (int a = 0; a < 3; ++a)
                     motion.velocity[a][a] -= scales.velocity;
             positionSolve.motions.push_back(motion);
-            StiffFlowCarrying::Motion processing{members[m], carrier, (int)k, {}, {}};
-            for (int a = 0; a < 3; ++a)
-                for (int b = 0; b < 3; ++b) {
-                    processing.velocity[a][b] = blocks[Block::Processing][a][b] / mass;
-                    processed = processed || processing.velocity[a][b] != 0.0;
-                }
-            if (flow.kind == SubFlow::FilteredKick)
+            // The step ends with its Filtered kick, whose carrying processes the velocities.
+            if (flow.kind == SubFlow::FilteredKick) {
+                StiffFlowCarrying::Motion processing{members[m], carrier, (int)k, {}, {}};
+                for (int a = 0; a < 3; ++a)
+                    for (int b = 0; b < 3; ++b) {
+                        processing.velocity[a][b] = blocks[Block::Processing][a][b] / mass;
+                        processed = processed || processing.velocity[a][b] != 0.0;
+                    }
                 carrying.processing.push_back(processing);
+            }
             if (m == row)
                 continue;
             StiffFlowCarrying::Motion atEnd{members[m], carrier, (int)k, {}, {}};
@@ -228,12 +235,19 @@ ConstraintProjector::StiffFlowCarrying ConstraintProjector::carryingThrough(cons
     return carrying;
 }
 
-void ConstraintProjector::startStep(vector<Vec3>& velocities, vector<Vec3>& applied) {
+void ConstraintProjector::startStep() {
+    std::fill(stepImpulses.begin(), stepImpulses.end(), Vec3());
+}
+
+bool ConstraintProjector::hasProcessing(const vector<Vec3>& applied) const {
+    return std::any_of(carriedMembers.begin(), carriedMembers.end(), [&](int p) { return applied[p] != Vec3(); });
+}
+
+void ConstraintProjector::takeOffProcessing(vector<Vec3>& velocities, vector<Vec3>& applied) const {
     for (int p : carriedMembers) {
         velocities[p] -= applied[p];
         applied[p] = Vec3();
     }
-    std::fill(stepImpulses.begin(), stepImpulses.end(), Vec3());
 }
 
 void ConstraintProjector::processVelocities(vector<Vec3>& velocities, const StiffFlowCarrying& carrying,

@@ -101,8 +101,10 @@ void FlowStepRunner::step(ContextImpl& context, double constraintTolerance, doub
     }
     history.stepStarted();
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(context.getPlatformData());
-    if (constraints)
-        constraints->startStep(*data.velocities, history.constraintProcessing);
+    if (constraints) {
+        constraints->startStep();
+        constraints->takeOffProcessing(*data.velocities, history.constraintProcessing);
+    }
     StepState state{context, constraintTolerance, nextStream};
     state.stiffClock = stiffClock.startStep(data.time);
     for (size_t p = 0; p < plan.passes.size(); ++p) {

@@ -78,9 +78,10 @@ void StepHistory::write(std::ostream& stream) const {
 
 bool StepHistory::read(std::istream& stream, Stored& stored, bool olderFormat) const {
     const int numParticles = (int)forceDifferences.size();
-    vector<std::pair<int, Vec3>> shares;
-    if (olderFormat)
+    if (olderFormat) {
+        vector<std::pair<int, Vec3>> shares;
         return readVector(stream, numParticles, shares) && readVector(stream, numParticles, stored.differences);
+    }
     return readVector(stream, numParticles, stored.differences) && readVector(stream, numParticles, stored.processing);
 }
 

@@ -45,8 +45,7 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
         if (flow.kind == SubFlow::HarmonicFlow && modes)
             modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
                                      flow.stiffBath.kT, propagators[p]);
-        const bool stiffFlow = flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::HarmonicFlow || filtered;
-        if (stiffFlow && modes && parts.constraints)
+        if (ConstraintProjector::hasCarrying(flow) && modes && parts.constraints)
             carrying[p] = parts.constraints->carryingThrough(*modes, flow);
     }
 }

@@ -4,9 +4,9 @@
 In SWM4-NDP water the SIM's molecules read a little cold (docs/sim_drude.md section 7, "The molecules' lean"), and
 100-ps runs of the 256-molecule box take minutes per peer.  Here, with both baths off (--nve), the earlier treatment
 of constrained Drude cores showed the step's energy loss that caused most of it (docs/sim_drude.md section 2).  Every
-molecule sits alone in a static cage: its
-atoms tethered to their start positions (harmonic, --trap-o on the oxygen, --trap-h on each hydrogen; the Drude
-particle and the virtual site free) and every charge in the same static potential about its molecule's oxygen site c,
+molecule sits alone in a static cage: its atoms tethered to their start positions (harmonic, --trap-o on the oxygen,
+--trap-h on each hydrogen; the Drude particle and the virtual site free) and every charge in the same static
+potential about its molecule's oxygen site c,
 
     phi(r) = -E0 . (r - c) - (g/2) (x^2 + y^2 - 2 z^2 + x y),   (x, y, z) = r - c,
 
@@ -332,6 +332,7 @@ def main():
         print(f"{label:24s} {line}   ({time.time() - started:.0f} s)", flush=True)
         with open(os.path.join(args.out, "caged_molecules.json"), "w") as f:
             json.dump(report, f, indent=1)
+
 
 if __name__ == "__main__":
     main()

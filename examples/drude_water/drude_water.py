@@ -612,8 +612,8 @@ def constraint_cost(out, molecules=64, step_fs=0.005):
     particle (docs/sim_drude.md section 2); the exact dynamics constrain the core alone, with its own mass.  Both run
     without friction from the same equilibrated state (no cutoff, rigid water) at H = 0.005 fs (omega H = 0.005,
     splitting error negligible): OpenMM's VerletIntegrator for the exact flow (SETTLE with the true masses, the Drude
-    particle free), StochasticImpulseIntegrator (Strang, friction 0) for the SIM's.  Reported after t = 5, 10, 20 fs: the RMS
-    difference of the Drude displacement vectors relative to their RMS size and the RMS difference of the atom
+    particle free), StochasticImpulseIntegrator (Strang, friction 0) for the SIM's.  Reported after t = 5, 10, 20 fs:
+    the RMS difference of the Drude displacement vectors relative to their RMS size and the RMS difference of the atom
     positions; and each run's total-energy drift per molecule.  Writes constraint_cost.json.
     """
     system, topology, positions, box = build_water(molecules)

@@ -5,6 +5,8 @@ equilibrated state in one process.
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py [--quick] [--out DIR] \
         [--production PS] [--burn-in PS] [--sim-steps 1.5 2] [--seed N]
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --seed-table JSON [JSON ...]
+    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --interleaved-timing ROUNDS \
+        [--round-ps PS] [--sim-steps 1.5 2] [--wall NM] [--wall-peers 1]
 
 Writes drude_ions.json to --out.  Observables (block averages; error = standard error of the block means): the induced
 dipoles relative to the self-consistent ones at the same nuclear positions (all Drude particles, and the ions' alone),
@@ -21,6 +23,7 @@ import openmm
 import openmm.app as app
 import openmm.unit as unit
 from flavorbench import seeds
+from flavorbench.interleaved import interleaved_ns_per_day
 from flavorbench.runners import KB as BOLTZ
 from flavorbench.solvation import compress_to_volume, water_volume
 from flavorbench.timeseries import ProductionFrames, block_error
@@ -223,6 +226,53 @@ def run_one(system, state, analysis, scf, kind, step_fs, settings, seed, wall_nm
     return result
 
 
+def interleaved_timing(system, separated, state, dl_steps, sim_steps, wall_nm, rounds, round_ps,
+                       max_warped_phase=0.0, scaled_friction=False, threads=2):
+    """ns/day of DrudeLangevin at dl_steps (fs) on the original System and of the SIM at sim_steps on the separated
+    one, every peer with the wall (wall_nm > 0), one Context each from `state`, timed interleaved
+    (flavorbench.interleaved) with `threads` threads; each peer's median ratio to the first DrudeLangevin."""
+    platform = openmm.Platform.getPlatformByName("CPU")
+    peers = [(system, "DrudeLangevin", h) for h in dl_steps] + [(separated, "WarpedMiddle", h) for h in sim_steps]
+    timed = []
+    for run_system, kind, step_fs in peers:
+        integrator = make_integrator(kind, step_fs, 5, max_warped_phase, scaled_friction)
+        if wall_nm > 0:
+            integrator.setMaxDrudeDistance(wall_nm)
+        context = openmm.Context(run_system, integrator, platform, {"Threads": str(threads)})
+        context.setState(state)
+        timed.append((f"{kind} {step_fs:g} fs", step_fs, integrator, context))
+    timing = interleaved_ns_per_day(timed, rounds, round_ps, report=lambda line: print(line, flush=True))
+    timing.update({"threads": threads, "ps_per_round": round_ps, "wall_nm": wall_nm,
+                   "max_warped_phase": max_warped_phase, "scaled_friction": scaled_friction})
+    print("median ratio to " + timed[0][0] + ": " +
+          ", ".join(f"{name} {ratio:.2f}" for name, ratio in timing["median_ratio_to_first"].items()), flush=True)
+    return timing
+
+
+def add_timing_arguments(parser):
+    """The options of the interleaved timing (the scenes' other runs time each peer alone)."""
+    parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",
+                        help="only time DrudeLangevin at the --wall-peers steps (1 fs without them) and the SIM at "
+                             "--sim-steps, all with the --wall, interleaved over ROUNDS rounds from one equilibrated "
+                             "state; writes interleaved_timing.json")
+    parser.add_argument("--round-ps", type=float, default=0.5, help="ps per peer and round of the timing (default 0.5)")
+
+
+def check_timing_arguments(parser, args):
+    if args.interleaved_timing is not None and args.interleaved_timing < 1:
+        parser.error(f"--interleaved-timing needs at least 1 round (got {args.interleaved_timing})")
+    if not args.round_ps > 0:
+        parser.error(f"--round-ps must be positive (got {args.round_ps})")
+
+
+def write_timing(args, timing):
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, "interleaved_timing.json")
+    with open(path, "w") as out:
+        json.dump(dict(timing, seed=args.seed), out, indent=1)
+    print(f"written to {path}")
+
+
 def print_runs(runs, names, width=24):
     """One row per run: each observable (key, label) of `names` as mean ± error, or the run's failure."""
     print(f"\n{'run':32s}" + "".join(f"{label:>{width}s}" for _, label in names))
@@ -276,10 +326,12 @@ def main():
                              "(default none)")
     parser.add_argument("--seed-table", nargs="+", metavar="JSON",
                         help="only print the table of these drude_ions.json files pooled over their seeds")
+    add_timing_arguments(parser)
     args = parser.parse_args()
     if args.seed_table:
         print(seed_table(args.seed_table))
         return
+    check_timing_arguments(parser, args)
     if args.quick:
         waters, pairs, cutoff, equilibration_ps = 64, 2, 0.55, 0.1
         settings = dict(production_ps=0.1, burn_ps=0.02, samples=6, blocks=2, scf_frames=2)
@@ -297,6 +349,10 @@ def main():
 
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
+    if args.interleaved_timing:
+        write_timing(args, interleaved_timing(system, separated, state, args.wall_peers or [1.0], args.sim_steps,
+                                              args.wall, args.interleaved_timing, args.round_ps))
+        return
 
     runs = [run_one(system, state, analysis, scf, "DrudeLangevin", args.reference_step, settings, args.seed + 2)]
     print(f"DrudeLangevin {args.reference_step} fs done", flush=True)

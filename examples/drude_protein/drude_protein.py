@@ -8,6 +8,8 @@ equilibrated state in one process, on the CPU platform.
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/drude_protein.py [--quick] [--out DIR] \\
         [--production PS] [--burn-in PS] [--sim-steps 2 2.5] [--wall NM] [--wall-peers 1] [--seed N] \\
         [--max-warped-phase RAD] [--no-reference]
+    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/drude_protein.py --interleaved-timing ROUNDS \\
+        [--round-ps PS] [--sim-steps 2 2.5 3] [--wall-peers 1] [--max-warped-phase RAD] [--scaled-friction]
 
 Writes drude_protein.json to --out.  Observables (block averages; error = standard error of the block means):
 temperatures of the peptide and of the water (centres of mass of the Drude pairs and the other massive particles),
@@ -38,8 +40,9 @@ from openmmflavors import StochasticImpulseIntegrator
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "drude_ions"))
-from drude_ions import (SPRING_GROUP, Analysis, SelfConsistent, equilibrated, polar_system, print_runs,  # noqa: E402
-                        run_one)
+from drude_ions import (SPRING_GROUP, Analysis, SelfConsistent, add_timing_arguments,  # noqa: E402
+                        check_timing_arguments, equilibrated, interleaved_timing, polar_system, print_runs, run_one,
+                        write_timing)
 
 PDB = os.path.join(HERE, "..", "metropolis", "alanine_dipeptide.pdb")
 PEPTIDE = "ALA"  # the capped peptide as one residue (below)
@@ -204,10 +207,12 @@ def main():
                         help="the runs with the DrudeLangevin reference at --reference-step (default results/seed1..5)")
     parser.add_argument("--no-reference", action="store_true",
                         help="only the SIM runs (to set beside the reference of a run with the same --seed)")
+    add_timing_arguments(parser)
     args = parser.parse_args()
     if args.seed_table:
         print(seed_table(args.reference_files, args.seed_table, args.reference_step))
         return
+    check_timing_arguments(parser, args)
     if args.quick:
         waters, cutoff, equilibration_ps = 80, 0.55, 0.05
         settings = dict(production_ps=0.1, burn_ps=0.02, samples=6, blocks=2, scf_frames=2)
@@ -246,6 +251,11 @@ def main():
     scf = SelfConsistent(system, analysis)  # on the original System
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
+    if args.interleaved_timing:
+        write_timing(args, interleaved_timing(system, separated, state, args.wall_peers or [1.0], args.sim_steps,
+                                              args.wall, args.interleaved_timing, args.round_ps,
+                                              args.max_warped_phase, args.scaled_friction))
+        return
 
     runs = []
 

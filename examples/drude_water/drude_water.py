@@ -23,6 +23,7 @@ import openmm.app as app  # noqa: E402
 import openmm.unit as unit  # noqa: E402
 from flavorbench import reporting  # noqa: E402
 from flavorbench.ensemble import mean_se  # noqa: E402
+from flavorbench.interleaved import interleaved_ns_per_day  # noqa: E402
 from flavorbench.runners import KB as BOLTZ  # noqa: E402
 from flavorbench.solvation import AMU_PER_NM3, WATER_DENSITY_300K, volume_nm3  # noqa: E402
 from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
@@ -931,11 +932,10 @@ def velocity_bias(out, steps_fs=(1.0, 2.0, 2.25, 2.5)):
 
 def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=(), limited_steps=()):
     """Wall-clock speed of DrudeLangevin at 1 fs, Filtered at 2 fs, Warped at 2.5 fs (both placements) and
-    WarpedMiddleLimited at limited_steps (fs) on the scene's system, with 1 and 2 threads: one Context each from one equilibrated state, then `rounds` rounds in which
-    every Context steps `picoseconds` in turn, so that a change of the machine's load hits them alike.  Writes
+    WarpedMiddleLimited at limited_steps (fs) on the scene's system, with 1 and 2 threads: one Context each from one
+    equilibrated state, timed interleaved over `rounds` rounds of `picoseconds` (flavorbench.interleaved).  Writes
     interleaved_timing.json with each round's ns/day and, per thread count, each SIM's median ratio to DrudeLangevin
     over the rounds."""
-    import time
     system, _, positions, _ = build_water(256)
     state = equilibrated_state(system, positions, 1.0, 1000, 1)
     peers = [("DrudeLangevin", 1.0)] + [("DrudeLangevinWall", h) for h in wall_steps]
@@ -945,44 +945,22 @@ def interleaved_timing(out, rounds, picoseconds=0.5, wall_steps=(), limited_step
     report = {"system": "256 SWM4-NDP molecules, rigid, PME", "ps_per_round": picoseconds, "threads": {},
               "wall_nm": WALL_NM}
     for threads in (1, 2):
-        contexts, failed = [], {}
+        timed = []
         for name, (kind, step_fs) in zip(names, peers):
             integrator = make_integrator(kind, step_fs, 7)
             context = openmm.Context(system, integrator, openmm.Platform.getPlatformByName("CPU"),
                                      {"Threads": str(threads)})
             context.setState(state)
-            contexts.append([name, step_fs, integrator, context, 0])
-        speeds = {name: [] for name in names}
-        for round_ in range(rounds + 1):  # round 0: 10 steps each, not timed
-            for entry in contexts:
-                name, step_fs, integrator, context, done = entry
-                if name in failed:
-                    continue
-                steps = 10 if round_ == 0 else int(round(picoseconds * 1000 / step_fs))
-                try:
-                    start = time.perf_counter()
-                    integrator.step(steps)
-                    context.getState(getEnergy=True)
-                    entry[4] += steps
-                except openmm.OpenMMException as error:
-                    failed[name] = {"failed_in_steps": [entry[4] + 1, entry[4] + steps], "error": str(error)}
-                    print(f"{name} failed in steps {entry[4] + 1}-{entry[4] + steps}: {error}", flush=True)
-                    continue
-                if round_:
-                    speeds[name].append(steps * step_fs * 1e-6 / ((time.perf_counter() - start) / 86400))
-            if round_:
-                print(f"{threads} thread(s), round {round_}/{rounds}: " +
-                      ", ".join(f"{name} {speeds[name][-1]:.1f}" for name in names if name not in failed) + " ns/day",
-                      flush=True)
-        ratios = {name: float(np.median(np.array(speeds[name]) / np.array(speeds[names[0]])))
-                  for name in names[1:] if name not in failed}
-        report["threads"][threads] = {"ns_per_day": {n: v for n, v in speeds.items() if n not in failed},
-                                      "median_ns_per_day": {n: float(np.median(v)) for n, v in speeds.items()
-                                                            if n not in failed},
-                                      "median_ratio_to_DrudeLangevin_1fs": ratios, "failed": failed}
+            timed.append((name, step_fs, integrator, context))
+        timing = interleaved_ns_per_day(timed, rounds, picoseconds,
+                                        report=lambda line: print(f"{threads} thread(s), {line}", flush=True))
+        ratios = timing["median_ratio_to_first"]
+        report["threads"][threads] = {"ns_per_day": timing["ns_per_day"],
+                                      "median_ns_per_day": timing["median_ns_per_day"],
+                                      "median_ratio_to_DrudeLangevin_1fs": ratios, "failed": timing["failed"]}
         print(f"{threads} thread(s): median ratio to DrudeLangevin 1 fs: " +
               ", ".join(f"{kind} {ratio:.2f}" for kind, ratio in ratios.items()), flush=True)
-        del contexts
+        del timed
     with open(os.path.join(out, "interleaved_timing.json"), "w") as f:
         json.dump(report, f, indent=1)
 

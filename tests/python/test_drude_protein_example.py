@@ -64,3 +64,33 @@ def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim
         SCRIPT, tmp_path, ("--seed-table", *stored_runs(sim_folder), "--reference-files", *stored_runs(reference_folder),
                            "--reference-step", str(reference_step)),
         os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 11, columns)
+
+
+def test_anisotropic_flow_quick_takes_the_fixed_axes_terms_into_the_flow_or_leaves_them_soft(tmp_path):
+    """Flow holds three relative modes per pair at sqrt(k_a / mu) (k_a = k + k1, k + k2, k along the axes), Soft one
+    (the isotropic spring's); every peer writes every observable."""
+    script = os.path.join(REPO_ROOT, "examples", "drude_protein", "anisotropic_flow.py")
+    peers = ["DrudeLangevin:0.5", "Soft:2", "Flow:2", "Soft:3:1.77", "Flow:3:1.77"]
+    result = conftest.run_quick(script, tmp_path, extra=("--peers", *peers))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "anisotropic_flow.json") as f:
+        data = json.load(f)
+    assert list(data["peers"]) == peers
+    k = data["k"]
+    mu = 15.5994 * 0.4 / (15.5994 + 0.4)
+    expected = sorted(round(math.sqrt(k * (1 + r) / mu), 1) for r in (data["k1_over_k"], data["k2_over_k"], 0.0))
+    for label, run in data["peers"].items():
+        for name in ("induced_u1", "induced_u2", "induced_u3", "t_drude", "t_drude_config", "t_cores"):
+            assert math.isfinite(run[name][0]) and run[name][1] >= 0, (label, name)
+        # Loose sanity bounds on the short run (not the example's claims).
+        assert abs(run["induced_u1"][0] - 1) < 0.05 and run["t_drude"][0] < 20, label
+        if label.startswith("Flow"):
+            assert run["stiff_mode_frequencies_per_ps"] == pytest.approx(expected, abs=0.11), label
+        elif label.startswith("Soft"):
+            assert run["stiff_mode_frequencies_per_ps"] == pytest.approx([expected[1]], abs=0.11), label
+
+
+def test_anisotropic_flow_rejects_a_peer_it_cannot_run(tmp_path):
+    script = os.path.join(REPO_ROOT, "examples", "drude_protein", "anisotropic_flow.py")
+    conftest.assert_cli_rejects(script, tmp_path, ("--peers", "DrudeLangevin:0.5:1.77"),
+                                "expected DrudeLangevin:H, Soft:H[:PHASE] or Flow:H[:PHASE]")

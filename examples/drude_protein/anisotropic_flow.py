@@ -50,6 +50,7 @@ DRUDE_CHARGE, CORE_CHARGE = -1.32047010809149, 0.82047010809149
 POLARIZABILITY = 0.000579  # nm^3
 CAGE_GROUP, SPRING_GROUP, ANISOTROPIC_GROUP = 0, 1, 2
 SAMPLE_FS, BLOCKS, BURN_IN_PS = 10.0, 20, 1.0
+RUN_AWAY_NM = 0.05  # a Drude this far from its core (ten times its displacement in the field) has blown up
 SPACING = 1.0  # nm between the pairs' cages: they do not interact, the spacing only keeps coordinates readable
 OBSERVABLES = ("induced_u1", "induced_u2", "induced_u3", "t_drude", "t_drude_config", "t_cores")
 
@@ -199,8 +200,10 @@ def run_peer(pairs, state, kind, step_fs, phase, picoseconds, seed):
             frame = context.getState(getPositions=True, getVelocities=True)
             x = frame.getPositions(asNumpy=True).value_in_unit(unit.nanometer)
             v = frame.getVelocities(asNumpy=True).value_in_unit(unit.nanometer / unit.picosecond)
-            if not (np.all(np.isfinite(x)) and np.all(np.isfinite(v))):
-                return {"failed": f"coordinates not finite after {len(frames) + 1} samples"}
+            with np.errstate(invalid="ignore", over="ignore"):
+                farthest = float(np.max(np.linalg.norm(x[pairs.drudes] - x[pairs.cores], axis=1)))
+            if not (farthest < RUN_AWAY_NM and np.all(np.isfinite(v))):
+                return {"failed": f"a Drude particle {farthest:.3g} nm from its core at sample {len(frames) + 1}"}
             frames.append(pairs.observables(x, v))
     except openmm.OpenMMException as error:
         return {"failed": str(error)}
@@ -222,9 +225,9 @@ def run_peer(pairs, state, kind, step_fs, phase, picoseconds, seed):
     return result
 
 
-SEED_ROWS = [("induced_u1", "induced / SCF along u1 (k1 = %+.3f k)", "%.4f", 1),
-             ("induced_u2", "induced / SCF along u2 (k2 = %+.3f k)", "%.4f", 1),
-             ("induced_u3", "induced / SCF along u3", "%.4f", 1),
+SEED_ROWS = [("induced_u1", "induced / SCF along u1 (k1 = %+.3f k)", "%.5f", 1),
+             ("induced_u2", "induced / SCF along u2 (k2 = %+.3f k)", "%.5f", 1),
+             ("induced_u3", "induced / SCF along u3", "%.5f", 1),
              ("t_drude", "T Drude, kinetic (K)", "%.3f", 1),
              ("t_drude_config", "T Drude, configurational (K)", "%.3f", 1),
              ("t_cores", "T cores (K)", "%.2f", 1)]
@@ -303,7 +306,7 @@ def main():
         if "failed" in result:
             line = "failed: " + result["failed"]
         else:
-            line = "   ".join(f"{name} {result[name][0]:.4f} ± {result[name][1]:.4f}" for name in OBSERVABLES)
+            line = "   ".join(f"{name} {result[name][0]:.5f} ± {result[name][1]:.5f}" for name in OBSERVABLES)
         print(f"{label:22s} {line}   ({time.time() - started:.0f} s)", flush=True)
         with open(os.path.join(args.out, "anisotropic_flow.json"), "w") as f:
             json.dump(report, f, indent=1)

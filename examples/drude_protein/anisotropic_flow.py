@@ -234,8 +234,8 @@ SEED_ROWS = [("induced_u1", "induced / SCF along u1 (k1 = %+.3f k)", "%.5f", 1),
 
 
 def seed_table(files, reference):
-    """The Markdown table of several replicas' anisotropic_flow.json: per peer the mean ± standard error over the
-    replicas (from each run's block errors), t against `reference` in brackets."""
+    """The Markdown table of several replicas' anisotropic_flow.json, a row per peer: each observable's mean ± standard
+    error over the replicas (from each run's block errors), t against `reference` in brackets."""
     columns, ratios = {}, None
     for path in files:
         with open(path) as f:
@@ -248,7 +248,7 @@ def seed_table(files, reference):
     ordered = [(reference, columns.pop(reference))] + list(columns.items())
     rows = [(key, name % ratios[0] if key == "induced_u1" else name % ratios[1] if key == "induced_u2" else name,
              fmt, scale) for key, name, fmt, scale in SEED_ROWS]
-    return seeds.markdown(ordered, rows, within=True)
+    return seeds.markdown(ordered, rows, within=True, peers_as_rows=True)
 
 
 def main():

@@ -59,11 +59,11 @@ def pooled(runs, key, scale=1.0, within=False):
     return mean_se(values) if len(values) > 1 else None
 
 
-def markdown(columns, rows, within=False):
+def markdown(columns, rows, within=False, peers_as_rows=False):
     """The Markdown table: columns [(name, runs)], the first the reference; rows [(key, name, format, scale)]; within:
     errors as pooled(within=True).  The last row counts the finished runs of each column ("n of m" where some
-    failed)."""
-    lines = ["| observable | " + " | ".join(name for name, _ in columns) + " |", "|---" * (len(columns) + 1) + "|"]
+    failed).  peers_as_rows: the same table transposed, a row per peer and a column per observable."""
+    table = [["observable"] + [name for name, _ in columns]]
     for key, name, fmt, scale in rows:
         cells, reference = [name], pooled(columns[0][1], key, scale, within)
         for index, (_, runs) in enumerate(columns):
@@ -72,10 +72,14 @@ def markdown(columns, rows, within=False):
             if value is not None and index and reference is not None:
                 cell += " (%+.1f)" % ((value[0] - reference[0]) / np.hypot(value[1], reference[1]))
             cells.append(cell)
-        lines.append("| " + " | ".join(cells) + " |")
-    counts = []
+        table.append(cells)
+    counts = ["runs"]
     for _, runs in columns:
         finished = sum(1 for r in runs if not r.get("failed"))
         counts.append(str(finished) if finished == len(runs) else f"{finished} of {len(runs)}")
-    lines.append("| runs | " + " | ".join(counts) + " |")
-    return "\n".join(lines)
+    table.append(counts)
+    if peers_as_rows:
+        table = [list(row) for row in zip(*table)]
+        table[0][0] = "peer"
+    lines = ["| " + " | ".join(table[0]) + " |", "|---" * len(table[0]) + "|"]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in table[1:]])

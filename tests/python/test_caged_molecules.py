@@ -173,6 +173,6 @@ def test_the_readme_replica_table_is_the_stored_replicas():
     with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md")) as f:
         readme = f.read()
     for peer in ("DrudeLangevin:0.25", "DrudeLangevin:0.125", "DrudeLangevin:0.5", "WarpedMiddle:0.5",
-                 "WarpedMiddle:1", "WarpedMiddleScaled:2.5", "DrudeLangevin:0.25 @ 297 K"):
+                 "WarpedMiddle:1", "WarpedMiddleScaled:2.5", "DrudeLangevin:0.25 @ 297 K", "Twin:0.25:2.5:2.05"):
         cell = temperatures[peer].split(" (")[0]
         assert cell in readme, (peer, cell)

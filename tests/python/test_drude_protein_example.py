@@ -97,3 +97,13 @@ def test_anisotropic_flow_rejects_a_peer_it_cannot_run(tmp_path):
     script = os.path.join(REPO_ROOT, "examples", "drude_protein", "anisotropic_flow.py")
     conftest.assert_cli_rejects(script, tmp_path, ("--peers", "DrudeLangevin:0.5:1.77"),
                                 "expected DrudeLangevin:H, Soft:H[:PHASE] or Flow:H[:PHASE]")
+
+
+@pytest.mark.parametrize("folder, replicas", [("carbonyl", 2), ("villin_extremes", 1)])
+def test_anisotropic_flow_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, folder, replicas):
+    script = os.path.join(REPO_ROOT, "examples", "drude_protein", "anisotropic_flow.py")
+    stored = [os.path.join(REPO_ROOT, "examples", "drude_protein", "results", "anisotropic_flow", folder, f"seed{s}",
+                           "anisotropic_flow.json") for s in range(1, replicas + 1)]
+    # A row per peer (14) beside the header: the helper counts them as a header, 13 rows and a last one.
+    conftest.assert_readme_table_reprinted(script, tmp_path, ("--seed-table", *stored),
+                                           os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 13, 7)

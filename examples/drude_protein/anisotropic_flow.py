@@ -269,18 +269,9 @@ def main():
     parser.add_argument("--out", default=".", help="folder for anisotropic_flow.json (default .)")
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 27 pairs, 0.4 ps")
     args = parser.parse_args()
-    if args.seed_table:
-        try:
-            print(seed_table(args.seed_table, args.reference))
-        except ValueError as error:
-            parser.error(str(error))
+    peers = seeds.print_table_or_parse_peers(parser, args, seed_table, lambda text: (text, *parse_peer(text)))
+    if peers is None:
         return
-    if not args.peers:
-        parser.error("--peers is required (or --seed-table)")
-    try:
-        peers = [(text, *parse_peer(text)) for text in args.peers]
-    except ValueError as error:
-        parser.error(str(error))
     if not (0 < args.aniso12 and 0 < args.aniso34 and args.aniso12 + args.aniso34 < 3):
         parser.error(f"--aniso12 and --aniso34 must be positive with a sum below 3 (got {args.aniso12:g}, "
                      f"{args.aniso34:g})")

@@ -278,18 +278,9 @@ def main():
     parser.add_argument("--quick", action="store_true", help="a small, short run (smoke test): 32 molecules, "
                         "0.2 ps sampled")
     args = parser.parse_args()
-    if args.seed_table:
-        try:
-            print(seed_table(args.seed_table, args.reference))
-        except ValueError as error:
-            parser.error(str(error))
+    peers = seeds.print_table_or_parse_peers(parser, args, seed_table, parse_peer)
+    if peers is None:
         return
-    if not args.peers:
-        parser.error("--peers is required (or --seed-table)")
-    try:
-        peers = [parse_peer(p) for p in args.peers]
-    except ValueError as error:
-        parser.error(str(error))
     for name in ("ps", "friction", "temperature", "trap_o", "trap_h"):
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be positive (got {getattr(args, name):g})")

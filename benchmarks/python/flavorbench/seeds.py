@@ -83,3 +83,18 @@ def markdown(columns, rows, within=False, peers_as_rows=False):
         table[0][0] = "peer"
     lines = ["| " + " | ".join(table[0]) + " |", "|---" * len(table[0]) + "|"]
     return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in table[1:]])
+
+
+def print_table_or_parse_peers(parser, args, table, parse_peer):
+    """The command line of the replica scripts: with --seed-table, prints table(files, reference) and returns None;
+    otherwise returns [parse_peer(text) for each --peers].  A ValueError of either, or no --peers, is the parser's
+    error (it exits)."""
+    try:
+        if args.seed_table:
+            print(table(args.seed_table, args.reference))
+            return None
+        if not args.peers:
+            parser.error("--peers is required (or --seed-table)")
+        return [parse_peer(text) for text in args.peers]
+    except ValueError as error:
+        parser.error(str(error))

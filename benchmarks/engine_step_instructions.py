@@ -14,8 +14,9 @@ valgrind's callgrind (load-independent), CPU platform with one thread:
   - drude_protein: StochasticImpulseIntegrator (Warped, Middle, H = 2 fs, the 0.02-nm wall) on alanine dipeptide in
     Drude-2019 with 250 SWM4-NDP molecules (examples/drude_protein), and drude_protein_dl, DrudeLangevinIntegrator at
     1 fs with the same wall from the same state: on the CPU platform OpenMM runs DrudeLangevin through its Reference
-    code, so instructions are the fair cost there.  For these the frozen stage's share is reported too: the functions of FrozenDistances and of its
-    solver SparseLDLT (what inlining leaves of them).
+    code, so instructions are the fair cost there; drude_ions and drude_ions_dl the same on NaCl in SWM4-NDP
+    (examples/drude_ions, 4 Na+/Cl- pairs in 248 waters).  For these the frozen stage's share is reported too: the
+    functions of FrozenDistances and of its solver SparseLDLT (what inlining leaves of them).
 
 Each step is run from one saved state for a short and a long number of steps in a child process under callgrind;
 the difference is the cost of a step.  Reported: all instructions per step, and those of the engine's own functions
@@ -39,12 +40,14 @@ from flavorbench import _config
 from flavorbench.callgrind import per_step, require_valgrind, scene_module
 
 SCENES = {"villin": (3, 9), "drude_water": (10, 40), "drude_water_dl": (10, 40), "flexible_water": (3, 11),
-          "flexible_water_lm": (3, 11), "drude_protein": (3, 9), "drude_protein_dl": (3, 9)}
+          "flexible_water_lm": (3, 11), "drude_protein": (3, 9), "drude_protein_dl": (3, 9), "drude_ions": (10, 40),
+          "drude_ions_dl": (10, 40)}
 # Scenes that start from another scene's saved state.
-STATE_OF = {"flexible_water_lm": "flexible_water", "drude_protein_dl": "drude_protein", "drude_water_dl": "drude_water"}
+STATE_OF = {"flexible_water_lm": "flexible_water", "drude_protein_dl": "drude_protein", "drude_water_dl": "drude_water",
+            "drude_ions_dl": "drude_ions"}
 # Each scene's step (fs), for the instructions per simulated ps.
-STEP_FS = {"villin": 2.5, "drude_water": 2.5, "drude_water_dl": 1.0, "flexible_water": 6.0, "flexible_water_lm": 2.0, "drude_protein": 2.0,
-           "drude_protein_dl": 1.0}
+STEP_FS = {"villin": 2.5, "drude_water": 2.5, "drude_water_dl": 1.0, "flexible_water": 6.0, "flexible_water_lm": 2.0,
+           "drude_protein": 2.0, "drude_protein_dl": 1.0, "drude_ions": 2.0, "drude_ions_dl": 1.0}
 # The frozen stage's functions (FrozenDistances.cpp and its solver).
 FROZEN_STAGE = ("FrozenDistances", "SparseLDLT", "assembleB")
 
@@ -118,14 +121,20 @@ def make_flexible_water_lm():
     return name, system, lambda: factory(5), flexible_water_start(flexible_water, modeller, system)
 
 
-def make_drude_protein(kind):
+def make_drude_forcefield_scene(scene, kind):
+    """drude_protein (alanine dipeptide in 250 waters) or drude_ions (4 NaCl pairs in 248 waters), Drude-2019: the SIM
+    at 2 fs on the System after separateDrudeSprings or DrudeLangevin at 1 fs on the original, both with the 0.02-nm
+    wall."""
     import openmm
-    drude_protein, drude_ions = scene_module("drude_protein"), scene_module("drude_ions")
-    unsplit, _, positions = drude_protein.build(250, 0.8)
+    drude_ions = scene_module("drude_ions")
+    if scene == "drude_protein":
+        unsplit, _, positions = scene_module("drude_protein").build(250, 0.8)
+    else:
+        unsplit, _, positions = drude_ions.build(248, 4, 0.8, 1)
     system, step_fs = unsplit, 1.0
     if kind == "WarpedMiddle":
         system, step_fs = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(unsplit)), 2.0
-        drude_protein.StochasticImpulseIntegrator.separateDrudeSprings(system, drude_protein.SPRING_GROUP)
+        drude_ions.StochasticImpulseIntegrator.separateDrudeSprings(system, drude_ions.SPRING_GROUP)
 
     def factory():
         integrator = drude_ions.make_integrator(kind, step_fs, 5)
@@ -133,13 +142,15 @@ def make_drude_protein(kind):
         return integrator
 
     return (f"{kind} {step_fs:g} fs, wall 0.02 nm", system, factory,
-            lambda: drude_protein.equilibrated(unsplit, positions, 1, 0.2))
+            lambda: drude_ions.equilibrated(unsplit, positions, 1, 0.2))
 
 
 MAKERS = {"villin": make_villin, "drude_water": make_drude_water,
           "drude_water_dl": lambda: make_drude_water("DrudeLangevin"), "flexible_water": make_flexible_water,
-          "flexible_water_lm": make_flexible_water_lm, "drude_protein": lambda: make_drude_protein("WarpedMiddle"),
-          "drude_protein_dl": lambda: make_drude_protein("DrudeLangevin")}
+          "flexible_water_lm": make_flexible_water_lm,
+          **{scene + suffix: (lambda scene=scene, kind=kind: make_drude_forcefield_scene(scene, kind))
+             for scene in ("drude_protein", "drude_ions")
+             for suffix, kind in (("", "WarpedMiddle"), ("_dl", "DrudeLangevin"))}}
 
 
 def child(scene, steps, state_dir):

@@ -114,6 +114,15 @@ double trace(const double m[3][3]) {
     return m[0][0] + m[1][1] + m[2][2];
 }
 
+/** m v for a 3 x 3 matrix m. */
+Vec3 times(const double m[3][3], const Vec3& v) {
+    Vec3 out;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+            out[a] += m[a][b] * v[b];
+    return out;
+}
+
 /** out = a b^-1 for 3 x 3 matrices. */
 void multiplyByInverse(const double a[3][3], const double b[3][3], double out[3][3]) {
     const double det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) -
@@ -253,11 +262,7 @@ void ConstraintProjector::takeOffProcessing(vector<Vec3>& velocities, vector<Vec
 void ConstraintProjector::processVelocities(vector<Vec3>& velocities, const StiffFlowCarrying& carrying,
                                             vector<Vec3>& applied) const {
     for (const StiffFlowCarrying::Motion& motion : carrying.processing) {
-        const Vec3& impulse = stepImpulses[motion.carried];
-        Vec3 change;
-        for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-                change[a] += motion.velocity[a][b] * impulse[b];
+        const Vec3 change = times(motion.velocity, stepImpulses[motion.carried]);
         velocities[motion.particle] += change;
         applied[motion.particle] += change;
     }
@@ -323,21 +328,12 @@ void ConstraintProjector::solveVelocities(ReferenceConstraints& plain, vector<Ve
 void ConstraintProjector::moveCarried(const StiffFlowCarrying::Solve& solve, const vector<Vec3>& now,
                                       const vector<Vec3>& before, vector<Vec3>* positions, vector<Vec3>& velocities) {
     for (const StiffFlowCarrying::Impulse& impulse : solve.impulses) {
-        const Vec3 correction = now[impulse.carrier] - before[impulse.carrier];
-        for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-                stepImpulses[impulse.carried][a] += impulse.perCorrection[a][b] * correction[b];
+        stepImpulses[impulse.carried] += times(impulse.perCorrection, now[impulse.carrier] - before[impulse.carrier]);
     }
     for (const StiffFlowCarrying::Motion& motion : solve.motions) {
         const Vec3 correction = now[motion.carrier] - before[motion.carrier];
-        Vec3 position, velocity;
-        for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) {
-                position[a] += motion.position[a][b] * correction[b];
-                velocity[a] += motion.velocity[a][b] * correction[b];
-            }
         if (positions && motion.particle != motion.carrier)
-            (*positions)[motion.particle] += position;
-        velocities[motion.particle] += velocity;
+            (*positions)[motion.particle] += times(motion.position, correction);
+        velocities[motion.particle] += times(motion.velocity, correction);
     }
 }

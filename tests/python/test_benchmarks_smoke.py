@@ -137,6 +137,22 @@ def test_drude_step_instructions_sorts_functions_and_redraws_its_chart(tmp_path)
     assert (tmp_path / "drude_step_instructions.png").stat().st_size > 0
 
 
+def test_callgrind_per_step_matches_functions_by_name_across_libraries(monkeypatch):
+    # A set-up cost that callgrind names after another library in the long run is no per-step cost; a function
+    # whose count grows is, under the long run's library.
+    from flavorbench import callgrind
+    grow = "???:std::vector<double>::_M_realloc_insert(double const&)"
+    runs = {"short": {grow + " [/py/_openmm.so]": 500, "???:Engine::step() [libOpenMMFlavorsEngine.so]": 30,
+                      "???:Setup::once() [libOpenMM.so]": 7},
+            "long": {grow + " [libOpenMMFlavorsEngine.so]": 500, "???:Engine::step() [libOpenMMFlavorsEngine.so]": 90,
+                     "???:operator[](int) [libOpenMMFlavorsEngine.so]": 40}}
+    monkeypatch.setattr(callgrind, "per_function", lambda path: runs[path])
+    steps = callgrind.per_step("short", "long", (10, 40))
+    assert steps == {grow + " [libOpenMMFlavorsEngine.so]": 0.0, "???:Engine::step() [libOpenMMFlavorsEngine.so]": 2.0,
+                     "???:Setup::once() [libOpenMM.so]": -7 / 30,
+                     "???:operator[](int) [libOpenMMFlavorsEngine.so]": 40 / 30}
+
+
 def test_frozen_energy_drift_quick_runs_every_peer_on_both_molecules_and_replots(tmp_path):
     result, data = run_quick("frozen_energy_drift.py", tmp_path,
                              ("frozen_energy_drift.json", "frozen_energy_drift.png"))

@@ -29,9 +29,25 @@ def per_function(path):
 
 
 def per_step(short_path, long_path, steps):
-    """Per function, the instructions of one step: the difference of a long and a short run over their step counts."""
-    short, long_ = per_function(short_path), per_function(long_path)
-    return {f: (long_.get(f, 0) - short.get(f, 0)) / (steps[1] - steps[0]) for f in set(short) | set(long_)}
+    """Per function, the instructions of one step: the difference of a long and a short run over their step counts.
+
+    Functions are matched by name alone: callgrind names a template instantiated in several libraries (a
+    std::vector's growth, say) after whichever library it met first, which may differ between the two runs, and a
+    set-up cost would then read as a per-step one.  Each function keeps the library the long run names."""
+    short, long_ = _by_name(per_function(short_path)), _by_name(per_function(long_path))
+    return {name + long_.get(name, short.get(name))[1]: (long_.get(name, (0, ""))[0] - short.get(name, (0, ""))[0]) /
+            (steps[1] - steps[0]) for name in set(short) | set(long_)}
+
+
+def _by_name(counts):
+    """{"function [library]": count} -> {"function": (count summed over libraries, " [library]")}."""
+    merged = {}
+    for key, count in counts.items():
+        match = re.match(r"^(.*?)( \[[^\]]*\])?$", key)
+        name, library = match.group(1), match.group(2) or ""
+        total, named = merged.get(name, (0, library))
+        merged[name] = (total + count, named or library)
+    return merged
 
 
 def scene_module(name):

@@ -214,18 +214,15 @@ public:
      */
     double getMaxDrudeDistance() const { return maxDrudeDistance; }
     /**
-     * Set a hard wall for the stiff pairs, as DrudeLangevinIntegrator::setMaxDrudeDistance: on each step's final
-     * positions, every stiff component of two particles (a Drude particle, the lighter, and its parent, with the
-     * spring in a stiff group) that is farther apart than distance is put back inside the wall, and its relative radial
-     * velocity is set to the thermal speed sqrt(kT/m) of the stiff-mode temperature, pointing inward
-     * (DrudeLangevinIntegrator reverses the radial velocity's sign instead), with the pair's centre-of-mass velocity
-     * kept.  A constrained or massless parent keeps its position and velocity, and the Drude particle moves inward
-     * relative to it.  The wall acts before the step's closing kick, which then reads the forces at the walled
-     * positions (the next step's opening kick reuses them: one force evaluation per step, as without the wall), so the
-     * velocities it sets take that kick, as DrudeLangevinIntegrator's take its next step's.  The exact flow of the
-     * quadratic stiff potential is untouched: the wall acts only on pairs past it, whose motion it replaces by this
+     * Set a hard wall for the stiff pairs, as DrudeLangevinIntegrator::setMaxDrudeDistance: after each step, every
+     * stiff component of two particles (a Drude particle, the lighter, and its parent, with the spring in a stiff
+     * group) that is farther apart than distance is put back inside the wall, and its relative radial velocity is set
+     * to the thermal speed sqrt(kT/m) of the stiff-mode temperature, pointing inward (DrudeLangevinIntegrator reverses
+     * the radial velocity's sign instead), with the pair's centre-of-mass velocity kept.  A constrained or massless
+     * parent keeps its position and velocity, and the Drude particle moves inward relative to it.  The exact flow of
+     * the quadratic stiff potential is untouched: the wall acts only on pairs past it, whose motion it replaces by this
      * reset (a safeguard against polarization catastrophe, not part of the dynamics).  A pair found farther than twice
-     * the wall makes the step throw, with the Context as the flow left it.  It must be finite and non-negative; 0
+     * the wall makes the step throw, with the Context at the step's end.  It must be finite and non-negative; 0
      * switches it off.
      */
     void setMaxDrudeDistance(double distance);

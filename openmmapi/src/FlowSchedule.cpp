@@ -1,6 +1,5 @@
 #include "internal/FlowSchedule.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
-#include <algorithm>
 #include <cmath>
 
 using namespace FlavorPlugin;
@@ -290,13 +289,7 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
         wall.stiffBath = p.stiffBath;
         wall.distance = p.maxDrudeDistance;
         wall.length = StepLength{1.0, 0.0};
-        // On the step's final positions, before the closing kick: that kick then reads the forces of the walled
-        // positions, which the next step's opening kick reuses (one force evaluation per step, as without the wall),
-        // and the velocities the wall sets take the kick, as DrudeLangevinIntegrator's take its next step's.
-        const auto lastMove = std::find_if(s.rbegin(), s.rend(), [](const SubFlow& f) {
-            return !isVelocityFlow(f.kind) && f.kind != SubFlow::FilteredKick;
-        });
-        s.insert(lastMove.base(), wall);
+        s.push_back(wall);
         return s;
     }
     if (p.metropolis) {

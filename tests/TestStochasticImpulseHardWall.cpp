@@ -1,7 +1,8 @@
 // The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance): off by default and inert while
 // no pair reaches it; a pair past it ends inside, moving inward at the stiff modes' thermal speed with its tangential
-// and centre-of-mass motion kept (or only the Drude particle moving when its parent is constrained); a pair past twice
-// the wall stops the step with a clear error; the setting survives serialization and bad values are rejected.
+// and centre-of-mass motion kept (or only the Drude particle moving when its parent is constrained); it acts after the
+// closing kick, so a pair that the field holds out at the wall stays within it; a pair past twice the wall stops the
+// step with a clear error; the setting survives serialization and bad values are rejected.
 
 #include "ExpectRejected.h"
 #include "PlatformTest.h"
@@ -13,6 +14,7 @@
 #include "openmm/System.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include "openmm/serialization/XmlSerializer.h"
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <sstream>
@@ -137,6 +139,41 @@ TEST_P(ImpulseHardWall, PutsAPairPastItBackInsideMovingInwardAtTheThermalSpeed) 
             }
         }
     }
+}
+
+// A field that holds the pair 0.021 nm apart, just past a 0.02 nm wall, at 2 fs (Warped, exact static response): in
+// a kick-flow-kick step the velocity before the closing kick of a pair at rest in its field is -(H/2) F/mu, inward,
+// about 22 nm/ps here, which the kick cancels.  After the kick the wall acts on the velocity the pair has, and the pair
+// stays within the wall for 200 steps; before it the wall would replace that inward velocity by the thermal one and the
+// kicks would send the pair past twice the wall within a step.
+TEST_P(ImpulseHardWall, ActsAfterTheClosingKickSoThatAPairHeldOutByItsFieldStaysWithinIt) {
+    const double wall = 0.02, held = 0.021, stepSize = 0.002;
+    // The pair's largest separation at the steps' ends over 200 steps from rest 0.0199 nm apart.
+    auto farthest = [&](double maxDistance) {
+        System system = drudePair(false);
+        auto* field = new CustomExternalForce("-f*x"); // a uniform field on a neutral pair: the core pulled back
+        field->addPerParticleParameter("f");
+        field->addParticle(1, {Spring * held});
+        field->addParticle(0, {-Spring * held});
+        system.addForce(field);
+        StochasticImpulseIntegrator integrator(300.0, 0.0, stepSize, 1 << 1);
+        integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+        integrator.setStiffModeTemperature(DrudeTemperature);
+        integrator.setMaxDrudeDistance(maxDistance);
+        Context context(system, integrator, platform(), properties(1));
+        context.setPositions({Vec3(0.1, 0.2, 0.3), Vec3(0.1 + 0.0199, 0.2, 0.3)});
+        context.setVelocities({Vec3(), Vec3()});
+        double result = 0.0;
+        for (int i = 0; i < 200; ++i) {
+            integrator.step(1);
+            const vector<Vec3> q = context.getState(State::Positions).getPositions();
+            const Vec3 delta = q[1] - q[0];
+            result = std::max(result, std::sqrt(delta.dot(delta)));
+        }
+        return result;
+    };
+    EXPECT_GT(farthest(0.0), wall); // without the wall the pair oscillates about 0.021 nm
+    EXPECT_LE(farthest(wall), wall);
 }
 
 TEST_P(ImpulseHardWall, APairPastTwiceTheWallStopsTheStepAndTheContextStaysUsable) {

@@ -221,7 +221,11 @@ public:
      * the radial velocity's sign instead), with the pair's centre-of-mass velocity kept.  A constrained or massless
      * parent keeps its position and velocity, and the Drude particle moves inward relative to it.  The exact flow of
      * the quadratic stiff potential is untouched: the wall acts only on pairs past it, whose motion it replaces by this
-     * reset (a safeguard against polarization catastrophe, not part of the dynamics).  A pair found farther than twice
+     * reset (a safeguard against polarization catastrophe, not part of the dynamics).  It acts after the closing kick,
+     * on the velocities the step ends with: before it, it would replace the inward velocity that the closing kick
+     * cancels for a pair held out by its field, and the kicks would send the pair outward.  Where it moves a pair, the
+     * next step evaluates the forces at the walled positions again (two evaluations for that step).  A pair found
+     * farther than twice
      * the wall makes the step throw, with the Context at the step's end.  It must be finite and non-negative; 0
      * switches it off.
      */

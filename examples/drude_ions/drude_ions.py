@@ -7,6 +7,8 @@ equilibrated state in one process.
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --seed-table JSON [JSON ...]
     PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --interleaved-timing ROUNDS \
         [--round-ps PS] [--sim-steps 1.5 2] [--wall NM] [--wall-peers 1]
+    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --wall-cost STEPS --wall NM \
+        [--sim-steps 2]
 
 Writes drude_ions.json to --out.  Observables (block averages; error = standard error of the block means): the induced
 dipoles relative to the self-consistent ones at the same nuclear positions (all Drude particles, and the ions' alone),
@@ -249,6 +251,32 @@ def interleaved_timing(system, separated, state, dl_steps, sim_steps, wall_nm, r
     return timing
 
 
+def wall_cost(separated, state, step_fs, wall_nm, steps, max_warped_phase=0.0, scaled_friction=False):
+    """Single SIM steps at step_fs from `state`, one thread, with the wall and without it, each step timed alone: where
+    the wall moves a pair the next step evaluates the forces again at the moved positions, which shows as steps of
+    about twice the median time.  Returns {label: {"median_ms", "mean_ms", "slow_fraction"}}, slow meaning over 1.6
+    times the median."""
+    result = {}
+    for wall in (wall_nm, 0.0):
+        integrator = make_integrator("WarpedMiddle", step_fs, 5, max_warped_phase, scaled_friction)
+        integrator.setMaxDrudeDistance(wall)
+        context = openmm.Context(separated, integrator, openmm.Platform.getPlatformByName("CPU"), {"Threads": "1"})
+        context.setState(state)
+        integrator.step(3)
+        times = []
+        for _ in range(steps):
+            start = time.perf_counter()
+            integrator.step(1)
+            times.append(1e3 * (time.perf_counter() - start))
+        median = float(np.median(times))
+        label = f"WarpedMiddle {step_fs:g} fs, wall {wall:g} nm"
+        result[label] = {"median_ms": median, "mean_ms": float(np.mean(times)),
+                         "slow_fraction": float(np.mean(np.array(times) > 1.6 * median))}
+        print(f"{label}: median {median:.2f} ms, mean {result[label]['mean_ms']:.2f} ms, steps over 1.6 x the median "
+              f"{result[label]['slow_fraction']:.3f}", flush=True)
+    return result
+
+
 def add_timing_arguments(parser):
     """The options of the interleaved timing (the scenes' other runs time each peer alone)."""
     parser.add_argument("--interleaved-timing", type=int, metavar="ROUNDS",
@@ -256,6 +284,9 @@ def add_timing_arguments(parser):
                              "--sim-steps, all with the --wall, interleaved over ROUNDS rounds from one equilibrated "
                              "state; writes interleaved_timing.json")
     parser.add_argument("--round-ps", type=float, default=0.5, help="ps per peer and round of the timing (default 0.5)")
+    parser.add_argument("--wall-cost", type=int, metavar="STEPS",
+                        help="only time STEPS single SIM steps at the largest --sim-steps with the --wall and without "
+                             "it, one thread; writes wall_cost.json")
 
 
 def check_timing_arguments(parser, args):
@@ -263,14 +294,29 @@ def check_timing_arguments(parser, args):
         parser.error(f"--interleaved-timing needs at least 1 round (got {args.interleaved_timing})")
     if not args.round_ps > 0:
         parser.error(f"--round-ps must be positive (got {args.round_ps})")
+    if args.wall_cost is not None and (args.wall_cost < 1 or not args.wall > 0):
+        parser.error(f"--wall-cost needs at least 1 step and a --wall (got {args.wall_cost} steps, wall {args.wall})")
 
 
-def write_timing(args, timing):
+def run_timing(args, system, separated, state):
+    """The timing modes (--interleaved-timing, --wall-cost) of a scene's command line: runs the one asked for, writes
+    its JSON to --out and returns True; False when none was asked for."""
+    phase, scaled = getattr(args, "max_warped_phase", 0.0), getattr(args, "scaled_friction", False)
+    if args.interleaved_timing:
+        name, data = "interleaved_timing.json", interleaved_timing(
+            system, separated, state, args.wall_peers or [1.0], args.sim_steps, args.wall, args.interleaved_timing,
+            args.round_ps, phase, scaled)
+    elif args.wall_cost:
+        name, data = "wall_cost.json", {"steps": args.wall_cost, "runs": wall_cost(
+            separated, state, max(args.sim_steps), args.wall, args.wall_cost, phase, scaled)}
+    else:
+        return False
     os.makedirs(args.out, exist_ok=True)
-    path = os.path.join(args.out, "interleaved_timing.json")
+    path = os.path.join(args.out, name)
     with open(path, "w") as out:
-        json.dump(dict(timing, seed=args.seed), out, indent=1)
+        json.dump(dict(data, seed=args.seed), out, indent=1)
     print(f"written to {path}")
+    return True
 
 
 def print_runs(runs, names, width=24):
@@ -349,9 +395,7 @@ def main():
 
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
-    if args.interleaved_timing:
-        write_timing(args, interleaved_timing(system, separated, state, args.wall_peers or [1.0], args.sim_steps,
-                                              args.wall, args.interleaved_timing, args.round_ps))
+    if run_timing(args, system, separated, state):
         return
 
     runs = [run_one(system, state, analysis, scf, "DrudeLangevin", args.reference_step, settings, args.seed + 2)]

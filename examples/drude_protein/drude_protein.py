@@ -41,8 +41,7 @@ from openmmflavors import StochasticImpulseIntegrator
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "drude_ions"))
 from drude_ions import (SPRING_GROUP, Analysis, SelfConsistent, add_timing_arguments,  # noqa: E402
-                        check_timing_arguments, equilibrated, interleaved_timing, polar_system, print_runs, run_one,
-                        write_timing)
+                        check_timing_arguments, equilibrated, polar_system, print_runs, run_one, run_timing)
 
 PDB = os.path.join(HERE, "..", "metropolis", "alanine_dipeptide.pdb")
 PEPTIDE = "ALA"  # the capped peptide as one residue (below)
@@ -251,10 +250,7 @@ def main():
     scf = SelfConsistent(system, analysis)  # on the original System
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
-    if args.interleaved_timing:
-        write_timing(args, interleaved_timing(system, separated, state, args.wall_peers or [1.0], args.sim_steps,
-                                              args.wall, args.interleaved_timing, args.round_ps,
-                                              args.max_warped_phase, args.scaled_friction))
+    if run_timing(args, system, separated, state):
         return
 
     runs = []

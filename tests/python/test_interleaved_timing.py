@@ -1,5 +1,6 @@
 """flavorbench.interleaved: every peer steps the same simulated time each round, a peer that fails drops out with its
-failure recorded, and the ratios are read against the first peer; the scenes' --interleaved-timing writes them."""
+failure recorded, and the ratios are read against the first peer; the scenes' --interleaved-timing writes them, and
+--wall-cost times single steps with the wall and without it."""
 import json
 import os
 
@@ -99,3 +100,23 @@ def test_the_drude_scenes_reject_a_timing_without_rounds(tmp_path, scene):
     script = os.path.join(REPO_ROOT, "examples", scene, scene + ".py")
     conftest.assert_cli_rejects(script, tmp_path, ("--interleaved-timing", "0"),
                                 "--interleaved-timing needs at least 1 round (got 0)")
+
+
+@pytest.mark.parametrize("scene", ["drude_ions", "drude_protein"])
+def test_the_drude_scenes_time_single_steps_with_and_without_the_wall(tmp_path, scene):
+    script = os.path.join(REPO_ROOT, "examples", scene, scene + ".py")
+    result = conftest.run_quick(script, tmp_path, extra=("--wall-cost", "4", "--wall", "0.02", "--sim-steps", "2"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "wall_cost.json") as f:
+        cost = json.load(f)
+    assert cost["steps"] == 4
+    assert list(cost["runs"]) == ["WarpedMiddle 2 fs, wall 0.02 nm", "WarpedMiddle 2 fs, wall 0 nm"]
+    for run in cost["runs"].values():
+        assert run["median_ms"] > 0 and run["mean_ms"] > 0 and 0 <= run["slow_fraction"] <= 1
+
+
+@pytest.mark.parametrize("scene", ["drude_ions", "drude_protein"])
+def test_the_drude_scenes_reject_a_wall_cost_without_a_wall(tmp_path, scene):
+    script = os.path.join(REPO_ROOT, "examples", scene, scene + ".py")
+    conftest.assert_cli_rejects(script, tmp_path, ("--wall-cost", "4", "--wall", "0"),
+                                "--wall-cost needs at least 1 step and a --wall (got 4 steps, wall 0.0)")

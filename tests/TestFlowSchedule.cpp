@@ -1,5 +1,7 @@
 #include "internal/FlowSchedule.h"
 #include <gtest/gtest.h>
+#include <utility>
+#include <vector>
 
 using namespace FlavorPlugin;
 
@@ -314,17 +316,55 @@ TEST(FlowSchedule, MetropolisWrapsTheFrictionFreeStepBetweenHalfStepThermostats)
     EXPECT_EQ(1u, plan.passes[plan.passes.size() - 2].flows.size());
 }
 
-// The hard wall closes the SIM step, with the stiff modes' bath for its thermal speed.
-TEST(FlowSchedule, HardWallClosesTheImpulseStep) {
-    ImpulseParameters walled{StochasticImpulseIntegrator::Strang, 0.002, Stiff, AllForceGroups};
-    walled.stiffBath = Bath{0.01, 20.0};
-    const Schedule unwalled = impulseSchedule(walled);
-    walled.maxDrudeDistance = 0.02;
-    const Schedule s = impulseSchedule(walled);
-    ASSERT_EQ(unwalled.size() + 1, s.size());
-    EXPECT_EQ(unwalled, Schedule(s.begin(), s.end() - 1));
-    EXPECT_EQ(SubFlow::HardWall, s.back().kind);
-    EXPECT_EQ(0.02, s.back().distance);
-    EXPECT_EQ(0.002, s.back().h);
-    EXPECT_EQ(0.01, s.back().stiffBath.kT);
+// The hard wall moves the SIM step's final positions before the velocity-only sub-flows that close it and sets the
+// walled pairs' speeds at the step's end, with the stiff modes' bath for its thermal speed.
+TEST(FlowSchedule, HardWallMovesTheFinalPositionsBeforeTheClosingKickAndSetsSpeedsAfterIt) {
+    const SubFlow::Kind K = SubFlow::Kick, E = SubFlow::StiffFlow, W = SubFlow::HardWall, V = SubFlow::HardWallSpeed;
+    const SubFlow::Kind FE = SubFlow::FilteredStiffFlow, FK = SubFlow::FilteredKick;
+    using Splitting = StochasticImpulseIntegrator::Splitting;
+    const std::vector<std::pair<Splitting, std::vector<SubFlow::Kind>>> cases = {
+        {StochasticImpulseIntegrator::Strang, {K, E, W, K, V}},
+        {StochasticImpulseIntegrator::LieTrotter, {E, W, K, V}},
+        {StochasticImpulseIntegrator::Filtered, {FE, W, FK, V}},
+        {StochasticImpulseIntegrator::Warped, {FE, W, FK, V}},
+        {StochasticImpulseIntegrator::Yoshida4, {K, E, K, E, K, E, W, K, V}}};
+    for (const auto& c : cases) {
+        ImpulseParameters walled{c.first, 0.002, Stiff, AllForceGroups};
+        walled.stiffBath = Bath{0.01, 20.0};
+        const Schedule unwalled = impulseSchedule(walled);
+        walled.maxDrudeDistance = 0.02;
+        const Schedule s = impulseSchedule(walled);
+        std::vector<SubFlow::Kind> kinds;
+        Schedule rest;
+        for (const SubFlow& f : s) {
+            kinds.push_back(f.kind);
+            if (f.kind == W || f.kind == V) {
+                EXPECT_EQ(0.02, f.distance);
+                EXPECT_EQ(0.002, f.h);
+                EXPECT_EQ(0.01, f.stiffBath.kT);
+            } else {
+                rest.push_back(f);
+            }
+        }
+        EXPECT_EQ(c.second, kinds) << c.first;
+        EXPECT_EQ(unwalled, rest) << c.first;
+    }
+    // Without soft forces the step is the stiff flow alone, and the wall follows it.
+    ImpulseParameters stiffOnly{StochasticImpulseIntegrator::Warped, 0.002, Stiff, Stiff};
+    stiffOnly.maxDrudeDistance = 0.02;
+    const Schedule s = impulseSchedule(stiffOnly);
+    ASSERT_EQ(3u, s.size());
+    EXPECT_EQ(E, s[0].kind);
+    EXPECT_EQ(W, s[1].kind);
+    EXPECT_EQ(V, s[2].kind);
+    // The walled positions change no velocity: the pass before them leaves the velocity projection to the kick's.
+    const StepPlan plan =
+        analyzeStep(impulseSchedule([] {
+                        ImpulseParameters p{StochasticImpulseIntegrator::Warped, 0.002, Stiff, AllForceGroups};
+                        p.maxDrudeDistance = 0.02;
+                        return p;
+                    }()),
+                    true);
+    ASSERT_EQ(4u, plan.passes.size());
+    EXPECT_TRUE(plan.passes[0].nextProjectsVelocities);
 }

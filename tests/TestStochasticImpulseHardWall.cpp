@@ -1,9 +1,11 @@
 // The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance): off by default and inert while
 // no pair reaches it; a pair past it ends inside, moving inward at the stiff modes' thermal speed with its tangential
-// and centre-of-mass motion kept (or only the Drude particle moving when its parent is constrained); it acts after the
-// closing kick, so a pair that the field holds out at the wall stays within it; a pair past twice the wall stops the
-// step with a clear error; the setting survives serialization and bad values are rejected.
+// and centre-of-mass motion kept (or only the Drude particle moving when its parent is constrained); its positions are
+// set before the closing kick, which reads their forces, so a step costs one force evaluation with the wall as without
+// it, and its velocities after the kick, so a pair that the field holds out at the wall stays within it; a pair past
+// twice the wall stops the step with a clear error; the setting survives serialization and bad values are rejected.
 
+#include "CountingForce.h"
 #include "ExpectRejected.h"
 #include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
@@ -33,10 +35,10 @@ namespace {
 const double CoreMass = 15.6, DrudeMass = 0.4, Spring = 4e5, Step = 0.001, DrudeTemperature = 1.0;
 
 /**
- * A Drude pair (core 0, Drude 1) on a zero-length spring (group 1), a weak soft well on the core (group 0); with
- * constrainedCore, a third particle tied to the core by a constraint.
+ * A Drude pair (core 0, Drude 1) on a zero-length spring (group 1), a weak soft well of stiffness well on the core
+ * (group 0); with constrainedCore, a third particle tied to the core by a constraint.
  */
-System drudePair(bool constrainedCore) {
+System drudePair(bool constrainedCore, double well = 1.0) {
     System system;
     system.addParticle(CoreMass);
     system.addParticle(DrudeMass);
@@ -44,9 +46,10 @@ System drudePair(bool constrainedCore) {
     spring->addBond(0, 1, 0.0, Spring);
     spring->setForceGroup(1);
     system.addForce(spring);
-    auto* well = new CustomExternalForce("0.5*(x^2+y^2+z^2)");
-    well->addParticle(0, {});
-    system.addForce(well);
+    auto* soft = new CustomExternalForce("0.5*well*(x^2+y^2+z^2)");
+    soft->addGlobalParameter("well", well);
+    soft->addParticle(0, {});
+    system.addForce(soft);
     if (constrainedCore) {
         system.addParticle(1.0);
         system.addConstraint(0, 2, 0.1);
@@ -74,10 +77,10 @@ void start(Context& context, bool constrainedCore, double radialSpeed) {
     context.setVelocities(velocities);
 }
 
-/** One step from the start, without the wall (0) or with it. */
+/** One step from the start, without the wall (0) or with it, the core's well of stiffness well. */
 State stepOnce(Platform& platform, const std::map<std::string, std::string>& properties, bool constrainedCore,
-               double radialSpeed, double wall) {
-    System system = drudePair(constrainedCore);
+               double radialSpeed, double wall, double well = 1.0) {
+    System system = drudePair(constrainedCore, well);
     auto integrator = makeIntegrator(wall);
     Context context(system, *integrator, platform, properties);
     start(context, constrainedCore, radialSpeed);
@@ -99,12 +102,14 @@ TEST_P(ImpulseHardWall, IsOffByDefaultAndInertWhileNoPairReachesIt) {
     }
 }
 
-// 30 nm/ps outward carries the pair to about 0.028 nm: past a 0.02 nm wall, within twice it.
+// 30 nm/ps outward carries the pair to about 0.028 nm: past a 0.02 nm wall, within twice it.  The well is off, so
+// that the closing kick, which reads the forces at the walled positions, adds nothing and the wall's own action shows
+// exactly.
 TEST_P(ImpulseHardWall, PutsAPairPastItBackInsideMovingInwardAtTheThermalSpeed) {
     const double wall = 0.02, thermalSpeed = std::sqrt(BOLTZ * DrudeTemperature / DrudeMass);
     for (bool constrainedCore : {false, true}) {
-        const State free = stepOnce(platform(), properties(1), constrainedCore, 30.0, 0.0);
-        const State walled = stepOnce(platform(), properties(1), constrainedCore, 30.0, wall);
+        const State free = stepOnce(platform(), properties(1), constrainedCore, 30.0, 0.0, 0.0);
+        const State walled = stepOnce(platform(), properties(1), constrainedCore, 30.0, wall, 0.0);
         const vector<Vec3>& q = free.getPositions();
         const vector<Vec3>& v = free.getVelocities();
         const Vec3 delta = q[1] - q[0];
@@ -141,12 +146,34 @@ TEST_P(ImpulseHardWall, PutsAPairPastItBackInsideMovingInwardAtTheThermalSpeed) 
     }
 }
 
+// With the well on, the soft forces are evaluated as often with the wall as without it: the closing kick reads them at
+// the walled positions and the next step reuses them.
+TEST_P(ImpulseHardWall, CostsNoForceEvaluation) {
+    int evaluations[2];
+    for (int walled : {0, 1}) {
+        System system = drudePair(false);
+        auto* counter = new CountingForce();
+        system.addForce(counter);
+        auto integrator = makeIntegrator(walled ? 0.02 : 0.0);
+        Context context(system, *integrator, platform(), properties(1));
+        start(context, false, 30.0);
+        integrator->step(4);
+        evaluations[walled] = counter->getCount();
+        if (walled) { // the wall moved the pair in the first step
+            const State free = stepOnce(platform(), properties(1), false, 30.0, 0.0);
+            const Vec3 delta = free.getPositions()[1] - free.getPositions()[0];
+            ASSERT_GT(std::sqrt(delta.dot(delta)), 0.02);
+        }
+    }
+    EXPECT_EQ(evaluations[0], evaluations[1]);
+}
+
 // A field that holds the pair 0.021 nm apart, just past a 0.02 nm wall, at 2 fs (Warped, exact static response): in
 // a kick-flow-kick step the velocity before the closing kick of a pair at rest in its field is -(H/2) F/mu, inward,
-// about 22 nm/ps here, which the kick cancels.  After the kick the wall acts on the velocity the pair has, and the pair
+// about 22 nm/ps here, which the kick cancels.  After the kick the wall sets the velocity the pair has, and the pair
 // stays within the wall for 200 steps; before it the wall would replace that inward velocity by the thermal one and the
 // kicks would send the pair past twice the wall within a step.
-TEST_P(ImpulseHardWall, ActsAfterTheClosingKickSoThatAPairHeldOutByItsFieldStaysWithinIt) {
+TEST_P(ImpulseHardWall, SetsSpeedsAfterTheClosingKickSoThatAPairHeldOutByItsFieldStaysWithinIt) {
     const double wall = 0.02, held = 0.021, stepSize = 0.002;
     // The pair's largest separation at the steps' ends over 200 steps from rest 0.0199 nm apart.
     auto farthest = [&](double maxDistance) {
@@ -210,6 +237,6 @@ TEST(ImpulseHardWallApi, SurvivesSerializationAndIsDescribed) {
     XmlSerializer::serialize<Integrator>(&integrator, "Integrator", buffer);
     std::unique_ptr<Integrator> copy(XmlSerializer::deserialize<Integrator>(buffer));
     EXPECT_EQ(0.02, dynamic_cast<StochasticImpulseIntegrator&>(*copy).getMaxDrudeDistance());
-    EXPECT_NE(std::string::npos, integrator.describeStep().find("K_S(H/2) W"));
+    EXPECT_NE(std::string::npos, integrator.describeStep().find("E(H) W K_S(H/2) W_v"));
     EXPECT_NE(std::string::npos, integrator.describeStep().find("hard wall of the stiff pairs at 0.02 nm"));
 }

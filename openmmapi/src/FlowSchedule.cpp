@@ -1,5 +1,6 @@
 #include "internal/FlowSchedule.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
+#include <algorithm>
 #include <cmath>
 
 using namespace FlavorPlugin;
@@ -29,7 +30,8 @@ bool sameSettings(const SubFlow& a, const SubFlow& b) {
 
 /** Sub-flows that never merge with a neighbour of the same settings (their effect is not additive in h). */
 bool composesNever(SubFlow::Kind kind) {
-    return kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick || kind == SubFlow::HardWall;
+    return kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick || kind == SubFlow::HardWall ||
+           kind == SubFlow::HardWallSpeed;
 }
 
 bool composesExactly(const SubFlow& a, const SubFlow& b) {
@@ -167,7 +169,7 @@ bool isProposalMarker(SubFlow::Kind kind) {
 bool FlavorPlugin::isCoupledFlow(SubFlow::Kind kind) {
     return kind == SubFlow::StiffFlow || kind == SubFlow::HarmonicFlow || kind == SubFlow::FrozenDrift ||
            kind == SubFlow::FrozenKick || kind == SubFlow::FilteredStiffFlow || kind == SubFlow::FilteredKick ||
-           isProposalMarker(kind) || kind == SubFlow::HardWall;
+           isProposalMarker(kind) || kind == SubFlow::HardWall || kind == SubFlow::HardWallSpeed;
 }
 
 bool FlavorPlugin::isVelocityFlow(SubFlow::Kind kind) {
@@ -289,6 +291,15 @@ Schedule FlavorPlugin::impulseSchedule(const ImpulseParameters& p) {
         wall.stiffBath = p.stiffBath;
         wall.distance = p.maxDrudeDistance;
         wall.length = StepLength{1.0, 0.0};
+        // The positions before the closing kick, so that the kick reads the forces of the walled positions and the
+        // next step reuses them (one force evaluation per step); the velocities after it, which in a kick-flow-kick
+        // step are the ones that carry the pair's motion (before the kick a pair held out by its field moves inward at
+        // (H/2) F/mu, which the kick cancels).
+        const auto lastMove = std::find_if(s.rbegin(), s.rend(), [](const SubFlow& f) {
+            return !isVelocityFlow(f.kind) && f.kind != SubFlow::FilteredKick;
+        });
+        s.insert(lastMove.base(), wall);
+        wall.kind = SubFlow::HardWallSpeed;
         s.push_back(wall);
         return s;
     }

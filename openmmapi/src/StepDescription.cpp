@@ -75,7 +75,11 @@ string FlavorPlugin::describeSchedule(const Schedule& schedule, int stiffGroups,
             break;
         case SubFlow::HardWall:
             out << "W";
-            wall = "W: hard wall of the stiff pairs at " + formatNumber(flow.distance) + " nm";
+            wall = "W: hard wall of the stiff pairs at " + formatNumber(flow.distance) +
+                   " nm (W_v: their radial velocity inward at the thermal speed)";
+            break;
+        case SubFlow::HardWallSpeed:
+            out << "W_v";
             break;
         case SubFlow::ProposalTest:
             out << "]_MH";

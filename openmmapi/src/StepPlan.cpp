@@ -55,7 +55,11 @@ StepPlan FlavorPlugin::analyzeStep(const Schedule& schedule, bool constrained) {
     for (size_t p = 0; p + 1 < n; ++p) {
         FlowPass& pass = plan.passes[p];
         const SubFlow::Kind next = plan.passes[p + 1].flows[0].kind;
-        pass.nextProjectsVelocities = isVelocityFlow(next) || next == SubFlow::FilteredKick;
+        // The hard wall's positions change no velocity and no constrained particle (a constrained parent stays where
+        // it is), so a projection after them serves the pass before them too.
+        const size_t projecting = next == SubFlow::HardWall ? p + 2 : p + 1;
+        const SubFlow::Kind projector = projecting < n ? plan.passes[projecting].flows[0].kind : next;
+        pass.nextProjectsVelocities = isVelocityFlow(projector) || projector == SubFlow::FilteredKick;
         pass.projectsChordVelocities = isFrozenFlow(next);
         // With constraints a kick is followed by a velocity constraint, so it stays a pass of its own.
         pass.fusedIntoNext = !constrained && pass.flows.size() == 1 && pass.flows[0].kind == SubFlow::Kick &&

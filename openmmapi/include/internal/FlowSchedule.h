@@ -71,11 +71,17 @@ struct SubFlow {
          */
         ProposalTest,
         /**
-         * The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance): every stiff component of
-         * two particles farther apart than distance is put back inside and its relative radial velocity set to the
-         * thermal speed of stiffBath, pointing inward, as DrudeLangevinIntegrator does; h is the step.
+         * The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance), on the step's final
+         * positions: every stiff component of two particles farther apart than distance is put back inside, its
+         * overshoot reflected for the step h at the thermal speed of stiffBath; its velocities wait for HardWallSpeed.
          */
-        HardWall
+        HardWall,
+        /**
+         * The hard wall's velocities, after the step's closing kick: the pairs that HardWall put back in this step get
+         * their relative radial velocity set to the thermal speed of stiffBath, pointing inward, as
+         * DrudeLangevinIntegrator does.
+         */
+        HardWallSpeed
     };
     /** The frequency at which the stiff modes of a mode flow turn. */
     enum class StiffFrequency {
@@ -130,7 +136,7 @@ struct SubFlow {
      */
     bool clocked = false;
     double clock = 0.0;
-    /** HardWall: the largest distance (nm) of a stiff pair. */
+    /** HardWall and HardWallSpeed: the largest distance (nm) of a stiff pair. */
     double distance = 0.0;
     /** h in the integrator's time scales, for describeStep(); not part of what the sub-flow does (operator==). */
     StepLength length = {};
@@ -234,8 +240,10 @@ OPENMM_EXPORT_FLAVORS ImpulseParameters impulseParameters(const StochasticImpuls
  * K_soft(H/2) E(H) K_soft(H/2) (Strang), Strang composed as S(c H) S((1-2c) H) S(c H) with c = 1/(2 - 2^(1/3))
  * (Yoshida4), or FilteredStiffFlow(H) FilteredKick(H) (Filtered: kicks scaled by kappa; Warped: plain kicks and the
  * warped frequency; Middle placement: zero modes as LangevinMiddleIntegrator; E(H) alone without soft groups).
- * Metropolis-adjusted: O(H/2) [P] O(H/2) as for the FLAVOR, P the splitting without friction.  With a hard wall the
- * step ends with HardWall.
+ * Metropolis-adjusted: O(H/2) [P] O(H/2) as for the FLAVOR, P the splitting without friction.  With a hard wall,
+ * HardWall follows the step's last sub-flow that moves positions (so the closing kick reads the forces of the walled
+ * positions, which the next step reuses) and HardWallSpeed ends the step (so the walled pairs end it moving inward at
+ * the thermal speed, the closing kick's radial part replaced as the wall replaces the rest of their radial motion).
  */
 OPENMM_EXPORT_FLAVORS Schedule impulseSchedule(const ImpulseParameters& parameters);
 
@@ -271,7 +279,7 @@ OPENMM_EXPORT_FLAVORS Schedule simplifySchedule(const Schedule& schedule);
 /**
  * Whether a sub-flow acts through the modes of the quadratic stiff potential or on frozen coordinates (StiffFlow,
  * HarmonicFlow, FrozenDrift, FrozenKick, FilteredStiffFlow, FilteredKick), or on the whole state (ProposalStart,
- * ProposalTest, HardWall): it couples particles, so it is a pass of its own.
+ * ProposalTest, HardWall, HardWallSpeed): it couples particles, so it is a pass of its own.
  */
 OPENMM_EXPORT_FLAVORS bool isCoupledFlow(SubFlow::Kind kind);
 

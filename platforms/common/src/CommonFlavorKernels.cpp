@@ -324,6 +324,7 @@ void CommonFlowStepper::prepare() {
                                           "platform");
                 break; // runs on the host (HostFrozenStage)
             case SubFlow::HardWall:
+            case SubFlow::HardWallSpeed:
                 break; // runs on the host (HardWall) on copies of the particle data
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
@@ -538,11 +539,18 @@ void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
 }
 
 void CommonFlowStepper::runHardWall(const SubFlow& flow) {
-    mirror.download(true, true);
-    if (!hardWall.apply(mirror.positions, mirror.velocities, particles.masses, flow.distance, flow.h,
-                        flow.stiffBath.kT))
+    if (flow.kind == SubFlow::HardWallSpeed) {
+        if (!hardWall.movedAny())
+            return;
+        mirror.download(false, true);
+        hardWall.setSpeeds(mirror.velocities, particles.masses, flow.stiffBath.kT);
+        mirror.upload(false, true);
         return;
-    mirror.upload(true, true);
+    }
+    mirror.download(true, false);
+    if (!hardWall.movePositions(mirror.positions, particles.masses, flow.distance, flow.h, flow.stiffBath.kT))
+        return;
+    mirror.upload(true, false);
     invalidateForces();
 }
 
@@ -584,6 +592,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
             runFrozenPass(pass, constraintTolerance);
             break;
         case SubFlow::HardWall:
+        case SubFlow::HardWallSpeed:
             runHardWall(pass.flows[0]);
             break;
         case SubFlow::FilteredStiffFlow:

@@ -113,7 +113,8 @@ private:
     void constrainVelocitiesOnHost(double constraintTolerance,
                                    const ConstraintProjector::StiffFlowCarrying* carrying = nullptr);
     void runFrozenPass(const FlowPass& pass, double constraintTolerance);
-    /** The hard wall (HardWall) on host copies of the positions and velocities, written back where it moved any. */
+    /** The hard wall (HardWall, HardWallSpeed) on host copies of the positions or velocities, written back where it
+     * moved any. */
     void runHardWall(const SubFlow& flow);
     /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
      */

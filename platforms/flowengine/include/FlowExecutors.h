@@ -154,10 +154,11 @@ private:
 };
 
 /**
- * HardWall: the hard wall of the stiff pairs (the stiff components of two particles, a Drude particle, the lighter,
- * and its parent), as DrudeLangevinIntegrator::setMaxDrudeDistance applies it after a step: a pair farther apart than
- * the wall is put back inside, and its relative radial velocity set to the thermal speed of the stiff modes, pointing
- * inward, with the pair's centre-of-mass velocity kept.  A parent that is constrained or massless keeps its position
+ * HardWall and HardWallSpeed: the hard wall of the stiff pairs (the stiff components of two particles, a Drude
+ * particle, the lighter, and its parent), as DrudeLangevinIntegrator::setMaxDrudeDistance applies it: a pair farther
+ * apart than the wall at the step's final positions is put back inside (HardWall, before the closing kick), and after
+ * the kick its relative radial velocity is set to the thermal speed of the stiff modes, pointing inward, with the
+ * pair's centre-of-mass velocity kept (HardWallSpeed).  A parent that is constrained or massless keeps its position
  * and velocity, and the Drude particle moves inward relative to it.
  */
 class HardWallExecutor : public FlowExecutor {

@@ -11,22 +11,32 @@ namespace FlavorPlugin {
 
 /**
  * The hard wall of the stiff pairs (StochasticImpulseIntegrator::setMaxDrudeDistance), as DrudeLangevinIntegrator
- * applies it: every stiff component of two particles (a Drude particle, the lighter, and its parent) farther apart
- * than the wall is put back inside, the overshoot reflected for the time it spent beyond, and its relative radial
- * velocity set to the thermal speed of the stiff bath, inward; a parent that is constrained or massless stays where it
- * is.  One implementation for every platform's step: the host engine's HardWall sub-flow, and the common compute
- * platforms on host copies of their particle data.
+ * applies it, in two parts around the step's closing kick: every stiff component of two particles (a Drude particle,
+ * the lighter, and its parent) farther apart than the wall is put back inside, the overshoot reflected for the step at
+ * the thermal speed of the stiff bath (movePositions), and after the kick its relative radial velocity set to that
+ * speed, inward (setSpeeds); a parent that is constrained or massless stays where it is.  One implementation for every
+ * platform's step: the host engine's HardWall and HardWallSpeed sub-flows, and the common compute platforms on host
+ * copies of their particle data.
  */
 class OPENMM_EXPORT_FLAVORS HardWall {
 public:
     /** Finds the stiff pairs of modes (none without modes). */
     void setStiffModes(const StiffModes* modes, const ParticleTable& table);
     /**
-     * Applies the wall (nm) after a step of length dt with the stiff bath's kT; returns whether anything moved.
+     * Puts the pairs farther apart than the wall (nm) back inside, the overshoot reflected for a step of length dt at
+     * the thermal speed of kT, and remembers them and their axes for setSpeeds(); returns whether anything moved.
      * Throws, before anything moves, if a pair is farther apart than twice the wall.
      */
-    bool apply(std::vector<OpenMM::Vec3>& positions, std::vector<OpenMM::Vec3>& velocities,
-               const std::vector<double>& masses, double wall, double dt, double kT) const;
+    bool movePositions(std::vector<OpenMM::Vec3>& positions, const std::vector<double>& masses, double wall, double dt,
+                       double kT);
+    /**
+     * Sets the relative radial velocity of the pairs the last movePositions() put back, along their axes then, to the
+     * thermal speed of kT pointing inward, with each pair's centre-of-mass velocity and tangential motion kept;
+     * returns whether there were any.
+     */
+    bool setSpeeds(std::vector<OpenMM::Vec3>& velocities, const std::vector<double>& masses, double kT);
+    /** Whether the last movePositions() put any pair back. */
+    bool movedAny() const { return !moved.empty(); }
 
 private:
     struct Pair {
@@ -35,6 +45,9 @@ private:
         bool parentFixed;
     };
     std::vector<Pair> pairs;
+    /** The pairs the last movePositions() put back (indices into pairs) and their axes, parent to Drude. */
+    std::vector<int> moved;
+    std::vector<OpenMM::Vec3> axes;
 };
 
 } // namespace FlavorPlugin

@@ -112,6 +112,7 @@ struct ParticlePass : public RangeTask {
                 case SubFlow::ProposalStart:
                 case SubFlow::ProposalTest:
                 case SubFlow::HardWall:
+                case SubFlow::HardWallSpeed:
                     break; // never in a particle pass (analyzeStep)
                 }
             }

@@ -39,6 +39,7 @@ FlowExecutor& FlowStepRunner::executorFor(SubFlow::Kind kind) {
     case SubFlow::ProposalTest:
         return proposals;
     case SubFlow::HardWall:
+    case SubFlow::HardWallSpeed:
         return hardWall;
     }
     throw OpenMMException("FlowStepRunner: unknown sub-flow kind " + std::to_string((int)kind));

@@ -20,11 +20,15 @@ void HardWall::setStiffModes(const StiffModes* modes, const ParticleTable& table
         pair.parentFixed = table.constrained[pair.parent] != 0 || table.masses[pair.parent] == 0.0;
         pairs.push_back(pair);
     }
+    moved.clear();
+    axes.clear();
+    moved.reserve(pairs.size()); // no allocation in the step
+    axes.reserve(pairs.size());
 }
 
-bool HardWall::apply(std::vector<Vec3>& positions, std::vector<Vec3>& velocities, const std::vector<double>& masses,
-                     double wall, double dt, double kT) const {
-    // Checked before anything moves: a pair past twice the wall leaves the Context at the step's end as it was.
+bool HardWall::movePositions(std::vector<Vec3>& positions, const std::vector<double>& masses, double wall, double dt,
+                             double kT) {
+    // Checked before anything moves: a pair past twice the wall leaves the positions as the step's flow left them.
     for (const Pair& pair : pairs) {
         const Vec3 delta = positions[pair.drude] - positions[pair.parent];
         const double r = std::sqrt(delta.dot(delta));
@@ -36,43 +40,48 @@ bool HardWall::apply(std::vector<Vec3>& positions, std::vector<Vec3>& velocities
                                   "(setMaxDrudeDistance, " +
                                   formatNumber(wall) + " nm): the step is too large for this System");
     }
-    bool moved = false;
-    for (const Pair& pair : pairs) {
+    moved.clear();
+    axes.clear();
+    for (size_t i = 0; i < pairs.size(); ++i) {
+        const Pair& pair = pairs[i];
         const Vec3 delta = positions[pair.drude] - positions[pair.parent];
         const double r = std::sqrt(delta.dot(delta));
         if (r <= wall)
             continue;
-        moved = true;
-        const Vec3 direction = delta / r;
-        const double excess = r - wall;
+        const Vec3 axis = delta / r;
+        // Back inside by the overshoot and by what the thermal speed covers in the step, as a pair that spent the
+        // whole step beyond the wall would be reflected.
+        const double inward = (r - wall) + dt * std::sqrt(kT / masses[pair.drude]);
+        if (pair.parentFixed) {
+            positions[pair.drude] -= axis * inward;
+        } else {
+            const double m1 = masses[pair.drude], m2 = masses[pair.parent], inverseTotal = 1.0 / (m1 + m2);
+            positions[pair.drude] -= axis * (inward * m2 * inverseTotal);
+            positions[pair.parent] += axis * (inward * m1 * inverseTotal);
+        }
+        moved.push_back((int)i);
+        axes.push_back(axis);
+    }
+    return !moved.empty();
+}
+
+bool HardWall::setSpeeds(std::vector<Vec3>& velocities, const std::vector<double>& masses, double kT) {
+    for (size_t k = 0; k < moved.size(); ++k) {
+        const Pair& pair = pairs[moved[k]];
+        const Vec3& axis = axes[k];
         const double m1 = masses[pair.drude], m2 = masses[pair.parent];
+        const double speed = std::sqrt(kT / m1);
         Vec3& v1 = velocities[pair.drude];
         Vec3& v2 = velocities[pair.parent];
-        double radial1 = v1.dot(direction);
-        const Vec3 across1 = v1 - direction * radial1;
-        double radial2 = v2.dot(direction);
+        const double radial1 = v1.dot(axis), radial2 = v2.dot(axis);
         if (pair.parentFixed) {
-            // Only the Drude particle moves: back from the wall for the time it spent beyond it, inward relative to
-            // its parent at the thermal speed.
-            const double relative = radial1 - radial2;
-            const double overTime = relative != 0.0 ? std::min(dt, excess / std::abs(relative)) : dt;
-            const double speed = std::sqrt(kT / m1);
-            positions[pair.drude] += direction * (-excess - overTime * speed);
-            v1 = across1 + direction * (radial2 - speed);
+            v1 += axis * (radial2 - speed - radial1);
             continue;
         }
-        const Vec3 across2 = v2 - direction * radial2;
         const double inverseTotal = 1.0 / (m1 + m2);
         const double centre = (m1 * radial1 + m2 * radial2) * inverseTotal;
-        radial1 -= centre;
-        radial2 -= centre;
-        const double overTime = radial1 != radial2 ? std::min(dt, excess / std::abs(radial1 - radial2)) : dt;
-        const double speed = std::sqrt(kT / m1);
-        const double inward1 = -speed * m2 * inverseTotal, inward2 = speed * m1 * inverseTotal;
-        positions[pair.drude] += direction * (-excess * m2 * inverseTotal + overTime * inward1);
-        positions[pair.parent] += direction * (excess * m1 * inverseTotal + overTime * inward2);
-        v1 = across1 + direction * (inward1 + centre);
-        v2 = across2 + direction * (inward2 + centre);
+        v1 += axis * (centre - speed * m2 * inverseTotal - radial1);
+        v2 += axis * (centre + speed * m1 * inverseTotal - radial2);
     }
-    return moved;
+    return !moved.empty();
 }

@@ -12,6 +12,8 @@ void HardWallExecutor::prepare(const StepPlan& /*plan*/) {
 void HardWallExecutor::run(const FlowPass& pass, size_t /*passIndex*/, StepState& state) {
     const SubFlow& flow = pass.flows[0];
     auto& data = *reinterpret_cast<ReferencePlatform::PlatformData*>(state.context.getPlatformData());
-    if (wall.apply(*data.positions, *data.velocities, parts.particles.masses, flow.distance, flow.h, flow.stiffBath.kT))
+    if (flow.kind == SubFlow::HardWallSpeed)
+        wall.setSpeeds(*data.velocities, parts.particles.masses, flow.stiffBath.kT);
+    else if (wall.movePositions(*data.positions, parts.particles.masses, flow.distance, flow.h, flow.stiffBath.kT))
         parts.forces.invalidate();
 }

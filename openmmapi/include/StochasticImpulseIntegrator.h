@@ -214,19 +214,19 @@ public:
      */
     double getMaxDrudeDistance() const { return maxDrudeDistance; }
     /**
-     * Set a hard wall for the stiff pairs, as DrudeLangevinIntegrator::setMaxDrudeDistance: after each step, every
-     * stiff component of two particles (a Drude particle, the lighter, and its parent, with the spring in a stiff
-     * group) that is farther apart than distance is put back inside the wall, and its relative radial velocity is set
-     * to the thermal speed sqrt(kT/m) of the stiff-mode temperature, pointing inward (DrudeLangevinIntegrator reverses
-     * the radial velocity's sign instead), with the pair's centre-of-mass velocity kept.  A constrained or massless
-     * parent keeps its position and velocity, and the Drude particle moves inward relative to it.  The exact flow of
-     * the quadratic stiff potential is untouched: the wall acts only on pairs past it, whose motion it replaces by this
-     * reset (a safeguard against polarization catastrophe, not part of the dynamics).  It acts after the closing kick,
-     * on the velocities the step ends with: before it, it would replace the inward velocity that the closing kick
-     * cancels for a pair held out by its field, and the kicks would send the pair outward.  Where it moves a pair, the
-     * next step evaluates the forces at the walled positions again (two evaluations for that step).  A pair found
-     * farther than twice
-     * the wall makes the step throw, with the Context at the step's end.  It must be finite and non-negative; 0
+     * Set a hard wall for the stiff pairs, as DrudeLangevinIntegrator::setMaxDrudeDistance: every stiff component of
+     * two particles (a Drude particle, the lighter, and its parent, with the spring in a stiff group) that is farther
+     * apart than distance at the step's final positions is put back inside the wall, by its overshoot and the distance
+     * the thermal speed sqrt(kT/m) of the stiff-mode temperature covers in a step, and its relative radial velocity is
+     * set to that speed, pointing inward (DrudeLangevinIntegrator reverses the radial velocity's sign instead), with
+     * the pair's centre-of-mass velocity kept.  A constrained or massless parent keeps its position and velocity, and
+     * the Drude particle moves inward relative to it.  The positions are set before the step's closing kick, which then
+     * reads the forces at the walled positions (the next step reuses them: one force evaluation per step, as without
+     * the wall); the velocities after it, where in a kick-flow-kick step they carry the pair's motion (before the kick
+     * a pair held out by its field moves inward at (H/2) F/m, which the kick cancels).  The exact flow of the quadratic
+     * stiff potential is untouched: the wall acts only on pairs past it, whose motion it replaces by this reset (a
+     * safeguard against polarization catastrophe, not part of the dynamics).  A pair found farther than twice the wall
+     * makes the step throw, with the Context as the step's flow left it.  It must be finite and non-negative; 0
      * switches it off.
      */
     void setMaxDrudeDistance(double distance);

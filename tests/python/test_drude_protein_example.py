@@ -46,22 +46,26 @@ def test_step_limit_probe_quick(tmp_path):
         assert run["failed"] is None and run["ps"] > 0 and math.isfinite(run["hottest_drude_K"]), run
 
 
-def stored_runs(folder):
+def stored_runs(folder, seeds=range(1, 6)):
     return [os.path.join(REPO_ROOT, "examples", "drude_protein", "results", *folder, f"seed{s}", "drude_protein.json")
-            for s in range(1, 6)]
+            for s in seeds]
 
 
-@pytest.mark.parametrize("sim_folder, reference_folder, reference_step, columns", [
-    (("friction_scaling",), (), 0.5, 4),        # the reference's five runs, SIM at 2, 2.5, 3 fs
-    (("density",), ("density",), 0.5, 3),       # the reference, DrudeLangevin 1 fs + wall, SIM 2 fs
-    (("density_phase_limit_scaled",), ("density",), 0.5, 3),   # the reference, SIM 2.5 and 3 fs
-    (("density",), ("density_dl025",), 0.25, 4),   # DrudeLangevin 0.25 fs, 0.5 fs, 1 fs + wall, SIM 2 fs
-    (("density_phase_limit_scaled",), ("density_dl025",), 0.25, 3),   # DrudeLangevin 0.25 fs, SIM 2.5 and 3 fs
+TEN_SEEDS_2FS = stored_runs(("density",)) + stored_runs(("density", "more_seeds_2fs"), range(6, 11))
+
+
+@pytest.mark.parametrize("sim_files, reference_files, reference_step, columns", [
+    (stored_runs(("friction_scaling",)), stored_runs(()), 0.5, 4),   # the reference's five runs, SIM 2, 2.5, 3 fs
+    (stored_runs(("density",)), stored_runs(("density",)), 0.5, 3),  # the reference, DL 1 fs + wall, SIM 2 fs
+    (stored_runs(("density_phase_limit_scaled",)), stored_runs(("density",)), 0.5, 3),   # the reference, SIM 2.5, 3 fs
+    (stored_runs(("density",)), stored_runs(("density_dl025",)), 0.25, 4),   # DL 0.25, 0.5, 1 fs + wall, SIM 2 fs
+    (stored_runs(("density_phase_limit_scaled",)), stored_runs(("density_dl025",)), 0.25, 3),   # DL 0.25, SIM 2.5, 3
+    (TEN_SEEDS_2FS, stored_runs(("density_dl025",)), 0.25, 4),   # DL 0.25, 0.5, 1 fs + wall, SIM 2 fs over ten seeds
 ])
-def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim_folder, reference_folder,
+def test_seed_table_reprints_the_readme_table_from_the_stored_runs(tmp_path, sim_files, reference_files,
                                                                   reference_step, columns):
     conftest.assert_readme_table_reprinted(
-        SCRIPT, tmp_path, ("--seed-table", *stored_runs(sim_folder), "--reference-files", *stored_runs(reference_folder),
+        SCRIPT, tmp_path, ("--seed-table", *sim_files, "--reference-files", *reference_files,
                            "--reference-step", str(reference_step)),
         os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 11, columns)
 

@@ -41,8 +41,9 @@ struct ProbedStiffness {
  * grows with the largest group, not with the number of groups; if that misses a coupling, every particle is probed
  * on its own.  Massless particles are fixed: they are never displaced and the forces on them are ignored.  Throws an
  * NotQuadraticException (an OpenMMException) if the forces are not linear in the positions or K is not
- * symmetric.  The Context's positions are
- * left as they were.
+ * symmetric.  The Context's positions are left as they were.  On platforms other than Reference and CPU the forces
+ * are evaluated in double precision on a copy of the stiff forces on the Reference platform (OpenCL's single and
+ * mixed precision round positions too coarsely to tell a quadratic potential from another).
  */
 OPENMM_EXPORT_FLAVORS ProbedStiffness
 probeStiffness(OpenMM::ContextImpl& context, int stiffGroups, const std::vector<double>& masses,

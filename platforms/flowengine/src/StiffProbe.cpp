@@ -2,12 +2,17 @@
 #include "internal/ParameterChecks.h"
 #include "internal/StiffGroupChecks.h"
 #include "internal/UnionFind.h"
+#include "openmm/Context.h"
 #include "openmm/Force.h"
 #include "openmm/NonbondedForce.h"
 #include "openmm/OpenMMException.h"
+#include "openmm/Platform.h"
+#include "openmm/State.h"
+#include "openmm/VerletIntegrator.h"
 #include "openmm/internal/ContextImpl.h"
 #include "openmm/internal/ForceImpl.h"
 #include "openmm/reference/ReferencePlatform.h"
+#include "openmm/serialization/XmlSerializer.h"
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -49,9 +54,53 @@ vector<int> bondedGroups(ContextImpl& context, int stiffGroups) {
 }
 
 /**
+ * The stiff forces of a Context on a platform other than Reference and CPU, evaluated in double precision: a copy of
+ * its System that keeps only the forces of the stiff groups, on the Reference platform, with the Context's box
+ * vectors and parameters.  OpenCL's single and mixed precision round positions to single precision, 1e-7 to 5e-7 nm
+ * a few nm from the origin, which a probe step of 1e-3 nm cannot tell from a nonlinear force (1.5e-5 to 4e-5 relative
+ * on FPU chains and Drude waters in a box).  The copy is of the System as it is at the measurement: a change of a
+ * force's parameters reaches it as it reaches the Context, through updateParametersInContext(), which measures again.
+ */
+class ReferenceStiffForces {
+public:
+    /** Throws an OpenMMException if the System cannot be copied (a force without a serialization proxy). */
+    ReferenceStiffForces(ContextImpl& context, int groups) : groups(groups), integrator(0.001) {
+        system.reset(XmlSerializer::clone<System>(context.getSystem()));
+        for (int f = system->getNumForces() - 1; f >= 0; --f) {
+            const Force& force = system->getForce(f);
+            const NonbondedForce* nonbonded = dynamic_cast<const NonbondedForce*>(&force);
+            const bool reciprocalStiff = nonbonded != nullptr && nonbonded->getReciprocalSpaceForceGroup() >= 0 &&
+                                         (groups & (1 << nonbonded->getReciprocalSpaceForceGroup())) != 0;
+            if ((groups & (1 << force.getForceGroup())) == 0 && !reciprocalStiff)
+                system->removeForce(f);
+        }
+        copy = std::make_unique<Context>(*system, integrator, Platform::getPlatformByName("Reference"));
+        Vec3 a, b, c;
+        context.getPeriodicBoxVectors(a, b, c);
+        copy->setPeriodicBoxVectors(a, b, c);
+        const std::map<string, double> own = copy->getParameters();
+        for (const auto& parameter : context.getParameters())
+            if (own.count(parameter.first) != 0)
+                copy->setParameter(parameter.first, parameter.second);
+    }
+    vector<Vec3> forces(const vector<Vec3>& q) {
+        copy->setPositions(q);
+        copy->computeVirtualSites();
+        return copy->getState(State::Forces, false, groups).getForces();
+    }
+
+private:
+    int groups;
+    std::unique_ptr<System> system;
+    VerletIntegrator integrator;
+    std::unique_ptr<Context> copy;
+};
+
+/**
  * Evaluates the stiff forces at displaced positions and puts the Context's positions back afterwards.  On Reference
  * and CPU it writes positions and reads forces in ReferencePlatform::PlatformData; on every other platform (OpenCL)
- * it goes through ContextImpl's getPositions/setPositions/getForces.
+ * it evaluates them on a double-precision copy (ReferenceStiffForces), or, where the System cannot be copied, goes
+ * through ContextImpl's getPositions/setPositions/getForces.
  */
 class ForceProbe {
 public:
@@ -59,8 +108,14 @@ public:
         : context(context), groups(groups), data(referenceData(context)), hasVirtualSites(false) {
         if (data != nullptr)
             original = *data->positions;
-        else
+        else {
             context.getPositions(original);
+            try {
+                reference = std::make_unique<ReferenceStiffForces>(context, groups);
+            } catch (const OpenMMException&) {
+                // Probed through the Context itself, in its own precision.
+            }
+        }
         for (int i = 0; i < context.getSystem().getNumParticles(); ++i)
             hasVirtualSites = hasVirtualSites || context.getSystem().isVirtualSite(i);
         // OpenMM 7.7's Reference NonbondedForce kernel rebuilds its neighbour list on every force evaluation, even
@@ -79,12 +134,16 @@ public:
             stiffImpls.clear();
     }
     ~ForceProbe() {
+        if (reference != nullptr)
+            return; // the Context's positions were never moved
         setPositions(original);
         if (hasVirtualSites)
             context.computeVirtualSites();
     }
     /** The stiff forces at positions q. */
     vector<Vec3> forces(const vector<Vec3>& q) {
+        if (reference != nullptr)
+            return reference->forces(q);
         setPositions(q);
         if (hasVirtualSites)
             context.computeVirtualSites();
@@ -126,6 +185,8 @@ private:
     bool hasVirtualSites;
     // On Reference, the ForceImpls of the stiff groups, evaluated directly; empty where the Context evaluates.
     vector<ForceImpl*> stiffImpls;
+    // On other platforms, the double-precision copy of the stiff forces (null where the System cannot be copied).
+    std::unique_ptr<ReferenceStiffForces> reference;
     bool evaluatedOnce = false;
 };
 
@@ -365,10 +426,10 @@ namespace {
 /**
  * Whether two measurements describe the same potential up to the rounding of the probes.  Keeping the old modes
  * then keeps trajectories reproducible (a checkpoint restored elsewhere measures again): eigenvectors of degenerate
- * modes could otherwise rotate with the rounding, and the noise with them.  The rounding is that of the platform's
- * forces: about 1e-13 relative in double precision on Reference and CPU, up to 3e-10 with OpenCL's fixed-point forces
- * (measured at different positions of the same quadratic potential), so SameRelative = 1e-8 separates it from any
- * change of a force constant that matters.
+ * modes could otherwise rotate with the rounding, and the noise with them.  The rounding is that of double-precision
+ * forces, about 1e-13 relative (Reference, CPU, and the Reference copy that other platforms are probed on); up to
+ * 3e-10 with OpenCL's fixed-point forces where a System cannot be copied (measured at different positions of the same
+ * quadratic potential), so SameRelative = 1e-8 separates it from any change of a force constant that matters.
  */
 bool samePotential(const ProbedStiffness& a, const ProbedStiffness& b) {
     constexpr double SameRelative = 1e-8;

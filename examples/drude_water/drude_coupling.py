@@ -34,6 +34,7 @@ import openmm.unit as unit
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import drude_water  # noqa: E402
+from flavorbench import hessian  # noqa: E402
 
 SHELLS = (0.35, 0.45, 0.6)  # nm, oxygen-oxygen
 SWITCH_WIDTH = 0.1  # nm
@@ -117,20 +118,9 @@ class Shells:
         return 0.5 * (hessian + hessian.T)
 
 
-def soft_drude_hessian(context, x, drudes, step=2e-5):
+def soft_drude_hessian(context, x, drudes, step=hessian.STEP_NM):
     """The Hessian of the soft forces (force group 0) over the Drude coordinates by central differences."""
-    def forces(positions):
-        context.setPositions(positions)
-        return context.getState(getForces=True, groups=1).getForces(asNumpy=True).value_in_unit(
-            unit.kilojoule_per_mole / unit.nanometer)[drudes]
-    hessian = np.zeros((3 * len(drudes), 3 * len(drudes)))
-    for column, (j, axis) in enumerate(itertools.product(range(len(drudes)), range(3))):
-        plus, minus = x.copy(), x.copy()
-        plus[drudes[j], axis] += step
-        minus[drudes[j], axis] -= step
-        hessian[:, column] = -(forces(plus) - forces(minus)).ravel() / (2 * step)
-    context.setPositions(x)
-    return 0.5 * (hessian + hessian.T)
+    return hessian.hessian_over(context, x, drudes, 1, step)
 
 
 def wave_weights(vector, x_drudes, box, longitudinal=True, shells=2):

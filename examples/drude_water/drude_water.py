@@ -668,7 +668,7 @@ def filter_bias(out):
     chain (omega = 50, stiff springs (0,1), (2,3), (4,5), soft r^4 between them and x^4 walls, no friction, 20 ps) for
     the three splittings against xi; (3) the largest relative stiffness r of a soft force along the mode that each
     splitting keeps stable, against xi (the mutual polarization of neighbouring Drude particles is such a force, with
-    r between -0.38 and 0.66 in SWM4-NDP water, above 0.35 in only a few of its modes).  Writes filter_bias.json."""
+    r between -0.27 and 0.34 in SWM4-NDP water: drude_coupling.py).  Writes filter_bias.json."""
     reference = openmm.Platform.getPlatformByName("Reference")
 
     def mean_displacement(splitting, xi, gamma=20.0, h=0.002, force=10.0):

@@ -111,3 +111,28 @@ def test_anisotropic_flow_seed_table_reprints_the_readme_table_from_the_stored_r
     # A row per peer (14) beside the header: the helper counts them as a header, 13 rows and a last one.
     conftest.assert_readme_table_reprinted(script, tmp_path, ("--seed-table", *stored),
                                            os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 13, 7)
+
+
+def warped_phase(xi):
+    """Plain Warped's phase per step for omega H = xi without friction: xi~ tan(xi~ / 2) = xi^2 / 2 (bisection)."""
+    low, high = 0.0, math.pi
+    for _ in range(80):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if middle * math.tan(middle / 2) < xi * xi / 2 else (low, middle)
+    return low
+
+
+def test_drude_coupling_quick_puts_the_dipeptides_step_limit_between_2_and_2_25_fs(tmp_path):
+    """The soft stiffness along the peptide's Drude modes, measured from OpenMM's forces, against the step limit that
+    step_limit_probe.py found by running (plain Warped holds at 2 fs and fails at 2.25 fs): Warped is stable while
+    (1 + r) sin^2(phase / 2) < 1, so the largest r must lie between the thresholds of the two steps' phases."""
+    script = os.path.join(REPO_ROOT, "examples", "drude_protein", "drude_coupling.py")
+    result = conftest.run_quick(script, tmp_path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "drude_coupling.json") as f:
+        data = json.load(f)
+    assert data["drude_pairs"] == 10
+    omega = math.sqrt(418400 / (0.4 * 11.611 / 12.011))  # the C-alpha pair's spring and reduced mass, 1/ps
+    threshold = {h: 1 / math.sin(warped_phase(omega * h * 1e-3) / 2)**2 - 1 for h in (2.0, 2.25)}
+    assert threshold[2.25] < data["r_max"] < threshold[2.0], (data["r_max"], threshold)
+    assert data["max_stable_phase"] == pytest.approx(2 * math.asin(1 / math.sqrt(1 + data["r_max"])))

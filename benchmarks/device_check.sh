@@ -14,14 +14,16 @@
 # When a GPU's OpenCL device is found, the benchmark runs on the first one (FLAVORS_OPENCL_PLATFORM_INDEX and
 # FLAVORS_OPENCL_DEVICE_INDEX); the C++ tests run on the device OpenMM chooses.
 # Environment: DEVICE_CHECK_QUICK=1 runs the benchmark as a smoke run (small systems, short batches: a few minutes on
-# a CPU OpenCL such as PoCL); DEVICE_CHECK_PRECISION (default "mixed double") its precisions; BUILD (default build)
-# the build directory.
+# a CPU OpenCL such as PoCL); DEVICE_CHECK_PRECISION (default "mixed double") its precisions; DEVICE_CHECK_SCENES
+# (default: the benchmark's own, all of them) its scenes, e.g. "drude_protein drude_villin" for the Drude-2019 scenes
+# alone; BUILD (default build) the build directory.
 set -u -o pipefail
 
 OUT=${1:-results/device_check}
 BUILD=${BUILD:-build}
 PYTHON=/usr/bin/python3
 PRECISION=${DEVICE_CHECK_PRECISION:-mixed double}
+SCENES=${DEVICE_CHECK_SCENES:-}
 QUICK=${DEVICE_CHECK_QUICK:-0}
 export PYTHONPATH="$PWD/$BUILD/python${PYTHONPATH:+:$PYTHONPATH}" PYTHONDONTWRITEBYTECODE=1
 
@@ -144,6 +146,7 @@ echo "== 3. OpenCL benchmark (benchmarks/opencl_benchmark.py, precision: $PRECIS
 bench_started=$(date +%s)
 bench_args=(--out "$OUT" --precision $PRECISION)
 [ "$QUICK" != "0" ] && bench_args+=(--quick)
+[ -n "$SCENES" ] && bench_args+=(--scenes $SCENES)
 "$PYTHON" benchmarks/opencl_benchmark.py "${bench_args[@]}" 2> >(tee "$OUT/opencl_benchmark.stderr.log" >&2) |
     tee "$OUT/opencl_benchmark.log"
 bench_status=$?

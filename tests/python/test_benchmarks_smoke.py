@@ -200,3 +200,21 @@ def test_opencl_benchmark_quick(tmp_path):
     assert set(run["peers"]) == {"Verlet h=0.002", "SIM Strang H=0.002", "SIM Strang H=0.01"}
     for peer in run["peers"].values():
         assert peer["available"] and peer["ns_per_day"] > 0 and len(peer["all"]) == data["repeats"]
+
+
+def test_opencl_benchmark_quick_runs_the_drude_2019_peptide_under_every_peer(tmp_path):
+    """The drude_protein scene in mixed precision (the GPU's): the Drude-2019 System (anisotropic and Thole-screened
+    Drude particles, lone pairs, X-H constraints on cores with Drude particles) runs on OpenCL behind the hard wall
+    under DrudeLangevin and under the SIM at 2, 2.5 and 3 fs, each timed in every repeat."""
+    if not has_opencl():
+        pytest.skip("OpenMM has no OpenCL platform here (no OpenCL driver)")
+    result = conftest.run_quick(os.path.join(BENCHMARKS, "opencl_benchmark.py"), tmp_path, timeout=600,
+                                extra=("--scenes", "drude_protein", "--precision", "mixed"))
+    assert result.returncode == 0, result.stderr[-3000:]
+    with open(tmp_path / "opencl_benchmark.json") as f:
+        data = json.load(f)
+    run = data["scenes"]["drude_protein"]["precisions"]["mixed"]
+    assert run["device"]["Precision"] == "mixed"
+    assert [peer["step_fs"] for peer in run["peers"].values()] == [1.0, 2.0, 2.5, 3.0]
+    for name, peer in run["peers"].items():
+        assert peer["available"] and peer["ns_per_day"] > 0 and len(peer["all"]) == data["repeats"], name

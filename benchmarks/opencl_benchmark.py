@@ -27,7 +27,7 @@ Scenes (each in every precision of --precision: mixed and double by default; Ope
                   kernels, not the Reference code it runs on the CPU platform: the wall-clock comparison the scene's
                   instruction counts stand in for.
   drude_villin    villin in Drude-2019 water (OpenMM's villin box through Modeller.addExtraParticles: 14,789 particles,
-                  291 protein Drude particles of which 51 anisotropic, 8,576 constraints), the peers of drude_protein
+                  289 Drude particles in the protein, 8,576 constraints), the peers of drude_protein
                   with the SIM's phase held at 1.4 from 2 fs on (its aromatic rings' coupling; VILLIN_MAX_PHASE).
                   Its start is made on the OpenCL device itself (minimized, then DrudeLangevin 0.5 fs behind the wall
                   for 2 ps): on the CPU platform its Reference Drude code takes about a second a step.  Meant for a

@@ -5,6 +5,7 @@ Drudes cold."""
 import json
 import math
 import os
+import sys
 
 import conftest
 import pytest
@@ -113,13 +114,12 @@ def test_anisotropic_flow_seed_table_reprints_the_readme_table_from_the_stored_r
                                            os.path.join(REPO_ROOT, "examples", "drude_protein", "README.md"), 13, 7)
 
 
-def warped_phase(xi):
-    """Plain Warped's phase per step for omega H = xi without friction: xi~ tan(xi~ / 2) = xi^2 / 2 (bisection)."""
-    low, high = 0.0, math.pi
-    for _ in range(80):
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if middle * math.tan(middle / 2) < xi * xi / 2 else (low, middle)
-    return low
+def warped_phase(omega, h):
+    """Plain Warped's phase per step for a mode of omega (1/ps) at h (ps), without friction (heat_model's warped
+    frequency: xi~ tan(xi~ / 2) = (omega h)^2 / 2)."""
+    sys.path.insert(0, os.path.join(REPO_ROOT, "examples", "drude_water"))
+    import heat_model
+    return heat_model.warped_frequency(omega, 0.0, h) * h
 
 
 def test_drude_coupling_quick_puts_the_dipeptides_step_limit_between_2_and_2_25_fs(tmp_path):
@@ -133,6 +133,6 @@ def test_drude_coupling_quick_puts_the_dipeptides_step_limit_between_2_and_2_25_
         data = json.load(f)
     assert data["drude_pairs"] == 10
     omega = math.sqrt(418400 / (0.4 * 11.611 / 12.011))  # the C-alpha pair's spring and reduced mass, 1/ps
-    threshold = {h: 1 / math.sin(warped_phase(omega * h * 1e-3) / 2)**2 - 1 for h in (2.0, 2.25)}
+    threshold = {h: 1 / math.sin(warped_phase(omega, h * 1e-3) / 2)**2 - 1 for h in (2.0, 2.25)}
     assert threshold[2.25] < data["r_max"] < threshold[2.0], (data["r_max"], threshold)
     assert data["max_stable_phase"] == pytest.approx(2 * math.asin(1 / math.sqrt(1 + data["r_max"])))

@@ -34,8 +34,12 @@ const double ProbeStep = 1e-3; // nm; exact for a quadratic potential, any step 
 const double VerificationDisplacement = 0.05;
 const double LinearityTolerance = 1e-5; // relative; well above double-precision rounding of the probes
 
+bool inGroups(int group, int groups) {
+    return (groups & (1 << group)) != 0;
+}
+
 bool inGroups(const ForceImpl* impl, int groups) {
-    return (groups & (1 << impl->getOwner().getForceGroup())) != 0;
+    return inGroups(impl->getOwner().getForceGroup(), groups);
 }
 
 /** Labels each particle with a group of particles linked by bonded stiff forces. */
@@ -70,8 +74,8 @@ public:
             const Force& force = system->getForce(f);
             const NonbondedForce* nonbonded = dynamic_cast<const NonbondedForce*>(&force);
             const bool reciprocalStiff = nonbonded != nullptr && nonbonded->getReciprocalSpaceForceGroup() >= 0 &&
-                                         (groups & (1 << nonbonded->getReciprocalSpaceForceGroup())) != 0;
-            if ((groups & (1 << force.getForceGroup())) == 0 && !reciprocalStiff)
+                                         inGroups(nonbonded->getReciprocalSpaceForceGroup(), groups);
+            if (!inGroups(force.getForceGroup(), groups) && !reciprocalStiff)
                 system->removeForce(f);
         }
         copy = std::make_unique<Context>(*system, integrator, Platform::getPlatformByName("Reference"));
@@ -127,7 +131,7 @@ public:
             const NonbondedForce* nonbonded = dynamic_cast<const NonbondedForce*>(&impl->getOwner());
             if (nonbonded != nullptr && nonbonded->getReciprocalSpaceForceGroup() >= 0)
                 direct = false;
-            if ((groups & (1 << impl->getOwner().getForceGroup())) != 0)
+            if (inGroups(impl, groups))
                 stiffImpls.push_back(impl);
         }
         if (!direct)

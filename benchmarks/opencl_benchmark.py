@@ -274,14 +274,14 @@ def drude_2019_peers(system, max_phase_from_2fs=0.0):
 
     peers = [("DrudeLangevin 1 fs + wall", 1.0, system, factory("DrudeLangevin", 1.0), "what a practitioner runs")]
     if max_phase_from_2fs > 0:
-        peers.append((f"SIM Warped Middle 2 fs, phase ≤ {max_phase_from_2fs:g} + wall", 2.0, separated,
+        peers.append((f"SIM Warped Middle 2 fs, ω̃H ≤ {max_phase_from_2fs:g} + wall", 2.0, separated,
                       factory("WarpedMiddle", 2.0, max_phase_from_2fs), ""))
     else:
         peers.append(("SIM Warped Middle 2 fs + wall", 2.0, separated, factory("WarpedMiddle", 2.0),
                       "the scene's SIM"))
     phase = max_phase_from_2fs or 1.77
     for step_fs in (2.5, 3.0):
-        peers.append((f"SIM Warped Middle {step_fs:g} fs, phase ≤ {phase:g}, friction scaled + wall", step_fs,
+        peers.append((f"SIM Warped Middle {step_fs:g} fs, ω̃H ≤ {phase:g}, friction scaled + wall", step_fs,
                       separated, factory("WarpedMiddle", step_fs, phase, True), ""))
     return peers
 
@@ -335,7 +335,7 @@ def fpu_scene(quick, states):
         context.setPositions(positions)
         context.setVelocities(np.zeros_like(positions))
 
-    description = (f"{chains} FPU chains of {2 * FPU_M} unit masses (omega = {FPU_OMEGA:g}; reduced units, 1 unit "
+    description = (f"{chains} FPU chains of {2 * FPU_M} unit masses (ω = {FPU_OMEGA:g}; reduced units, 1 unit "
                    "read as 1 ps)")
     return description, start, peers
 

@@ -3,8 +3,8 @@ openmmflavors: multiscale integrators for stiff systems in OpenMM.
 
 FlavorIntegrator runs flow-averaging integrators (FLAVORS): the stiff force groups act for a microstep in every
 mesostep, so the step size is set by the slow time scale.  StochasticImpulseIntegrator runs stochastic impulse
-methods (SIMs): a quadratic stiff potential is integrated by its exact flow with exact friction and noise.  Importing this package loads the plugin's kernels for
-the Reference and CPU platforms.
+methods (SIMs): a quadratic stiff potential is integrated by its exact flow with exact friction and noise.  Importing
+this package loads the plugin's kernels for the Reference, CPU, OpenCL and CUDA platforms.
 """
 import os as _os
 
@@ -19,19 +19,28 @@ def _hasPlatform(name):
     return any(_openmm.Platform.getPlatform(i).getName() == name for i in range(_openmm.Platform.getNumPlatforms()))
 
 
-# `import openmm` loads OpenMM's plugins from OPENMM_PLUGIN_DIR; if that points elsewhere, the CPU platform is
-# missing, and our CPU kernels would have nothing to register with.
-if not _hasPlatform("CPU"):
-    _cpu = _os.path.join(_config.OPENMM_PLUGIN_DIR, "libOpenMMCPU.so")
-    if _os.path.exists(_cpu):
-        _openmm.Platform.loadPluginLibrary(_cpu)
-# Ours must come after OpenMM's own plugins.
-_pluginDir = _os.path.normpath(_os.path.join(_here, _config.PLUGIN_DIR_FROM_PACKAGE))
-for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
-    _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, _name))
-# The OpenCL kernels exist where the build found OpenCL; they register only if OpenMM has an OpenCL platform.
-if _os.path.exists(_os.path.join(_pluginDir, "libOpenMMFlavorsOpenCL.so")):
-    _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, "libOpenMMFlavorsOpenCL.so"))
+# Installed with pip, the kernel plugins sit in OpenMM's own plugin directory and `import openmm` has loaded them; then
+# there is nothing to load.  Otherwise (a build tree, `make install`) they are loaded from the package's plugin folder.
+def _kernelsRegistered():
+    return _openmm.Platform.getPlatformByName("Reference").supportsKernels(["IntegrateFlavorStep"])
+
+
+if not _kernelsRegistered():
+    # `import openmm` loads OpenMM's plugins from OPENMM_PLUGIN_DIR; if that points elsewhere, the CPU platform is
+    # missing, and our CPU kernels would have nothing to register with.
+    if not _hasPlatform("CPU"):
+        _cpu = _os.path.join(_config.OPENMM_PLUGIN_DIR, "libOpenMMCPU.so")
+        if _os.path.exists(_cpu):
+            _openmm.Platform.loadPluginLibrary(_cpu)
+    # Ours must come after OpenMM's own plugins.
+    _pluginDir = _os.path.normpath(_os.path.join(_here, _config.PLUGIN_DIR_FROM_PACKAGE))
+    for _name in ("libOpenMMFlavorsReference.so", "libOpenMMFlavorsCPU.so"):
+        _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, _name))
+    # The GPU kernels exist where the build found the platform's headers; each is loaded only where OpenMM has that
+    # platform (an OpenCL driver; for CUDA an NVIDIA driver, without which its library cannot even be loaded).
+    for _platform, _name in (("OpenCL", "libOpenMMFlavorsOpenCL.so"), ("CUDA", "libOpenMMFlavorsCUDA.so")):
+        if _hasPlatform(_platform) and _os.path.exists(_os.path.join(_pluginDir, _name)):
+            _openmm.Platform.loadPluginLibrary(_os.path.join(_pluginDir, _name))
 
 from .openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator  # noqa: E402
 from ._warnings import (FlavorsWarning, PlanarAngleGroupWarning, ResonanceWarning, StiffGroupWarning,  # noqa: E402

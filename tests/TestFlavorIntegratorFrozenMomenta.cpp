@@ -202,7 +202,7 @@ TEST_P(FlavorFrozenMomenta, FrozenStageKeepsTheNormalMomentaOfTheFrozenDistances
     // OpenCL holds the System constraint of the microstep with its own algorithm, to about 1e-9 nm (measured 1.1e-9).
     for (const std::pair<int, int>& pair : pairs)
         EXPECT_NEAR(distance(stage.q1, pair.first, pair.second), distance(stage.q2, pair.first, pair.second),
-                    isOpenCL() ? 1e-8 : 1e-9);
+                    isGpu() ? 1e-8 : 1e-9);
     EXPECT_NEAR(0.0, rate(stage.q2, stage.v2, 1, 2), 1e-9);
     const Eigen::VectorXd before = normalMomenta(pairs, *system, stage.q1, stage.v1);
     const Eigen::VectorXd after = normalMomenta(pairs, *system, stage.q2, stage.v2);
@@ -364,7 +364,7 @@ TEST_P(FlavorFrozenMomenta, AMoleculeAtRestPushedAlongItsFrozenBondsKeepsZeroAng
         }
         EXPECT_GT(speed, 1e-3) << "the molecule moved";
         // OpenCL's fixed-point forces leave a little more (measured 1.4e-12).
-        EXPECT_LT(std::sqrt(angularMomentum.dot(angularMomentum)), isOpenCL() ? 1e-11 : 1e-12)
+        EXPECT_LT(std::sqrt(angularMomentum.dot(angularMomentum)), isGpu() ? 1e-11 : 1e-12)
             << "tolerance " << tolerance;
     }
 }

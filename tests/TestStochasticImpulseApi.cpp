@@ -92,7 +92,7 @@ TEST_P(ImpulseApi, ChangesToTheStiffPotentialAreMeasuredAgain) {
     Context context(system, integrator, platform(), properties());
     context.setPositions({Vec3(0.1, 0, 0), Vec3(0, 0.2, 0)});
     // OpenCL's fixed-point forces (2^-32 kJ/mol/nm) leave the measured frequencies 1.6e-9 off (PoCL).
-    const double tolerance = isOpenCL() ? 5e-9 : 1e-9;
+    const double tolerance = isGpu() ? 5e-9 : 1e-9;
     integrator.step(1);
     EXPECT_NEAR(10.0, integrator.getStiffModeFrequencies().back(), tolerance);
     // A context parameter used by a stiff force.
@@ -138,7 +138,7 @@ TEST_P(ImpulseApi, NonquadraticStiffForcesNegativeCurvatureAndConstraintsAreReje
         EXPECT_NE(string::npos, message.find("negative curvature")) << message;
         const size_t at = message.find("omega^2 = ");
         ASSERT_NE(string::npos, at) << message;
-        EXPECT_NEAR(-50.0, std::stod(message.substr(at + 10)), isOpenCL() ? 1e-6 : 1e-12) << message;
+        EXPECT_NEAR(-50.0, std::stod(message.substr(at + 10)), isGpu() ? 1e-6 : 1e-12) << message;
     }
 
     // A constraint between two particles of one stiff component, at Context creation.

@@ -145,7 +145,7 @@ TEST_P(ImpulseDrudeSprings, SeparationKeepsEnergyAndForcesAndMovesExactlyTheIsot
 
         // The stiff group is 0.5 k |d|^2 per pair with k = Coulomb q^2/(alpha a3), and its forces -k d on the Drude.
         // OpenCL keeps a HarmonicBondForce's k in single precision (6e-8 relative) even in double precision mode.
-        const double parameterPrecision = isOpenCL() ? 1e-7 : 1e-10;
+        const double parameterPrecision = isGpu() ? 1e-7 : 1e-10;
         const Evaluation stiff =
             evaluate(separated.system, separated.positions, platform(), properties(), 1 << StiffGroup);
         double expectedEnergy = 0;

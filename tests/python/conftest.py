@@ -20,22 +20,21 @@ from openmmflavors import FlavorIntegrator
 
 
 
-def _has_opencl():
-    try:
-        openmm.Platform.getPlatformByName("OpenCL")
-        return True
-    except Exception:
-        return False
+def _has_platform(name):
+    return any(openmm.Platform.getPlatform(i).getName() == name for i in range(openmm.Platform.getNumPlatforms()))
 
 
-# OpenCL where OpenMM has an OpenCL platform (an OpenCL driver such as PoCL is installed), in double precision.
-PLATFORMS = ["Reference", "CPU"] + (["OpenCL"] if _has_opencl() else [])
-# For what the OpenCL backend rejects by name (the Metropolis adjustment, the hard wall): Reference and CPU.
+# The GPU platforms where OpenMM has them (OpenCL: an OpenCL driver such as PoCL; CUDA: an NVIDIA GPU, its driver and
+# OpenMM's CUDA add-on), in double precision.
+GPU_PLATFORMS = [name for name in ("OpenCL", "CUDA") if _has_platform(name)]
+PLATFORMS = ["Reference", "CPU"] + GPU_PLATFORMS
+# For what the GPU backend rejects by name (the Metropolis adjustment, the hard wall): Reference and CPU.
 HOST_ENGINE_PLATFORMS = ["Reference", "CPU"]
-# OpenCL's stiff forces are about 1e-6 relative off Reference's even in double precision (its force constants and
-# bonded terms; measured on PoCL): a trajectory that follows an independent double-precision composition to 1e-10 on
-# Reference and CPU follows it to about 4e-9 relative there.
-TRAJECTORY_RTOL = {"OpenCL": 1e-7}
+# The GPU platforms' stiff forces are about 1e-6 relative off Reference's even in double precision (their force
+# constants and bonded terms; measured on PoCL, where CUDA runs the same kernels in IEEE double arithmetic): a
+# trajectory that follows an independent double-precision composition to 1e-10 on Reference and CPU follows it to about
+# 4e-9 relative there.
+TRAJECTORY_RTOL = {"OpenCL": 1e-7, "CUDA": 1e-7}
 
 SOFT_GROUP = 0
 STIFF_GROUP = 1

@@ -1,5 +1,5 @@
 """Smoke tests of benchmarks/work_precision.py, stability.py, sim_step_cost.py, sim_work_precision.py and (where OpenMM
-has an OpenCL platform) the FPU scene of opencl_benchmark.py: each runs with --quick into a temporary folder, exits 0
+has a GPU platform: OpenCL, CUDA) the FPU scene of gpu_benchmark.py: each runs with --quick into a temporary folder, exits 0
 and writes its JSON, markdown and charts with the expected structure.
 The C++ helper benchmarks/step_cost is run once on each of its two systems.
 The numbers themselves are the benchmarks' business, not the tests'; only what must hold by construction is
@@ -80,6 +80,7 @@ def test_sim_step_cost_quick(tmp_path):
     assert all(r["step_us_friction0"] > 0 and r["step_us_friction1"] > 0 for r in scaling["rows"])
 
 
+@pytest.mark.long
 def test_sim_work_precision_quick(tmp_path):
     _, data = run_quick("sim_work_precision.py", tmp_path, ("sim_work_precision.json", "sim_work_precision.png"))
     criterion = data["criterion"]
@@ -153,6 +154,7 @@ def test_callgrind_per_step_matches_functions_by_name_across_libraries(monkeypat
                      "???:operator[](int) [libOpenMMFlavorsEngine.so]": 40 / 30}
 
 
+@pytest.mark.long
 def test_frozen_energy_drift_quick_runs_every_peer_on_both_molecules_and_replots(tmp_path):
     result, data = run_quick("frozen_energy_drift.py", tmp_path,
                              ("frozen_energy_drift.json", "frozen_energy_drift.png"))
@@ -181,20 +183,24 @@ def test_frozen_energy_drift_rejects_a_mesostep_not_above_the_microstep(tmp_path
     assert "--deltas: 1 fs is not allowed" in result.stderr
 
 
-def has_opencl():
-    return any(openmm.Platform.getPlatform(i).getName() == "OpenCL" for i in range(openmm.Platform.getNumPlatforms()))
+def has_platform(name):
+    return any(openmm.Platform.getPlatform(i).getName() == name for i in range(openmm.Platform.getNumPlatforms()))
 
 
-def test_opencl_benchmark_quick(tmp_path):
-    """The FPU scene of benchmarks/opencl_benchmark.py in double precision: every peer runs on OpenCL and is timed."""
-    if not has_opencl():
-        pytest.skip("OpenMM has no OpenCL platform here (no OpenCL driver)")
-    result = conftest.run_quick(os.path.join(BENCHMARKS, "opencl_benchmark.py"), tmp_path, timeout=300,
-                                extra=("--scenes", "fpu", "--precision", "double"))
+@pytest.mark.parametrize("platform", ["OpenCL", "CUDA"])
+def test_gpu_benchmark_quick(tmp_path, platform):
+    """The FPU scene of benchmarks/gpu_benchmark.py in double precision: every peer runs on the platform and is
+    timed."""
+    if not has_platform(platform):
+        pytest.skip(f"OpenMM has no {platform} platform here")
+    result = conftest.run_quick(os.path.join(BENCHMARKS, "gpu_benchmark.py"), tmp_path, timeout=300,
+                                extra=("--platform", platform, "--scenes", "fpu", "--precision", "double"))
     assert result.returncode == 0, result.stderr[-3000:]
-    assert (tmp_path / "opencl_benchmark.png").stat().st_size > 0
-    with open(tmp_path / "opencl_benchmark.json") as f:
+    stem = f"gpu_benchmark_{platform.lower()}"
+    assert (tmp_path / f"{stem}.png").stat().st_size > 0
+    with open(tmp_path / f"{stem}.json") as f:
         data = json.load(f)
+    assert data["platform"] == platform
     run = data["scenes"]["fpu"]["precisions"]["double"]
     assert run["device"]["Precision"] == "double"
     assert set(run["peers"]) == {"Verlet h=0.002", "SIM Strang H=0.002", "SIM Strang H=0.01"}
@@ -202,16 +208,18 @@ def test_opencl_benchmark_quick(tmp_path):
         assert peer["available"] and peer["ns_per_day"] > 0 and len(peer["all"]) == data["repeats"]
 
 
-def test_opencl_benchmark_quick_runs_the_drude_2019_peptide_under_every_peer(tmp_path):
+@pytest.mark.long
+@pytest.mark.parametrize("platform", ["OpenCL", "CUDA"])
+def test_gpu_benchmark_quick_runs_the_drude_2019_peptide_under_every_peer(tmp_path, platform):
     """The drude_protein scene in mixed precision (the GPU's): the Drude-2019 System (anisotropic and Thole-screened
-    Drude particles, lone pairs, X-H constraints on cores with Drude particles) runs on OpenCL behind the hard wall
-    under DrudeLangevin and under the SIM at 2, 2.5 and 3 fs, each timed in every repeat."""
-    if not has_opencl():
-        pytest.skip("OpenMM has no OpenCL platform here (no OpenCL driver)")
-    result = conftest.run_quick(os.path.join(BENCHMARKS, "opencl_benchmark.py"), tmp_path, timeout=600,
-                                extra=("--scenes", "drude_protein", "--precision", "mixed"))
+    Drude particles, lone pairs, X-H constraints on cores with Drude particles) runs behind the hard wall under
+    DrudeLangevin and under the SIM at 2, 2.5 and 3 fs, each timed in every repeat."""
+    if not has_platform(platform):
+        pytest.skip(f"OpenMM has no {platform} platform here")
+    result = conftest.run_quick(os.path.join(BENCHMARKS, "gpu_benchmark.py"), tmp_path, timeout=600,
+                                extra=("--platform", platform, "--scenes", "drude_protein", "--precision", "mixed"))
     assert result.returncode == 0, result.stderr[-3000:]
-    with open(tmp_path / "opencl_benchmark.json") as f:
+    with open(tmp_path / f"gpu_benchmark_{platform.lower()}.json") as f:
         data = json.load(f)
     run = data["scenes"]["drude_protein"]["precisions"]["mixed"]
     assert run["device"]["Precision"] == "mixed"

@@ -1,10 +1,13 @@
-// The OpenCL backend against the Reference platform: in double precision the same counter-based noise and the same
-// arithmetic make every supported scheme follow the Reference trajectory to rounding, and every setting the backend
-// does not have yet is rejected by name.  Skipped where OpenMM has no OpenCL platform (no OpenCL driver) or this
-// build has no OpenCL backend.  One Context per platform and integrator, reused for every setting of that integrator
-// (PoCL compiles each program once per Context).
+// The GPU backend (OpenMM's common compute platforms: OpenCL and CUDA) against the Reference platform: in double
+// precision the same counter-based noise and the same arithmetic make every supported scheme follow the Reference
+// trajectory to rounding, and every setting the backend does not have yet is rejected by name.  Each test runs once per
+// GPU platform, skipped where OpenMM has no such platform (no OpenCL driver, no NVIDIA GPU) or this build has no
+// backend for it.  The tolerances were measured on OpenCL (PoCL) in double precision, where both platforms run the
+// same kernels with IEEE double arithmetic.  One Context per platform and integrator, reused for every setting of that
+// integrator (PoCL compiles each program once per Context).
 
 #include "FlavorIntegrator.h"
+#include "PlatformTest.h"
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
@@ -39,14 +42,16 @@ constexpr int Steps = 45;
 /** nm: what double-precision rounding leaves after Steps steps of these small systems. */
 constexpr double Tolerance = 1e-7;
 
-bool haveOpenCL() {
-#ifdef FLAVORS_HAVE_OPENCL
+/** Whether OpenMM has the GPU platform named and this build has its backend. */
+bool haveBackend(const string& platform) {
+    const vector<string> built = gpuPlatformsBuilt();
+    if (std::find(built.begin(), built.end(), platform) == built.end())
+        return false;
     try {
-        Platform::getPlatformByName("OpenCL");
+        Platform::getPlatformByName(platform);
         return true;
     } catch (const OpenMMException&) {
     }
-#endif
     return false;
 }
 
@@ -237,32 +242,33 @@ struct DrudePairs {
     }
 };
 
-/** One integrator on Reference and on OpenCL (double precision unless told), stepped side by side. */
+/** One integrator on Reference and on a GPU platform (double precision unless told), stepped side by side. */
 template <class IntegratorType> struct SideBySide {
-    std::unique_ptr<IntegratorType> reference, opencl;
-    std::unique_ptr<Context> referenceContext, openclContext;
+    std::unique_ptr<IntegratorType> reference, gpu;
+    std::unique_ptr<Context> referenceContext, gpuContext;
     /** nm/ps: the largest difference of the velocities after the last run(). */
     double velocityDeviation = 0.0;
-    SideBySide(const System& system, const std::function<IntegratorType*()>& make, const string& precision = "double")
-        : reference(make()), opencl(make()) {
+    SideBySide(const string& platform, const System& system, const std::function<IntegratorType*()>& make,
+               const string& precision = "double")
+        : reference(make()), gpu(make()) {
         referenceContext = std::make_unique<Context>(system, *reference, Platform::getPlatformByName("Reference"));
-        openclContext = std::make_unique<Context>(system, *opencl, Platform::getPlatformByName("OpenCL"),
-                                                  std::map<string, string>{{"Precision", precision}});
+        gpuContext = std::make_unique<Context>(system, *gpu, Platform::getPlatformByName(platform),
+                                               std::map<string, string>{{"Precision", precision}});
     }
     /** Applies a setting to both integrators, starts both from the same state and returns the largest deviation. */
     double run(const std::function<void(IntegratorType&)>& setting, const Start& start) {
         double largest = 0.0;
         setting(*reference);
-        setting(*opencl);
-        for (Context* context : {referenceContext.get(), openclContext.get()}) {
+        setting(*gpu);
+        for (Context* context : {referenceContext.get(), gpuContext.get()}) {
             context->setTime(0.0);
             context->setPositions(start.positions);
             context->setVelocities(start.velocities);
         }
         reference->step(Steps);
-        opencl->step(Steps);
+        gpu->step(Steps);
         const State a = referenceContext->getState(State::Positions | State::Velocities);
-        const State b = openclContext->getState(State::Positions | State::Velocities);
+        const State b = gpuContext->getState(State::Positions | State::Velocities);
         largest = largestDifference(a.getPositions(), b.getPositions());
         velocityDeviation = largestDifference(a.getVelocities(), b.getVelocities());
         EXPECT_NEAR(a.getTime(), b.getTime(), 1e-12);
@@ -270,13 +276,13 @@ template <class IntegratorType> struct SideBySide {
     }
 };
 
-void expectRejected(const std::function<void()>& step, const string& setting) {
+void expectRejected(const std::function<void()>& step, const string& setting, const string& platform) {
     try {
         step();
         ADD_FAILURE() << "no exception for " << setting;
     } catch (const OpenMMException& e) {
         EXPECT_NE(string(e.what()).find(setting), string::npos) << e.what();
-        EXPECT_NE(string(e.what()).find("OpenCL"), string::npos) << e.what();
+        EXPECT_NE(string(e.what()).find(platform), string::npos) << e.what();
     }
 }
 
@@ -309,17 +315,27 @@ StochasticImpulseIntegrator* warpedMiddleColdBath(double step, int seed) {
     return s;
 }
 
+/** A test run once on each GPU platform, skipped where OpenMM has none of that name or this build has no backend. */
+class ComputeBackend : public ::testing::TestWithParam<string> {
+protected:
+    void SetUp() override {
+        if (!haveBackend(GetParam()))
+            GTEST_SKIP() << "no " << GetParam() << " platform";
+    }
+};
+
 } // namespace
 
-TEST(OpenCLBackend, FlavorFollowsReferenceInDoublePrecision) {
+INSTANTIATE_TEST_SUITE_P(GpuPlatforms, ComputeBackend, ::testing::Values("OpenCL", "CUDA"),
+                         [](const ::testing::TestParamInfo<string>& info) { return info.param; });
+
+TEST_P(ComputeBackend, FlavorFollowsReferenceInDoublePrecision) {
     // The nonintrusive FLAVOR all on the device; then the artificial averagings, whose frozen stage runs on the host
     // through the engine's own FrozenDistances and FrozenFlowTask (the kicks, drifts, thermostats and the exact fast
     // flow on the device).  FPU chains: the stiff springs are quadratic, so their nonzero modes freeze.
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
     using F = FlavorIntegrator;
     FpuChains chains;
-    SideBySide<F> flavors(*chains.system, [] {
+    SideBySide<F> flavors(GetParam(), *chains.system, [] {
         F* f = new F(0.02, 0.004, StiffMask);
         f->setTemperature(300.0);
         f->setRandomNumberSeed(31);
@@ -363,12 +379,10 @@ TEST(OpenCLBackend, FlavorFollowsReferenceInDoublePrecision) {
     expectSettingsFollowReference(flavors, "FLAVOR", settings, chains);
 }
 
-TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
     using S = StochasticImpulseIntegrator;
     FpuChains chains;
-    SideBySide<S> sims(*chains.system, [] {
+    SideBySide<S> sims(GetParam(), *chains.system, [] {
         S* s = new S(300.0, 0.0, 0.02, StiffMask);
         s->setRandomNumberSeed(37);
         return s;
@@ -405,9 +419,7 @@ TEST(OpenCLBackend, StochasticImpulseFollowsReferenceInDoublePrecision) {
     expectSettingsFollowReference(sims, "SIM", settings, chains);
 }
 
-TEST(OpenCLBackend, FilteredCheckpointsCarryTheStepHistory) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, FilteredCheckpointsCarryTheStepHistory) {
     // The velocity processing of a Filtered step undoes that of the step before: a checkpoint holds the force
     // differences it needs, so a loaded checkpoint continues as the run that wrote it.
     using S = StochasticImpulseIntegrator;
@@ -419,7 +431,7 @@ TEST(OpenCLBackend, FilteredCheckpointsCarryTheStepHistory) {
         sim.setStiffModeTemperature(1.0);
         sim.setStiffModeFriction(20.0);
         sim.setRandomNumberSeed(41);
-        Context context(*chains.system, sim, Platform::getPlatformByName("OpenCL"),
+        Context context(*chains.system, sim, Platform::getPlatformByName(GetParam()),
                         std::map<string, string>{{"Precision", "double"}});
         context.setPositions(chains.positions);
         context.setVelocities(chains.velocities);
@@ -435,9 +447,7 @@ TEST(OpenCLBackend, FilteredCheckpointsCarryTheStepHistory) {
     }
 }
 
-TEST(OpenCLBackend, SettingTheStateForgetsTheFilteredStepHistory) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, SettingTheStateForgetsTheFilteredStepHistory) {
     // After setPositions and setVelocities the next Filtered step is the one a new Context takes from that state (the
     // history kept, the FPU chains end 7e-7 nm away).  Without friction, so the random streams play no part.
     using S = StochasticImpulseIntegrator;
@@ -446,8 +456,8 @@ TEST(OpenCLBackend, SettingTheStateForgetsTheFilteredStepHistory) {
     S used(0.0, 0.0, 0.02, StiffMask), fresh(0.0, 0.0, 0.02, StiffMask);
     for (S* sim : {&used, &fresh})
         sim->setSplitting(S::Filtered);
-    Context usedContext(*chains.system, used, Platform::getPlatformByName("OpenCL"), properties);
-    Context freshContext(*chains.system, fresh, Platform::getPlatformByName("OpenCL"), properties);
+    Context usedContext(*chains.system, used, Platform::getPlatformByName(GetParam()), properties);
+    Context freshContext(*chains.system, fresh, Platform::getPlatformByName(GetParam()), properties);
     usedContext.setPositions(chains.positions);
     usedContext.setVelocities(chains.velocities);
     used.step(10);
@@ -461,23 +471,19 @@ TEST(OpenCLBackend, SettingTheStateForgetsTheFilteredStepHistory) {
                                      freshContext.getState(State::Positions).getPositions()));
 }
 
-TEST(OpenCLBackend, DrudeWatersWithPmeFollowReferenceInDoublePrecision) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, DrudeWatersWithPmeFollowReferenceInDoublePrecision) {
     // The Warped step with Middle zero modes and a cold Drude bath, as for SWM4-NDP water: the force responses of
     // Drude pairs and of free hydrogens.  PME forces differ by rounding between the platforms.
     using S = StochasticImpulseIntegrator;
     DrudeWaters waters;
-    SideBySide<S> sims(waters.system, [] { return warpedMiddleColdBath(0.001, 43); });
+    SideBySide<S> sims(GetParam(), waters.system, [] { return warpedMiddleColdBath(0.001, 43); });
     const double largest = sims.run([](S&) {}, {waters.positions, waters.velocities});
     std::cout << "SIM Drude waters (PME, warped/middle): largest deviation from Reference " << largest << " nm"
               << std::endl;
     EXPECT_LE(largest, 1e-5);
 }
 
-TEST(OpenCLBackend, RigidDrudeWatersRunInMixedPrecisionOnTheStiffModesOfReference) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, RigidDrudeWatersRunInMixedPrecisionOnTheStiffModesOfReference) {
     // In mixed (and single) precision OpenCL rounds positions to single precision, about 1e-7 nm in this 1.5-nm box:
     // probed through the Context, the Drude springs measured 1e-4 relative asymmetric and the SIM refused them as not
     // quadratic.  Probed on the Reference copy of the stiff forces, the modes are Reference's, and the step follows
@@ -485,11 +491,11 @@ TEST(OpenCLBackend, RigidDrudeWatersRunInMixedPrecisionOnTheStiffModesOfReferenc
     using S = StochasticImpulseIntegrator;
     DrudeWaters waters(true);
     SideBySide<S> sims(
-        waters.system, [] { return warpedMiddleColdBath(0.002, 59); }, "mixed");
+        GetParam(), waters.system, [] { return warpedMiddleColdBath(0.002, 59); }, "mixed");
     sims.referenceContext->setPositions(waters.positions);
-    sims.openclContext->setPositions(waters.positions);
+    sims.gpuContext->setPositions(waters.positions);
     const vector<double> expected = sims.reference->getStiffModeFrequencies();
-    const vector<double> measured = sims.opencl->getStiffModeFrequencies();
+    const vector<double> measured = sims.gpu->getStiffModeFrequencies();
     ASSERT_EQ(expected.size(), measured.size());
     for (size_t m = 0; m < expected.size(); ++m)
         EXPECT_NEAR(expected[m], measured[m], 1e-10 * expected[m]) << m;
@@ -500,9 +506,7 @@ TEST(OpenCLBackend, RigidDrudeWatersRunInMixedPrecisionOnTheStiffModesOfReferenc
     EXPECT_LE(largest, 1e-5);
 }
 
-TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, StochasticImpulseWithConstraintsFollowsReference) {
     // A constraint between the stiff pairs of an FPU chain: the constraint solve runs on the host through the engine's
     // ConstraintProjector, and each pair's flow carries the constraint impulses on its constrained particle to the
     // other.
@@ -538,7 +542,7 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
          }},
         {"warped/middle, phase limited", [](S& s) { s.setMaxWarpedPhase(0.5); }},
     };
-    SideBySide<S> sims(*system, [] {
+    SideBySide<S> sims(GetParam(), *system, [] {
         S* s = new S(300.0, 0.0, 0.02, StiffMask);
         s->setRandomNumberSeed(53);
         return s;
@@ -546,17 +550,15 @@ TEST(OpenCLBackend, StochasticImpulseWithConstraintsFollowsReference) {
     expectSettingsFollowReference(sims, "SIM with constraints,", settings, chains);
     // A checkpoint holds the step history (the Middle placement's constraint processing among it).
     std::stringstream checkpoint;
-    sims.openclContext->createCheckpoint(checkpoint);
-    sims.opencl->step(10);
-    const vector<Vec3> q = sims.openclContext->getState(State::Positions).getPositions();
-    sims.openclContext->loadCheckpoint(checkpoint);
-    sims.opencl->step(10);
-    EXPECT_EQ(0.0, largestDifference(sims.openclContext->getState(State::Positions).getPositions(), q));
+    sims.gpuContext->createCheckpoint(checkpoint);
+    sims.gpu->step(10);
+    const vector<Vec3> q = sims.gpuContext->getState(State::Positions).getPositions();
+    sims.gpuContext->loadCheckpoint(checkpoint);
+    sims.gpu->step(10);
+    EXPECT_EQ(0.0, largestDifference(sims.gpuContext->getState(State::Positions).getPositions(), q));
 }
 
-TEST(OpenCLBackend, RigidDrudeWatersWithPmeFollowReference) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, RigidDrudeWatersWithPmeFollowReference) {
     // Rigid SWM4-NDP-like waters, the drude_water scene's model: the Warped step with Middle zero modes and a cold
     // Drude bath, each oxygen core held by SETTLE.  What is left is the difference of the
     // platforms' PME: 1.6e-8 nm at its error tolerance 1e-6 (2.4e-5 nm at 1e-5; 1.5e-6 nm with a 0.74 nm cutoff).
@@ -566,16 +568,14 @@ TEST(OpenCLBackend, RigidDrudeWatersWithPmeFollowReference) {
     for (int f = 0; f < waters.system.getNumForces(); ++f)
         if (auto* nonbonded = dynamic_cast<NonbondedForce*>(&waters.system.getForce(f)))
             nonbonded->setEwaldErrorTolerance(1e-6);
-    SideBySide<S> sims(waters.system, [] { return warpedMiddleColdBath(0.002, 59); });
+    SideBySide<S> sims(GetParam(), waters.system, [] { return warpedMiddleColdBath(0.002, 59); });
     const double largest = sims.run([](S&) {}, {waters.positions, waters.velocities});
     std::cout << "SIM rigid Drude waters (PME, warped/middle): largest deviation from Reference " << largest << " nm, "
               << sims.velocityDeviation << " nm/ps" << std::endl;
     EXPECT_LE(largest, 1e-5);
 }
 
-TEST(OpenCLBackend, FilteredAndWarpedFollowReferenceInSingleAndMixedPrecision) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, FilteredAndWarpedFollowReferenceInSingleAndMixedPrecision) {
     using S = StochasticImpulseIntegrator;
     DrudePairs pairs;
     const Settings<S> settings = {
@@ -588,7 +588,7 @@ TEST(OpenCLBackend, FilteredAndWarpedFollowReferenceInSingleAndMixedPrecision) {
     };
     for (const char* precision : {"mixed", "single"}) {
         SideBySide<S> sims(
-            pairs.system,
+            GetParam(), pairs.system,
             [] {
                 S* s = new S(300.0, 5.0, 0.002, StiffMask);
                 s->setStiffModeTemperature(1.0);
@@ -607,9 +607,7 @@ TEST(OpenCLBackend, FilteredAndWarpedFollowReferenceInSingleAndMixedPrecision) {
     }
 }
 
-TEST(OpenCLBackend, ConstrainedDrudePairsFollowReferenceInSingleAndMixedPrecision) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
+TEST_P(ComputeBackend, ConstrainedDrudePairsFollowReferenceInSingleAndMixedPrecision) {
     // Two Drude cores held at their distance, each with its Drude particle: the host's copies of the state in the
     // precisions that keep positions in single (with a correction in mixed).
     using S = StochasticImpulseIntegrator;
@@ -618,7 +616,7 @@ TEST(OpenCLBackend, ConstrainedDrudePairsFollowReferenceInSingleAndMixedPrecisio
     pairs.system.addConstraint(0, 2, std::sqrt(link.dot(link)));
     for (const char* precision : {"mixed", "single"}) {
         SideBySide<S> sims(
-            pairs.system,
+            GetParam(), pairs.system,
             [] {
                 S* s = new S(300.0, 5.0, 0.002, StiffMask);
                 s->setSplitting(S::Warped);
@@ -636,10 +634,8 @@ TEST(OpenCLBackend, ConstrainedDrudePairsFollowReferenceInSingleAndMixedPrecisio
     }
 }
 
-TEST(OpenCLBackend, RejectsWhatItDoesNotHaveByName) {
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
-    Platform& platform = Platform::getPlatformByName("OpenCL");
+TEST_P(ComputeBackend, RejectsWhatItDoesNotHaveByName) {
+    Platform& platform = Platform::getPlatformByName(GetParam());
     FpuChains chains;
     {
         FlavorIntegrator flavor(0.02, 0.004, StiffMask);
@@ -648,28 +644,26 @@ TEST(OpenCLBackend, RejectsWhatItDoesNotHaveByName) {
         flavor.setMetropolis(true);
         Context context(*chains.system, flavor, platform);
         context.setPositions(chains.positions);
-        expectRejected([&] { flavor.step(1); }, "setMetropolis(true)");
+        expectRejected([&] { flavor.step(1); }, "setMetropolis(true)", GetParam());
     }
     {
         StochasticImpulseIntegrator sim(300.0, 5.0, 0.02, StiffMask);
         Context context(*chains.system, sim, platform);
         context.setPositions(chains.positions);
         sim.setMetropolis(true);
-        expectRejected([&] { sim.step(1); }, "setMetropolis(true)");
+        expectRejected([&] { sim.step(1); }, "setMetropolis(true)", GetParam());
     }
 }
 
-TEST(OpenCLBackend, ArtificialFlavorOnFlexibleWaterFollowsReference) {
+TEST_P(ComputeBackend, ArtificialFlavorOnFlexibleWaterFollowsReference) {
     // 27 flexible TIP3P waters with PME, their O-H bonds and H-O-H angles frozen between microsteps (frozen distances,
     // one cluster per molecule), as in the flexible_water scene: the reordering of molecules on the device leaves the
     // host's frozen stage the same clusters.  The platforms' PME differ by about their error tolerance: at OpenMM's
     // default 5e-4 the nonintrusive FLAVOR, all on the device, already ends 5e-4 nm apart; at 1e-6 (here) every
     // averaging ends within 1e-7 nm (measured 3e-8 to 9e-8).
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
     using F = FlavorIntegrator;
     FlexibleWater water(3);
-    SideBySide<F> flavors(water.system, [] {
+    SideBySide<F> flavors(GetParam(), water.system, [] {
         F* f = new F(0.004, 0.0005, StiffMask);
         f->setAveraging(F::ArtificialProjected);
         f->setTemperature(300.0);
@@ -688,22 +682,20 @@ TEST(OpenCLBackend, ArtificialFlavorOnFlexibleWaterFollowsReference) {
                   << std::endl;
         EXPECT_LE(deviation, 1e-6) << name;
         // Each molecule's two bonds and its H-H distance.
-        EXPECT_NE(flavors.opencl->describeContext().find("frozen: 81 distances"), string::npos)
-            << flavors.opencl->describeContext();
+        EXPECT_NE(flavors.gpu->describeContext().find("frozen: 81 distances"), string::npos)
+            << flavors.gpu->describeContext();
     }
 }
 
-TEST(OpenCLBackend, FlavorsFollowReferenceInSingleAndMixedPrecision) {
+TEST_P(ComputeBackend, FlavorsFollowReferenceInSingleAndMixedPrecision) {
     // 45 mesosteps of flexible water (8 molecules, no cutoff) in OpenCL's single and mixed precision against Reference:
     // the nonintrusive FLAVOR all on the device and the artificial one with its frozen stage on the host, which reads
     // and writes the single-precision positions (mixed: their correction too).
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
     using F = FlavorIntegrator;
     FlexibleWater water(2, false);
     for (const char* precision : {"mixed", "single"}) {
         SideBySide<F> flavors(
-            water.system,
+            GetParam(), water.system,
             [] {
                 F* f = new F(0.004, 0.0005, StiffMask);
                 f->setTemperature(300.0);
@@ -729,15 +721,13 @@ TEST(OpenCLBackend, FlavorsFollowReferenceInSingleAndMixedPrecision) {
     }
 }
 
-TEST(OpenCLBackend, TheHardWallFollowsReference) {
+TEST_P(ComputeBackend, TheHardWallFollowsReference) {
     // The SIM's hard wall (setMaxDrudeDistance) runs on the host through the engine's own HardWall on copies of the
     // particle data.  Six Drude pairs with a wall of 0.0015 nm, inside which the field holds them only part of the
     // time: the wall moves the trajectory (checked against the same run without it), and OpenCL follows Reference.
-    if (!haveOpenCL())
-        GTEST_SKIP() << "no OpenCL platform";
     using S = StochasticImpulseIntegrator;
     DrudePairs pairs;
-    SideBySide<S> sims(pairs.system, [] { return warpedMiddleColdBath(0.002, 61); });
+    SideBySide<S> sims(GetParam(), pairs.system, [] { return warpedMiddleColdBath(0.002, 61); });
     sims.run([](S& s) { s.setMaxDrudeDistance(0.0); }, pairs.start);
     const vector<Vec3> withoutWall = sims.referenceContext->getState(State::Positions).getPositions();
     const double deviation = sims.run([](S& s) { s.setMaxDrudeDistance(0.0015); }, pairs.start);

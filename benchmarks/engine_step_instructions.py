@@ -24,7 +24,7 @@ the difference is the cost of a step.  Reported: all instructions per step, and 
 DIR/engine_step_instructions/ and reused by later runs (--fresh saves them again), so two builds are compared from
 the same start.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/engine_step_instructions.py [--out DIR] [--fresh]  # ~15 min
+    PYTHONPATH=build/python .venv/bin/python benchmarks/engine_step_instructions.py [--out DIR] [--fresh]  # ~15 min
         [--scenes SCENE ...]
 
 Needs valgrind (apt-get install valgrind).  Output: a table on stdout and DIR/engine_step_instructions.json
@@ -142,7 +142,7 @@ def make_drude_forcefield_scene(scene, kind):
         return integrator
 
     return (f"{kind} {step_fs:g} fs, wall 0.02 nm", system, factory,
-            lambda: drude_ions.equilibrated(unsplit, positions, 1, 0.2))
+            lambda: drude_ions.equilibrated(unsplit, positions, 1, 0.2, minimize=False))
 
 
 MAKERS = {"villin": make_villin, "drude_water": make_drude_water,

@@ -19,7 +19,7 @@ of the residuals, the kinetic energy at the start and at the end, per residue th
 (last quarter of the run against the first), and the energy the stiff bond and angle terms gained over the same
 quarters, in all and the terms that gained most, which say where the energy goes.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/frozen_energy_drift.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/frozen_energy_drift.py [--quick] [--out DIR]
         [--ps PS] [--deltas FS ...] [--replot JSON]
 
 Outputs: DIR/frozen_energy_drift.json and DIR/frozen_energy_drift.png (total energy against time, one panel per
@@ -58,7 +58,7 @@ def molecule(name):
         modeller.delete([r for r in modeller.topology.residues() if r.name in ("CL", "Cl", "NA", "Na")])
     else:
         pdb = app.PDBFile(POPC_PDB)
-        forcefield = app.ForceField("amber14-all.xml", "amber14/lipid17.xml")
+        forcefield = app.ForceField("amber14-all.xml")  # which includes amber14/lipid17.xml
         modeller = app.Modeller(pdb.topology, pdb.positions)
         first = next(modeller.topology.residues())
         modeller.delete([r for r in modeller.topology.residues() if r != first])

@@ -2,12 +2,12 @@
 the System split by separateDrudeSprings, against OpenMM's DrudeLangevinIntegrator, every run from the same
 equilibrated state in one process.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py [--quick] [--out DIR] \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_ions/drude_ions.py [--quick] [--out DIR] \
         [--production PS] [--burn-in PS] [--sim-steps 1.5 2] [--seed N]
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --seed-table JSON [JSON ...]
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --interleaved-timing ROUNDS \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_ions/drude_ions.py --seed-table JSON [JSON ...]
+    PYTHONPATH=build/python .venv/bin/python examples/drude_ions/drude_ions.py --interleaved-timing ROUNDS \
         [--round-ps PS] [--sim-steps 1.5 2] [--wall NM] [--wall-peers 1]
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/drude_ions.py --wall-cost STEPS --wall NM \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_ions/drude_ions.py --wall-cost STEPS --wall NM \
         [--sim-steps 2]
 
 Writes drude_ions.json to --out.  Observables (block averages; error = standard error of the block means): the induced
@@ -50,7 +50,22 @@ def build(waters, pairs, cutoff, seed):
                         positiveIon="Na+", negativeIon="Cl-", ionicStrength=pairs * 55.4 / waters * unit.molar)
     random.setstate(outer)
     compress_to_volume(modeller, water_volume(modeller.topology) + pairs * NACL_PAIR_VOLUME)
+    relax_without_drudes(modeller, cutoff)
     return polar_system(modeller, cutoff)
+
+
+def relax_without_drudes(modeller, cutoff):
+    """Minimizes the box as TIP3P water and amber14 ions (rigid water), in place: compressed to water's density, the
+    molecules overlap.  Minimized with their Drude particles instead, a Drude particle can run into a neighbour's field:
+    OpenMM 8.6's minimizer did so from the quick box of seed 1 (NaN), and so `equilibrated` starts these boxes from
+    here (minimize=False)."""
+    system = app.ForceField("amber14/tip3p.xml").createSystem(
+        modeller.topology, nonbondedMethod=app.PME, nonbondedCutoff=cutoff * unit.nanometer, rigidWater=True)
+    context = openmm.Context(system, openmm.VerletIntegrator(0.001), openmm.Platform.getPlatformByName("CPU"),
+                             {"Threads": "1"})
+    context.setPositions(modeller.positions)
+    openmm.LocalEnergyMinimizer.minimize(context, 10, 500)
+    modeller.positions = context.getState(getPositions=True).getPositions()
 
 
 def polar_system(modeller, cutoff):
@@ -123,9 +138,10 @@ class Analysis:
 class SelfConsistent:
     """Drude positions that minimize the energy of the original System with every other particle held where it is."""
 
-    def __init__(self, system, analysis):
+    def __init__(self, system):
         fixed = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
-        drudes = set(analysis.drudes)
+        drude = next(f for f in system.getForces() if isinstance(f, openmm.DrudeForce))
+        drudes = {drude.getParticleParameters(i)[0] for i in range(drude.getNumParticles())}
         for i in range(fixed.getNumParticles()):
             if i not in drudes:
                 fixed.setParticleMass(i, 0.0)
@@ -134,12 +150,15 @@ class SelfConsistent:
         self.context = openmm.Context(fixed, openmm.VerletIntegrator(0.001), openmm.Platform.getPlatformByName("CPU"),
                                       {"Threads": "2"})
 
-    def displacements(self, state, analysis):
-        self.context.setPeriodicBoxVectors(*state.getPeriodicBoxVectors())
-        self.context.setPositions(state.getPositions())
+    def positions(self, positions, box):
+        """positions (nm, in the box's vectors) with every Drude particle moved to its self-consistent place."""
+        self.context.setPeriodicBoxVectors(*box)
+        self.context.setPositions(positions)
         openmm.LocalEnergyMinimizer.minimize(self.context, 1e-3, 2000)
-        x = self.context.getState(getPositions=True).getPositions(asNumpy=True).value_in_unit(unit.nanometer)
-        return analysis.displacements(x)
+        return self.context.getState(getPositions=True).getPositions(asNumpy=True).value_in_unit(unit.nanometer)
+
+    def displacements(self, state, analysis):
+        return analysis.displacements(self.positions(state.getPositions(), state.getPeriodicBoxVectors()))
 
 
 def make_integrator(kind, step_fs, seed, max_warped_phase=0.0, scaled_friction=False):
@@ -164,22 +183,27 @@ def make_integrator(kind, step_fs, seed, max_warped_phase=0.0, scaled_friction=F
 EQUILIBRATION_STEP_FS = 0.5
 
 
-def equilibrated(system, positions, seed, ps):
-    """The original System minimized, then run ps with DrudeLangevin at 0.5 fs behind the 0.02-nm hard wall: the state
-    every peer starts from.  At the solution's density DrudeLangevin at 1 fs blew up from the minimized box in one of
+def equilibrated(system, positions, seed, ps, minimize=True):
+    """The original System minimized (for boxes relaxed without their Drude particles, `build`, minimize=False: only
+    the Drude particles, moved to their self-consistent places), then run ps with DrudeLangevin at 0.5 fs behind the
+    0.02-nm hard wall: the state every peer starts from.  At the solution's density DrudeLangevin at 1 fs blew up from the minimized box in one of
     four starts without the wall (CHARMM's practice) and in one of ten with it.  Both run on one thread, so that a seed
     names one equilibrated state: with two the CPU platform's sums change from run to run, and so the paths: in the
     quick box about one minimizer path in ten ran a Drude particle into its neighbour's field (NaN), and about one
     equilibration in two hundred moved a Drude particle past twice the wall in one step (OpenMM's exception)."""
     platform = openmm.Platform.getPlatformByName("CPU")
     one_thread = {"Threads": "1"}
-    minimizer = openmm.Context(system, openmm.VerletIntegrator(0.001), platform, one_thread)
-    minimizer.setPositions(positions)
-    openmm.LocalEnergyMinimizer.minimize(minimizer, 10, 500)
+    if minimize:
+        minimizer = openmm.Context(system, openmm.VerletIntegrator(0.001), platform, one_thread)
+        minimizer.setPositions(positions)
+        openmm.LocalEnergyMinimizer.minimize(minimizer, 10, 500)
+        positions = minimizer.getState(getPositions=True).getPositions()
+    else:
+        positions = SelfConsistent(system).positions(positions, system.getDefaultPeriodicBoxVectors())
     integrator = make_integrator("DrudeLangevin", EQUILIBRATION_STEP_FS, seed)
     integrator.setMaxDrudeDistance(0.02 * unit.nanometer)
     context = openmm.Context(system, integrator, platform, one_thread)
-    context.setPositions(minimizer.getState(getPositions=True).getPositions())
+    context.setPositions(positions)
     context.setVelocitiesToTemperature(300 * unit.kelvin, seed + 1)
     integrator.step(int(round(ps * 1000 / EQUILIBRATION_STEP_FS)))
     return context.getState(getPositions=True, getVelocities=True)
@@ -390,8 +414,8 @@ def main():
     print(f"{analysis.ions['NA']} Na+ and {analysis.ions['CL']} Cl- (SOD, CLA) in {waters} SWM4-NDP molecules: "
           f"{system.getNumParticles()} particles, {len(analysis.drudes)} Drude particles", flush=True)
 
-    state = equilibrated(system, positions, args.seed, equilibration_ps)
-    scf = SelfConsistent(system, analysis)   # on the original System
+    state = equilibrated(system, positions, args.seed, equilibration_ps, minimize=False)
+    scf = SelfConsistent(system)   # on the original System
 
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)

@@ -3,7 +3,7 @@ wall (StochasticImpulseIntegrator.setMaxDrudeDistance): independent starts, each
 0.5 fs, then a few ps of SIM per step size and wall setting; a run fails on a NaN energy, an exception, or a Drude
 temperature above 10 K in any frame.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_ions/stability_probe.py [--seeds 1 2 3 4] \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_ions/stability_probe.py [--seeds 1 2 3 4] \
         [--steps 2 2.5] [--walls 0 0.02] [--ps 3] [--max-warped-phase RAD] [--quick] [--out DIR]
 
 Writes stability_probe.json to --out: per run its seed, step, wall, the step it failed at (or none), its hottest
@@ -75,7 +75,7 @@ def main():
         analysis = Analysis(system, topology)
         separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
         StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
-        state = equilibrated(system, positions, seed, equilibrate_ps)
+        state = equilibrated(system, positions, seed, equilibrate_ps, minimize=False)
         for step_fs in args.steps:
             for wall in args.walls:
                 run = probe(separated, state, analysis, step_fs, wall, seed + 3, args.ps, 30, args.max_warped_phase)

@@ -5,10 +5,10 @@ anisotropic remainders, the Thole screening and everything else soft), with the 
 DrudeLangevinIntegrator at 0.5 fs (the reference) and at 1 fs with the same wall, every run from the same
 equilibrated state in one process, on the CPU platform.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/drude_protein.py [--quick] [--out DIR] \\
+    PYTHONPATH=build/python .venv/bin/python examples/drude_protein/drude_protein.py [--quick] [--out DIR] \\
         [--production PS] [--burn-in PS] [--sim-steps 2 2.5] [--wall NM] [--wall-peers 1] [--seed N] \\
         [--max-warped-phase RAD] [--no-reference]
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/drude_protein.py --interleaved-timing ROUNDS \\
+    PYTHONPATH=build/python .venv/bin/python examples/drude_protein/drude_protein.py --interleaved-timing ROUNDS \\
         [--round-ps PS] [--sim-steps 2 2.5 3] [--wall-peers 1] [--max-warped-phase RAD] [--scaled-friction]
 
 Writes drude_protein.json to --out.  Observables (block averages; error = standard error of the block means):
@@ -247,7 +247,7 @@ def main():
     anisotropic_pairs = np.array([i for i in range(drude.getNumParticles()) if drude.getParticleParameters(i)[2] >= 0],
                                  dtype=int)
     groups = {"peptide": analysis.solute_pairs, "water": water_pairs, "anisotropic": anisotropic_pairs}
-    scf = SelfConsistent(system, analysis)  # on the original System
+    scf = SelfConsistent(system)  # on the original System
     separated = openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(system))
     StochasticImpulseIntegrator.separateDrudeSprings(separated, SPRING_GROUP)
     if run_timing(args, system, separated, state):

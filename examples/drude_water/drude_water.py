@@ -13,10 +13,6 @@ import os
 import re
 import textwrap
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import openmm  # noqa: E402
 import openmm.app as app  # noqa: E402
@@ -446,6 +442,7 @@ def seed_summary(paths, out):
 
 def plot_seed_summary(summary, seeds, water, path):
     """Each observable against H: the reference as a band of ± 2 s.e., every other peer as its seed means ± s.e."""
+    plt = reporting.pyplot()
     fig, axes = plt.subplots(2, 3, figsize=(14, 7.5))
     reference_label = summary["reference"]
     reference = summary["runs"][reference_label]
@@ -524,6 +521,7 @@ def plot(data, path):
               "WarpedMiddleLimited": "tab:cyan", "DrudeLangevinHeavy": "tab:brown", "WarpedMiddleScaled": "tab:orange",
               "DrudeLangevinLeastHeavy": "tab:gray",
               "WarpedMiddleLimitedScaled": "tab:orange"}
+    plt = reporting.pyplot()
     fig, axes = plt.subplots(2, 4, figsize=(18, 8.5))
     for ax, (key, title) in zip(axes.flat, OBSERVABLES):
         band = ax.axhspan(reference[key][0] - reference[key][1], reference[key][0] + reference[key][1], color="0.85",

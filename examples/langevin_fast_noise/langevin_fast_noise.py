@@ -17,7 +17,7 @@ listed in setFrictionParticles, so x gets neither friction nor noise.  Runs:
   flavor_custom_d*_t*  cross-check of flavor_d*_t*: O_y(tau) K(tau) D(tau) K_soft(delta-tau) D(delta-tau), same.
 FLAVOR runs at the paper's delta = 0.01, tau = 1e-4 and at tau = 1e-5, where the mesostep stays stable.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/langevin_fast_noise/langevin_fast_noise.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/langevin_fast_noise/langevin_fast_noise.py [--quick] [--out DIR]
 """
 import math
 import sys
@@ -119,8 +119,8 @@ def boltzmann(omega4, beta):
     scale = (beta * omega4 / 4.0) ** -0.25
     y = np.linspace(-10.0, 10.0, 400001) * scale
     w = np.exp(-beta * omega4 * y ** 4 / 4.0 - y / 2.0)
-    z = np.trapz(w, y)
-    avg = lambda f: float(np.trapz(w * f, y) / z)
+    z = ensemble.trapezoid(w, y)
+    avg = lambda f: float(ensemble.trapezoid(w * f, y) / z)
     return {"s": 0.0, "y": avg(y), "s2": avg(np.exp(-y)) / (2.0 * beta), "y2": avg(y * y), "px2": 1.0, "py2": 1.0}
 
 
@@ -136,7 +136,7 @@ def mesoscale_stability(delta, tau, omega, beta):
     a = beta * (tau / delta) * omega ** 4 / 4.0
     u = np.linspace(0.0, 12.0, 200001) * a ** -0.25
     density = np.exp(-a * u ** 4)
-    tail = np.trapz(np.where(u > a_crit, density, 0.0), u) / np.trapz(density, u)
+    tail = ensemble.trapezoid(np.where(u > a_crit, density, 0.0), u) / ensemble.trapezoid(density, u)
     return {"A_crit": a_crit, "beta_V_eff_at_A_crit": a * a_crit ** 4, "P_abs_y_gt_A_crit_H_eff": float(tail)}
 
 

@@ -15,7 +15,7 @@ and (2.9) as in the paper.  GLA, the paper's benchmark (the geometric Langevin a
 tau = delta = h, which is O(h) K_all(h) D(h) per step.  Both run from the same deterministic start; moments and the
 autocorrelations of Fig. 6.14 are ensemble means with standard errors, compared window by window.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/langevin_slow_noise/langevin_slow_noise.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/langevin_slow_noise/langevin_slow_noise.py [--quick] [--out DIR]
 """
 import math
 import sys
@@ -82,7 +82,7 @@ def mesoscale_stability(delta, tau, eps, beta):
     scale = a ** -0.25
     u = np.linspace(0.0, 12.0, 200001) * scale
     density = np.exp(-a * u ** 4)
-    tail = np.trapz(np.where(u > a_crit, density, 0.0), u) / np.trapz(density, u)
+    tail = ensemble.trapezoid(np.where(u > a_crit, density, 0.0), u) / ensemble.trapezoid(density, u)
     return {"A_crit": a_crit, "beta_V_eff_at_A_crit": a * a_crit ** 4, "P_abs_y_gt_A_crit_H_eff": float(tail),
             "rms_y_H_eff": math.sqrt(quartic_second_moment(a / beta, beta))}
 

@@ -51,6 +51,7 @@ from openmmflavors import _warnings as _flavorsWarnings
 
 %template(DoubleVector) std::vector<double>;
 %template(IntVector) std::vector<int>;
+%template(StringVector) std::vector<std::string>;
 
 // Quantities in, plain numbers in OpenMM's units to C++.
 %pythonprepend FlavorPlugin::FlavorIntegrator::FlavorIntegrator %{
@@ -201,7 +202,8 @@ from openmmflavors import _warnings as _flavorsWarnings
 %}
 
 // The protected Integrator interface is OpenMM's business, not Python's.
-// OpenMM's own Integrator.setIntegrationForceGroups (sets or bitmasks) calls the C++ override.
+// OpenMM's own Integrator.setIntegrationForceGroups calls the C++ override; the Python override below first makes the
+// bitmask, so that numpy integers are groups too (OpenMM 8.6's shifts them in numpy arithmetic, which overflows).
 %ignore FlavorPlugin::FlavorIntegrator::setIntegrationForceGroups;
 %ignore FlavorPlugin::StochasticImpulseIntegrator::setIntegrationForceGroups;
 %ignore FlavorPlugin::FlavorIntegrator::initialize;
@@ -229,6 +231,11 @@ from openmmflavors import _warnings as _flavorsWarnings
 %include "StochasticImpulseIntegrator.h"
 
 %extend FlavorPlugin::FlavorIntegrator {
+    %pythoncode %{
+    def setIntegrationForceGroups(self, groups):
+        """Set which force groups to use for integration: a bitmask or a set of group numbers, as OpenMM's."""
+        openmm.Integrator.setIntegrationForceGroups(self, _groupMask(groups, "integrationForceGroups"))
+    %}
     /** Returns integrator as a FlavorIntegrator, or None if it is another kind of Integrator. */
     static FlavorPlugin::FlavorIntegrator* _cast(OpenMM::Integrator* integrator) {
         return dynamic_cast<FlavorPlugin::FlavorIntegrator*>(integrator);
@@ -236,6 +243,11 @@ from openmmflavors import _warnings as _flavorsWarnings
 }
 
 %extend FlavorPlugin::StochasticImpulseIntegrator {
+    %pythoncode %{
+    def setIntegrationForceGroups(self, groups):
+        """Set which force groups to use for integration: a bitmask or a set of group numbers, as OpenMM's."""
+        openmm.Integrator.setIntegrationForceGroups(self, _groupMask(groups, "integrationForceGroups"))
+    %}
     /** Returns integrator as a StochasticImpulseIntegrator, or None if it is another kind of Integrator. */
     static FlavorPlugin::StochasticImpulseIntegrator* _cast(OpenMM::Integrator* integrator) {
         return dynamic_cast<FlavorPlugin::StochasticImpulseIntegrator*>(integrator);

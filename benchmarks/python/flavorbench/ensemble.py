@@ -85,3 +85,9 @@ def compare(other, ref, t_window, late_from, regime_split, names=("run", "refere
                    "ratio": float(other["late_mean"] / ref["late_mean"]) if ref["late_mean"] != 0 else None}
     out["agree"] = bool(out["all"]["mean_z2"] <= MEAN_Z2_AGREE and abs(late_z) <= LATE_Z_AGREE)
     return out
+
+
+def trapezoid(y, x):
+    """The trapezoidal rule over the samples y at the points x (numpy's trapezoid; numpy before 2.0 names it trapz)."""
+    y, x = np.asarray(y, dtype=float), np.asarray(x, dtype=float)
+    return float(np.sum((y[1:] + y[:-1]) * np.diff(x)) / 2)

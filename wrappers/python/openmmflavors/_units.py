@@ -24,7 +24,8 @@ def toInt(value, name):
 
 def toBool(value, name):
     """Return a bool (Python or numpy) as a bool."""
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
+    # numpy's bool is numpy.bool_ (named numpy.bool from numpy 2 on), no subclass of bool.
+    if isinstance(value, bool) or (type(value).__module__ == "numpy" and type(value).__name__ in ("bool_", "bool")):
         return bool(value)
     raise TypeError(f"{name} = {value!r} is not allowed; {name} must be True or False")
 

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Speed on OpenMM's OpenCL platform: what the plugin's OpenCL backend runs (the FLAVOR, the SIM's splittings, the SIM
-on rigid Drude water) beside OpenMM's own integrators on the same platform, in the same run, timed
-in interleaved batches (flavorbench.runners.time_batches: every peer steps one batch in turn, so a change of the
-machine's load hits them alike).  Each batch ends with a download of the velocities, so that the OpenCL queue has
+"""Speed on OpenMM's GPU platforms (--platform CUDA or OpenCL): what the plugin's GPU backend runs (the FLAVOR, the
+SIM's splittings, the SIM on rigid Drude water) beside OpenMM's own integrators on the same platform, in the same run,
+timed in interleaved batches (flavorbench.runners.time_batches: every peer steps one batch in turn, so a change of the
+machine's load hits them alike).  Each batch ends with a download of the velocities, so that the platform's queue has
 drained before the clock stops.
 
 Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
@@ -29,7 +29,7 @@ Scenes (each in every precision of --precision: mixed and double by default; Ope
   drude_villin    villin in Drude-2019 water (OpenMM's villin box through Modeller.addExtraParticles: 14,789 particles,
                   289 Drude particles in the protein, 8,576 constraints), the peers of drude_protein
                   with the SIM's phase held at 1.4 from 2 fs on (its aromatic rings' coupling; VILLIN_MAX_PHASE).
-                  Its start is made on the OpenCL device itself (minimized, then DrudeLangevin 0.5 fs behind the wall
+                  Its start is made on the GPU device itself (minimized, then DrudeLangevin 0.5 fs behind the wall
                   for 2 ps): on the CPU platform its Reference Drude code takes about a second a step.  Meant for a
                   GPU; on PoCL only --quick is practical.
   fpu             FPU chains (FLAVORS paper eq. 6.7, omega = 50, reduced units read by OpenMM as ps), 200 copies:
@@ -41,14 +41,15 @@ The start states are made on the CPU platform (minimization and a short equilibr
 them; with --states DIR they are kept there (XML, made on first use) and read back by later runs, on this or another
 machine, so that a run on a borrowed GPU spends no time equilibrating.  With PoCL (a CPU OpenCL driver) the times are a CPU's: only the ratios between peers of one run mean anything.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/opencl_benchmark.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/gpu_benchmark.py [--platform CUDA|OpenCL] [--quick] [--out DIR]
         [--precision mixed double] [--scenes drude_water flexible_water villin drude_protein drude_villin fpu]
         [--target S] [--repeats N]
         [--states DIR] [--no-chart] [--replot JSON]
 
 $FLAVORS_BENCH_QUICK=1 acts as --quick; $FLAVORS_OPENCL_PLATFORM_INDEX and $FLAVORS_OPENCL_DEVICE_INDEX pick the OpenCL
-device (OpenMM's OpenCLPlatformIndex and DeviceIndex; by default OpenMM chooses).  Progress goes to stderr; the table
-to stdout; DIR/opencl_benchmark.json (every batch) and DIR/opencl_benchmark.png (ns/day bars per peer).  --no-chart
+device (OpenMM's OpenCLPlatformIndex and DeviceIndex; by default OpenMM chooses), $FLAVORS_CUDA_DEVICE_INDEX the CUDA
+device.  Progress goes to stderr; the table to stdout; DIR/gpu_benchmark_<platform>.json (every batch) and
+DIR/gpu_benchmark_<platform>.png (ns/day bars per peer).  --no-chart
 writes the JSON alone (for a machine without matplotlib); --replot JSON draws that run's chart into --out.
 """
 import os
@@ -83,10 +84,12 @@ DRUDE_WALL_NM = 0.02  # CHARMM's hard wall, on every peer of the Drude-2019 scen
 # stable there only while (1 + 1.21) sin^2(phase/2) < 1, phase < 1.47; plain Warped has 1.77 at 2 fs and holds only to
 # about 1.57 fs.  The SIM peers of drude_villin hold the phase at 1.4 from 2 fs on.
 VILLIN_MAX_PHASE = 1.4
-# OpenMM picks the OpenCL device itself unless these name one (benchmarks/device_check.sh sets them to the GPU's).
-DEVICE_PROPERTIES = {key: os.environ[variable] for key, variable in
-                     (("OpenCLPlatformIndex", "FLAVORS_OPENCL_PLATFORM_INDEX"),
-                      ("DeviceIndex", "FLAVORS_OPENCL_DEVICE_INDEX")) if os.environ.get(variable)}
+# OpenMM picks the device itself unless these name one (benchmarks/device_check.sh sets OpenCL's to the GPU's).
+DEVICE_VARIABLES = {"OpenCL": (("OpenCLPlatformIndex", "FLAVORS_OPENCL_PLATFORM_INDEX"),
+                               ("DeviceIndex", "FLAVORS_OPENCL_DEVICE_INDEX")),
+                    "CUDA": (("DeviceIndex", "FLAVORS_CUDA_DEVICE_INDEX"),)}
+DEVICE_PROPERTIES = {}  # the chosen platform's, set by main()
+PLATFORM_NAME = "OpenCL"  # set by main()
 FPU_OMEGA, FPU_M = 50.0, 3
 
 
@@ -95,8 +98,8 @@ def log(message):
 
 
 class Drained:
-    """integrator.step(n), then a download of the velocities: OpenCL enqueues a step's kernels and returns, so a
-    batch's time is complete only once the queue has drained."""
+    """integrator.step(n), then a download of the velocities: a GPU platform enqueues a step's kernels and returns, so
+    a batch's time is complete only once the queue has drained."""
 
     def __init__(self, context, integrator):
         self.context, self.integrator = context, integrator
@@ -106,13 +109,15 @@ class Drained:
         self.context.getState(getVelocities=True)
 
 
-def opencl_platform():
+def gpu_platform():
     try:
-        return mm.Platform.getPlatformByName("OpenCL")
+        return mm.Platform.getPlatformByName(PLATFORM_NAME)
     except Exception:
         names = [mm.Platform.getPlatform(i).getName() for i in range(mm.Platform.getNumPlatforms())]
-        sys.exit("opencl_benchmark: OpenMM has no OpenCL platform (platforms: %s); install an OpenCL driver (an ICD "
-                 "in /etc/OpenCL/vendors, e.g. NVIDIA's or pocl-opencl-icd)" % ", ".join(names))
+        remedy = ("an NVIDIA GPU, its driver and OpenMM's CUDA add-on (openmm-cuda-13)" if PLATFORM_NAME == "CUDA" else
+                  "an OpenCL driver (an ICD in /etc/OpenCL/vendors, e.g. NVIDIA's or pocl-opencl-icd)")
+        sys.exit(f"gpu_benchmark: OpenMM has no {PLATFORM_NAME} platform (platforms: {', '.join(names)}); it needs "
+                 f"{remedy}")
 
 
 def short_reason(error):
@@ -121,13 +126,13 @@ def short_reason(error):
     if "not quadratic" in text:
         return "rejected: stiff forces not quadratic at this precision"
     if "not yet" in text or "not supported" in text or "unsupported" in text:
-        return "not available on OpenCL yet"
+        return f"not available on {PLATFORM_NAME} yet"
     return "failed: " + text[:40]
 
 
 def device_of(platform, context):
-    return {key: platform.getPropertyValue(context, key)
-            for key in ("DeviceName", "OpenCLPlatformName", "Precision", "DeviceIndex", "OpenCLPlatformIndex")}
+    keys = ("DeviceName", "OpenCLPlatformName", "Precision", "DeviceIndex", "OpenCLPlatformIndex")
+    return {key: platform.getPropertyValue(context, key) for key in keys if key in platform.getPropertyNames()}
 
 
 def stored_start(states, key, make):
@@ -303,12 +308,12 @@ def drude_villin_scene(quick, states):
     system, _, positions = drude_ions.polar_system(app.Modeller(pdb.topology, pdb.positions), 1.0)
     iterations, steps = (100, 200) if quick else (500, 4000)
     log(f"drude_villin: villin in Drude-2019 water ({system.getNumParticles()} particles), minimizing and running "
-        f"{steps} steps of DrudeLangevin 0.5 fs behind the wall on the OpenCL device")
+        f"{steps} steps of DrudeLangevin 0.5 fs behind the wall on the {PLATFORM_NAME} device")
 
     def equilibrate():
         integrator = drude_ions.make_integrator("DrudeLangevin", 0.5, 1)
         integrator.setMaxDrudeDistance(DRUDE_WALL_NM)
-        context = mm.Context(system, integrator, opencl_platform(), dict(DEVICE_PROPERTIES, Precision="mixed"))
+        context = mm.Context(system, integrator, gpu_platform(), dict(DEVICE_PROPERTIES, Precision="mixed"))
         context.setPositions(positions)
         mm.LocalEnergyMinimizer.minimize(context, 10, iterations)
         context.setVelocitiesToTemperature(300 * unit.kelvin, 2)
@@ -346,7 +351,7 @@ def run_scene(name, scene, platform, precisions, target, repeats):
     description, start, peers = scene
     result = {"system": description, "precisions": {}}
     for precision in precisions:
-        log(f"{name}, {precision} precision: creating the Contexts (the OpenCL kernels compile on first use)")
+        log(f"{name}, {precision} precision: creating the Contexts (the {PLATFORM_NAME} kernels compile on first use)")
         cases, steps, records, device = {}, {}, {}, None
         for peer, step_fs, system, factory, note in peers:
             integrator = factory()
@@ -389,7 +394,7 @@ def print_tables(data):
                                  record["ns_per_day"] / base, ""])
                 else:
                     rows.append([peer, record["step_fs"], "-", "-", "-", record["reason"]])
-            reporting.table(f"{name}: {scene['system']}, OpenCL {precision} "
+            reporting.table(f"{name}: {scene['system']}, {data.get('platform', 'OpenCL')} {precision} "
                             f"({(run['device'] or {}).get('DeviceName', '?')})",
                             [("peer", max(len(peer) for peer in peers), "s"), ("step fs", 8, ".3g"),
                              ("us/step", 10, ".4g"),
@@ -404,7 +409,9 @@ def plot(data, path):
     fig, axes = plt.subplots(len(panels), 1, figsize=(12, 2.6 + 1.1 * sum(len(r["peers"]) for *_, r in panels) / 2),
                              squeeze=False)
     device = next(((r["device"] or {}).get("DeviceName") for *_, r in panels if r["device"]), "?")
-    opencl = next(((r["device"] or {}).get("OpenCLPlatformName") for *_, r in panels if r["device"]), "?")
+    platform = data.get("platform", "OpenCL")
+    opencl = next(((r["device"] or {}).get("OpenCLPlatformName") for *_, r in panels if r["device"]), "")
+    driver = f"{opencl}: {device}" if opencl else device
     for ax, (name, precision, run) in zip(axes[:, 0], panels):
         peers = list(run["peers"].items())
         y = np.arange(len(peers))
@@ -426,7 +433,7 @@ def plot(data, path):
         ax.set_title(textwrap.fill(f"{name}: {data['scenes'][name]['system']} — {precision} precision", 70),
                      fontsize=9, loc="left")
     pocl = "pocl" in opencl.lower() or "portable computing language" in opencl.lower()
-    fig.suptitle(f"ns/day on OpenMM's OpenCL platform ({opencl}: {device}): the plugin's integrators (orange)\n"
+    fig.suptitle(f"ns/day on OpenMM's {platform} platform ({driver}): the plugin's integrators (orange)\n"
                  "against OpenMM's own (blue) in the same run, interleaved batches, best batch.  " +
                  ("PoCL is a CPU OpenCL driver:\nits times are a CPU's, only the ratios within a panel count"
                   if pocl else "Compare ratios within a panel"), fontsize=10)
@@ -435,37 +442,53 @@ def plot(data, path):
 
 
 def main():
-    p = reporting.parser(__doc__, "opencl", quick_help="a smoke run: small systems, short batches")
+    global PLATFORM_NAME
+    p = reporting.parser(__doc__, "gpu", quick_help="a smoke run: small systems, short batches")
+    p.add_argument("--platform", default="OpenCL", choices=["CUDA", "OpenCL"], help="OpenMM's GPU platform to run on")
     p.add_argument("--precision", nargs="+", default=["mixed", "double"], choices=["single", "mixed", "double"])
     p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     p.add_argument("--target", type=float, default=None, help="seconds per batch (default 3, --quick 0.5)")
     p.add_argument("--repeats", type=int, default=None, help="rounds of batches (default 5, --quick 2)")
     p.add_argument("--states", default=None, metavar="DIR",
                    help="keep the scenes' start states in DIR (XML): read when there, made and written otherwise")
+    p.add_argument("--make-states-only", action="store_true",
+                   help="make the scenes' start states into --states and stop (benchmarks/device_prepare.sh)")
     p.add_argument("--no-chart", action="store_true", help="write the JSON only (draw it later with --replot)")
     p.add_argument("--replot", metavar="JSON", help="only draw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
     if args.replot:
-        reporting.replot(args.replot, args.out, "opencl_benchmark", plot)
+        reporting.replot(args.replot, args.out, f"gpu_benchmark_{args.platform.lower()}", plot)
         return
+    PLATFORM_NAME = args.platform
+    DEVICE_PROPERTIES.update({key: os.environ[variable] for key, variable in DEVICE_VARIABLES[PLATFORM_NAME]
+                              if os.environ.get(variable)})
     if os.environ.get("FLAVORS_BENCH_QUICK", "") not in ("", "0"):
         args.quick = True
         reporting.set_smoke_run(True)
     target = args.target or (0.5 if args.quick else 3.0)
     repeats = args.repeats or (2 if args.quick else 5)
-    platform = opencl_platform()
     builders = {"drude_water": drude_scene, "flexible_water": flexible_scene, "villin": villin_scene,
                 "drude_protein": drude_protein_scene, "drude_villin": drude_villin_scene, "fpu": fpu_scene}
-    data = {"command": " ".join(sys.argv), "quick": args.quick, "batch_target_s": target, "repeats": repeats,
+    data = {"command": " ".join(sys.argv), "platform": PLATFORM_NAME, "quick": args.quick, "batch_target_s": target,
+            "repeats": repeats,
             "openmm_version": mm.Platform.getOpenMMVersion(), "scenes": {}}
+    if args.make_states_only:
+        if not args.states:
+            p.error("--make-states-only needs --states DIR")
+        for name in args.scenes:
+            builders[name](args.quick, args.states)
+        return
+    platform = gpu_platform()
     for name in args.scenes:
-        data["scenes"][name] = run_scene(name, builders[name](args.quick, args.states), platform, args.precision, target, repeats)
+        data["scenes"][name] = run_scene(name, builders[name](args.quick, args.states), platform, args.precision,
+                                         target, repeats)
     print_tables(data)
+    stem = f"gpu_benchmark_{PLATFORM_NAME.lower()}"
     if args.no_chart:
-        reporting.write_json(os.path.join(args.out, "opencl_benchmark.json"), data, strict=False)
-        print(f"\nwrote {os.path.join(args.out, 'opencl_benchmark.json')} (no chart: --no-chart)")
+        reporting.write_json(os.path.join(args.out, f"{stem}.json"), data, strict=False)
+        print(f"\nwrote {os.path.join(args.out, stem + '.json')} (no chart: --no-chart)")
     else:
-        reporting.save_outputs(args.out, "opencl_benchmark", data, lambda path: plot(data, path))
+        reporting.save_outputs(args.out, stem, data, lambda path: plot(data, path))
 
 
 if __name__ == "__main__":

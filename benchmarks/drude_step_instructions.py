@@ -10,7 +10,7 @@ integrator's own work (the openmm-flavors engine, or OpenMM's DrudeLangevin kern
 and the rest.  The neighbour list is rebuilt when a particle has moved far enough, so its cost per simulated time does
 not fall with a longer step: it is part of the price of any 2-fs step.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/drude_step_instructions.py [--out DIR]   # about 5 min
+    PYTHONPATH=build/python .venv/bin/python benchmarks/drude_step_instructions.py [--out DIR]   # about 5 min
 
 Needs valgrind (apt-get install valgrind).  Outputs: DIR/drude_step_instructions.json and .png (default
 results/bench).

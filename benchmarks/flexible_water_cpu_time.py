@@ -10,7 +10,7 @@ integrator.step(): the CPU time of the process, all its threads together.  Repor
 the ratio of each FLAVOR to LangevinMiddle 2 fs at the same thread count.  To compare two builds, run this with each
 (PYTHONPATH) in turn, twice alternating, and compare the ratios.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/flexible_water_cpu_time.py [--out DIR] [--threads 1 2]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/flexible_water_cpu_time.py [--out DIR] [--threads 1 2]
         [--rounds 3] [--ps 0.12] [--warmup 0.03] [--label NAME]       # ~1 min
 
 Output: a table on stdout and DIR/flexible_water_cpu_time[_LABEL].json (default results/bench).

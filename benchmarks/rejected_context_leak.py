@@ -5,7 +5,7 @@ Context leaves its ContextImpl, platform data and force implementations behind. 
 rejected Contexts (a FlavorIntegrator on a System without soft forces) on each platform and prints the growth of the
 resident set size per rejection, after a warm-up of the same size.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/rejected_context_leak.py [--count N] [--particles N]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/rejected_context_leak.py [--count N] [--particles N]
 """
 import argparse
 import os

@@ -8,7 +8,7 @@
 
 Each is the best of --repeats fresh Contexts.  Prints a table and writes JSON (default results/sim_setup_time.json).
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/sim_setup_time.py [--repeats N] [--out FILE]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/sim_setup_time.py [--repeats N] [--out FILE]
 """
 import argparse
 import json

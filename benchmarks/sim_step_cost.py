@@ -9,7 +9,7 @@ the mode work grows with the size of the stiff components.
     step time against sum_c n_c^2 = PARTICLES n_c over the sizes that take the general path (n_c > 6: products with
     the eigenvectors, O(n_c^2) per component) and over n_c >= 32, where those products dominate.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/sim_step_cost.py [--chains N] [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/sim_step_cost.py [--chains N] [--quick] [--out DIR]
 """
 import sys
 

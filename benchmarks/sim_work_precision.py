@@ -31,7 +31,7 @@ set-up cost of the stiff modes, and the cost of a SIM step relative to a soft-fo
 This is a benchmark: it prints what it measures and asserts nothing.  Progress on stderr, tables on stdout, JSON and
 PNG in --out.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/sim_work_precision.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/sim_work_precision.py [--quick] [--out DIR]
 """
 import math
 import os

@@ -20,8 +20,8 @@
     at equilibrium whatever the potential and which an instability sends to infinity (the energy itself has no
     closed-form equilibrium value for the quartic chain).
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/stability.py            # ~3-4 min
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/stability.py --quick    # seconds (smoke test)
+    PYTHONPATH=build/python .venv/bin/python benchmarks/stability.py            # ~3-4 min
+    PYTHONPATH=build/python .venv/bin/python benchmarks/stability.py --quick    # seconds (smoke test)
 """
 import json
 import math

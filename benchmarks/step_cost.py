@@ -18,7 +18,7 @@ times on a shared machine are noisy, the helper is also run under valgrind's cal
 --no-instructions): instructions per step, from the difference of two runs with different step counts, give
 load-independent cost ratios.  This is a benchmark: it prints what it measures and asserts nothing.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/step_cost.py [--quick] [--out DIR] [--helper PATH]
+    PYTHONPATH=build/python .venv/bin/python benchmarks/step_cost.py [--quick] [--out DIR] [--helper PATH]
 """
 import os
 import shutil

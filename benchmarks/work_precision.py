@@ -39,9 +39,9 @@ The tables: per method and checkpoint, the run with the fewest force-group evalu
 (and, second table, whose window-mean stiff-energy error is <= 1e-2 too), with speedups over the cheapest Verlet and
 r-RESPA runs.
 
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/work_precision.py            # full, ~4-7 min
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/work_precision.py --demo     # omega 50, 200 at short T, ~15 s
-    PYTHONPATH=build/python /usr/bin/python3 benchmarks/work_precision.py --quick    # seconds (smoke test)
+    PYTHONPATH=build/python .venv/bin/python benchmarks/work_precision.py            # full, ~4-7 min
+    PYTHONPATH=build/python .venv/bin/python benchmarks/work_precision.py --demo     # omega 50, 200 at short T, ~15 s
+    PYTHONPATH=build/python .venv/bin/python benchmarks/work_precision.py --quick    # seconds (smoke test)
 """
 import json
 import math

@@ -5,7 +5,7 @@ numbers of the scenes' full runs, with the commands that measure them.  `make de
 A run this short measures speed (roughly: ±30 % on a loaded machine) and shows that the observables are in place; it
 cannot show that they agree within error bars: the full runs in the scenes' READMEs do that.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/demo/demo.py [--production PS] [--only drude|water] [--quick]
+    PYTHONPATH=build/python .venv/bin/python examples/demo/demo.py [--production PS] [--only drude|water] [--quick]
 """
 import argparse
 import importlib.util

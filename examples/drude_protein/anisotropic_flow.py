@@ -25,9 +25,9 @@ field is linear, so d_SCF solves (K - q_D G) d = q_D E(core) exactly), the Drude
 velocities and from the positions, (d - d_SCF)^T (K - q_D G) (d - d_SCF) / (3 k_B), which does not depend on the
 Drude's mass, and the cores' temperature.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/anisotropic_flow.py \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_protein/anisotropic_flow.py \
         --peers DrudeLangevin:0.25 Soft:2 Flow:2 Soft:3:1.77 Flow:3:1.77 [--pairs 512] [--ps 100] [--out DIR]
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/anisotropic_flow.py --seed-table JSON ...
+    PYTHONPATH=build/python .venv/bin/python examples/drude_protein/anisotropic_flow.py --seed-table JSON ...
 
 Writes anisotropic_flow.json to --out and prints each peer as it finishes.
 """

@@ -15,7 +15,7 @@ positions (Drude particles on their cores),
 scaled by 1/sqrt(k_i k_j); its largest eigenvalues with the residues that carry them, the largest eigenvalue of each
 residue's own block, and the phase limit.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/drude_coupling.py [--system dipeptide|villin] \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_protein/drude_coupling.py [--system dipeptide|villin] \
         [--quick] [--out DIR]
 
 dipeptide: the scene's box (250 SWM4-NDP molecules; --quick: 80); villin: OpenMM's villin box (examples/villin's PDB)

@@ -4,7 +4,7 @@ System as it is and, with --thole-off, on one whose Thole-screened pairs have no
 (screening parameter a = 0: a diagnostic that changes the force field, not a setting to run).  A run fails on an
 exception (the wall's check that no pair ends a step past twice the wall), a NaN energy or a Drude frame above 10 K.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_protein/step_limit_probe.py [--seeds 1 2] \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_protein/step_limit_probe.py [--seeds 1 2] \
         [--steps 2 2.25 2.5] [--ps 3] [--thole-off] [--max-warped-phase RAD] [--quick] [--out DIR]
 
 Writes step_limit_probe.json to --out and a Markdown table to stdout."""

@@ -25,7 +25,7 @@ independent replica (another start, other random numbers); --temperature sets th
 turns both baths off and reports each peer's energy drift per molecule (KIND Verlet: OpenMM's VerletIntegrator as the
 exact peer).
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/caged_molecules.py \
+    PYTHONPATH=build/python .venv/bin/python examples/drude_water/caged_molecules.py \
         --peers DrudeLangevin:0.5 WarpedMiddleScaled:2.5 Twin:0.5:2.5:2.05 [--friction 5] [--ps 100] [--out DIR]
 
 Writes caged_molecules.json to --out and prints each peer as it finishes.

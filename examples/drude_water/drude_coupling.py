@@ -18,7 +18,7 @@ molecules at water's density, equilibrated as temperature_probe.py's start):
 
 Writes drude_coupling.json and prints the tables.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/drude_coupling.py [--frames 2] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/drude_water/drude_coupling.py [--frames 2] [--out DIR]
 """
 
 import argparse

@@ -18,7 +18,7 @@ SIM's Warped step (phase-limited at 2.05, the Drude's 20/ps bath, friction unsca
 
 Writes force_history.json and force_history.png to --out.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/force_history.py [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/drude_water/force_history.py [--out DIR]
 """
 
 import argparse

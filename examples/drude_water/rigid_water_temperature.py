@@ -6,7 +6,7 @@ Middle free flow with SETTLE, the treatment the SWM4-NDP molecules get.  Three r
 equilibrated state, the kinetic temperature of the molecules (6 N - 3 degrees of freedom) every 0.1 ps after 1 ps;
 mean over the runs ± its standard error.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/drude_water/rigid_water_temperature.py [--steps 1 2 3 4] \\
+    PYTHONPATH=build/python .venv/bin/python examples/drude_water/rigid_water_temperature.py [--steps 1 2 3 4] \\
         [--ps 4] [--integrators LangevinMiddle SIM] [--water tip4pew]
 
 --water tip4pew takes TIP4P-Ew instead, whose massless M site is a virtual site as SWM4-NDP's is.

@@ -24,7 +24,7 @@ Speed: every peer's Context lives through the whole production, which runs in --
 turn advances production/rounds ps, the order reversed every other round), so machine load falls on all peers alike;
 ns/day counts the wall time of integrator.step only.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/flexible_water/flexible_water.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/flexible_water/flexible_water.py [--quick] [--out DIR]
         [--start PS] [--equilibration PS] [--production PS] [--threads N] [--seeds S ...] [--set SET]
         [--peers NAME ...]
 

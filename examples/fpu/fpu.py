@@ -10,7 +10,7 @@ FLAVOR (mesostep delta, microstep tau) is compared with OpenMM's VerletIntegrato
 springs, both against a fine VerletIntegrator reference whose own error is estimated by step halving.  Everything
 is measured in this run; speedups are wall-clock ratios of the integrator.step() calls.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/fpu/fpu.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/fpu/fpu.py [--quick] [--out DIR]
 """
 import math
 import sys

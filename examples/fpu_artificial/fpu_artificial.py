@@ -13,7 +13,7 @@ FlavorIntegrator SymplecticEuler with delta = 0.002, tau = 0.0005 (the paper's F
 Nonintrusive, Artificial (eq. (2.11)) and ArtificialProjected averagings, and the Artificial one with the exact fast
 flow at tau = 1e-4 (Fig. 6.7).
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/fpu_artificial/fpu_artificial.py [--quick] [--T T] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/fpu_artificial/fpu_artificial.py [--quick] [--T T] [--out DIR]
 
 Outputs: DIR/fpu_artificial.json and DIR/fpu_artificial.png.
 

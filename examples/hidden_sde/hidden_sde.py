@@ -16,7 +16,7 @@ h = tau = eps does not resolve the fast process (Euler-Maruyama's stationary var
 averaged equation X' = -(X^2 + v)/2 + 5 sin(2 pi t) (solved here with SciPy), v = 1 for the SDE itself.  Units are
 the paper's: dimensionless.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/hidden_sde/hidden_sde.py [--quick] [--out DIR] [--docs DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/hidden_sde/hidden_sde.py [--quick] [--out DIR] [--docs DIR]
 
 Outputs: DIR/hidden_sde.json and DIR/hidden_sde.png (default DIR results/hidden_sde); --docs DIR also writes a small
 copy of the chart there.  The loops run in C++ (the program hidden_sde built with the project, one call per run);

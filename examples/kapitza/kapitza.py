@@ -25,7 +25,7 @@ amplitude.  Speedups are
 wall-clock ratios of the integrator.step() calls over the whole run, timed in chunks of 100 steps (the median chunk's
 time per step times the steps: the machine may be shared), in runs without sampling.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/kapitza/kapitza.py [--quick] [--out DIR] [--T 10]
+    PYTHONPATH=build/python .venv/bin/python examples/kapitza/kapitza.py [--quick] [--out DIR] [--T 10]
 """
 import math
 import time

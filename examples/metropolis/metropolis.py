@@ -37,7 +37,7 @@ The adjustment's cost per step: adjusted against unadjusted (same integrator, sa
 (1 fs), timed in 30 rounds taking turns, without sampling; the median and quartiles of the per-round ratios.  And the
 dipeptide's acceptance over a grid of delta (0.5-3 fs) and tau = delta, delta/2, delta/4.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/metropolis/metropolis.py [--quick] [--out DIR] [--replot JSON]
+    PYTHONPATH=build/python .venv/bin/python examples/metropolis/metropolis.py [--quick] [--out DIR] [--replot JSON]
         [--fpu-into JSON]   (run only part (c) and write JSON with it added into --out)
 """
 import json

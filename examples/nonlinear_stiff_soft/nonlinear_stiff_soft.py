@@ -13,7 +13,7 @@ paper's symplectic Euler at h = 1e-5 (FlavorIntegrator(h, h) SymplecticEuler); a
 (stiff term times tau/delta, i.e. eps -> eps delta/tau) integrated finely, which is what a FLAVOR follows to leading
 order.  Slow variable: x (and p_x); fast: y.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/nonlinear_stiff_soft/nonlinear_stiff_soft.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/nonlinear_stiff_soft/nonlinear_stiff_soft.py [--quick] [--out DIR]
 """
 import os
 

@@ -14,7 +14,7 @@ paper's symplectic Euler at h = 2e-4 (FlavorIntegrator(h, h) SymplecticEuler); a
 (omega^2 times tau/delta) integrated finely.  Slow variables: the angle theta and the angular momentum
 L = x p_y - y p_x (the stiff force is central, so dL/dt = sin(2 theta) has no fast part); fast: r.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/primitive_md_2d/primitive_md_2d.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/primitive_md_2d/primitive_md_2d.py [--quick] [--out DIR]
 """
 import math
 import os

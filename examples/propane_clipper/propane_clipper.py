@@ -16,7 +16,7 @@ paper's symplectic Euler at h = 0.01 (FlavorIntegrator(h, h) SymplecticEuler); h
 error by step halving; also the Verlet-scheme FLAVOR and the H_eff system (K_r times tau/delta) integrated finely.
 Slow variables: the bond angle theta and the orientation phi of the vector from atom 1 to atom 3; fast: r1, r2.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/propane_clipper/propane_clipper.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/propane_clipper/propane_clipper.py [--quick] [--out DIR]
 """
 import math
 import os

@@ -1,7 +1,7 @@
 """Polarizable water with StochasticImpulseIntegrator: 256 SWM4-NDP molecules (OpenMM's swm4ndp.xml, rigid, PME),
 the Drude springs integrated exactly, cold, in 2.5-fs steps (Warped splitting, Middle placement).
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/scripts/drude_water.py [--steps N] [--quick]
+    PYTHONPATH=build/python .venv/bin/python examples/scripts/drude_water.py [--steps N] [--quick]
 """
 import argparse
 

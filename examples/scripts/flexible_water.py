@@ -1,7 +1,7 @@
 """Flexible TIP3P water with FlavorIntegrator: 216 molecules (PME), the O-H bonds and H-O-H angles frozen between
 0.5-fs microsteps, 2-fs mesosteps (examples/flexible_water measures it against LangevinMiddleIntegrator).
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/scripts/flexible_water.py [--steps N] [--quick]
+    PYTHONPATH=build/python .venv/bin/python examples/scripts/flexible_water.py [--steps N] [--quick]
 """
 import argparse
 import sys

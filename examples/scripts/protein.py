@@ -1,7 +1,7 @@
 """A protein in water with FlavorIntegrator: villin (8,867 atoms, amber14 + TIP3P, PME, X-H bonds constrained) in
 OpenMM's Simulation, the heavy-atom bonds and angles frozen between 1-fs microsteps, 2.5-fs mesosteps.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/scripts/protein.py [--steps N] [--quick]
+    PYTHONPATH=build/python .venv/bin/python examples/scripts/protein.py [--steps N] [--quick]
 """
 import argparse
 import sys

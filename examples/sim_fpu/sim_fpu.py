@@ -15,7 +15,7 @@ VerletIntegrator at a step that resolves the stiff springs is the cost peer.  Wa
 integrator.step() calls (minimum of the sampled run and unsampled repeats: three for SIM, one for the Verlet peer);
 speedup = Verlet peer wall time / wall time.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/sim_fpu/sim_fpu.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/sim_fpu/sim_fpu.py [--quick] [--out DIR]
 """
 import sys
 

@@ -27,7 +27,7 @@ Also both SIMs at a non-resonant step (omega H ~ 10.5 pi).  Empirical first and 
 compared with their sampling errors (z-scores).  Speedups are ratios of the wall time of integrator.step() calls
 over the same simulated time, same platform, same ensemble size.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/sim_two_springs/sim_two_springs.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/sim_two_springs/sim_two_springs.py [--quick] [--out DIR]
 """
 import math
 import sys

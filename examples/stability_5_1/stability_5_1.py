@@ -12,7 +12,7 @@ tau -> 0 (delta = 2 nonintrusive, delta = 2 sqrt(2) artificial), the artificial 
 tau = sqrt(2 eps) (symplectic Euler on the stiff mode of frequency sqrt(2) omega needs tau sqrt(2) omega <= 2), and
 the spectral radius of the one-step matrix computed here with NumPy, eq. (5.5) for the artificial FLAVOR.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/stability_5_1/stability_5_1.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/stability_5_1/stability_5_1.py [--quick] [--out DIR]
 
 Outputs: DIR/stability_5_1.json and DIR/stability_5_1.png.
 

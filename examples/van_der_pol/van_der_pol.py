@@ -12,7 +12,7 @@ FLAVOR delta = 0.01, tau = 5e-5 (a 200x acceleration claimed).  The loops run in
 with the project, one call per run); a reference solution comes from SciPy's Radau (rtol 1e-10).  Units are the
 paper's: dimensionless.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/van_der_pol/van_der_pol.py [--quick] [--out DIR] [--docs DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/van_der_pol/van_der_pol.py [--quick] [--out DIR] [--docs DIR]
 
 Outputs: DIR/van_der_pol.json and DIR/van_der_pol.png (default DIR results/van_der_pol); --docs DIR also writes a
 small copy of the chart there (docs/van_der_pol.png comes from the full run).  Speedups are ratios of the processor

@@ -31,7 +31,7 @@ from their equilibrium lengths per element pair, RMS deviation of the angles fro
 with and without a hydrogen), backbone (N, CA, C) RMSD from the common start after superposition.  ns/day with 2
 threads is measured over the production run; ns/day with 1 thread over a further --timing ps in a new Context.
 
-    PYTHONPATH=build/python /usr/bin/python3 examples/villin/villin.py [--quick] [--out DIR]
+    PYTHONPATH=build/python .venv/bin/python examples/villin/villin.py [--quick] [--out DIR]
         [--start PS] [--equilibration PS] [--production PS] [--timing PS] [--flavors ...] [--langevin-steps FS ...]
 
 Outputs: DIR/villin.json (every number and the RMSD series) and DIR/villin.png.

@@ -25,8 +25,12 @@ cuda="openmm-cuda-13==${openmm#openmm==}"
 
 rm -rf "$DEVICE/wheels"
 mkdir -p "$DEVICE/wheels"
+# pip matches each --platform tag exactly: name every manylinux tag these wheels are built for.
+platforms=()
+for tag in 2_34 2_28 2_27 2_17 2_12 2_5; do platforms+=(--platform "manylinux_${tag}_x86_64"); done
+platforms+=(--platform manylinux2014_x86_64 --platform manylinux2010_x86_64 --platform manylinux1_x86_64)
 "$PIP" download -q --disable-pip-version-check --only-binary=:all: --no-deps --python-version "$PYTHON_VERSION" \
-    --platform manylinux_2_34_x86_64 -d "$DEVICE/wheels" "$openmm" "$cuda" "$numpy" "$swig"
+    "${platforms[@]}" -d "$DEVICE/wheels" "$openmm" "$cuda" "$numpy" "$swig"
 tar czf "$DEVICE/eigen3.tar.gz" -C /usr/include/eigen3 Eigen
 tar czf "$DEVICE/googletest.tar.gz" -C /usr/src googletest
 # The CUDA headers that OpenMM's CUDA headers include (cuda.h and the types it names), from the toolkit here, in case

@@ -32,7 +32,7 @@ else()
 endif()
 find_path(OPENMM_INCLUDE_DIR OpenMM.h PATH_SUFFIXES include include/openmm ${_openmm_search} REQUIRED)
 find_path(OPENMM_HEADER_ROOT openmm/Context.h PATH_SUFFIXES include ${_openmm_search} REQUIRED)
-find_library(OPENMM_LIBRARY OpenMM PATH_SUFFIXES lib lib64 ${_openmm_search} REQUIRED)
+find_library(OPENMM_LIBRARY OpenMM PATH_SUFFIXES lib lib/${CMAKE_LIBRARY_ARCHITECTURE} lib64 ${_openmm_search} REQUIRED)
 get_filename_component(OPENMM_LIBRARY_DIR ${OPENMM_LIBRARY} DIRECTORY)
 # The wheel and conda keep the plugin libraries (Drude) beside libOpenMM and the platforms in lib/plugins; Debian puts
 # both one folder down, in lib/<triplet>/openmm.

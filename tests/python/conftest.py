@@ -5,6 +5,7 @@ of rest length 0 between (0,1), (2,3), (4,5) in force group 1, and soft quartic 
 plus quartic walls x^4 on particles 0 and 5 in force group 0.
 """
 import importlib.util
+import locale
 import math
 import os
 import subprocess
@@ -35,6 +36,15 @@ HOST_ENGINE_PLATFORMS = ["Reference", "CPU"]
 # trajectory that follows an independent double-precision composition to 1e-10 on Reference and CPU follows it to about
 # 4e-9 relative there.
 TRAJECTORY_RTOL = {"OpenCL": 1e-7, "CUDA": 1e-7}
+
+@pytest.fixture(autouse=True)
+def _environment_locale():
+    """Gives every test the environment's locale back.  OpenMM 8.6's OpenCL platform, creating a Context with PME on
+    PoCL, sets the process's C locale to "C" (measured: LC_CTYPE C.UTF-8 before, C after), after which Python opens
+    files and decodes subprocess output as ASCII; a later test would fail on the README's "±"."""
+    yield
+    locale.setlocale(locale.LC_ALL, "")
+
 
 SOFT_GROUP = 0
 STIFF_GROUP = 1
@@ -210,7 +220,7 @@ def run_quick(script, out, timeout=120, extra=()):
     # The scripts select Agg themselves; this also covers any pyplot import before that.
     env["MPLBACKEND"] = "Agg"
     return subprocess.run([sys.executable, script, "--quick", "--out", str(out), *extra], env=env,
-                          capture_output=True, text=True, timeout=timeout)
+                          capture_output=True, text=True, encoding="utf-8", timeout=timeout)
 
 
 def assert_readme_table_reprinted(script, out, args, readme, observables, columns):

@@ -107,7 +107,7 @@ def test_step_cost_helper_builds_both_systems():
     assert helper is not None, "benchmarks/step_cost is built with the project"
     for args, particles in ((["--chains", "2"], 12), (["--springs", "50"], 100)):
         out = subprocess.run([helper, "--steps", "3"] + args + ["sim_strang", "force_soft"], capture_output=True,
-                             text=True, timeout=120)
+                             text=True, encoding="utf-8", timeout=120)
         assert out.returncode == 0, out.stderr
         data = json.loads(out.stdout)
         assert data["particles"] == particles
@@ -132,7 +132,7 @@ def test_drude_step_instructions_sorts_functions_and_redraws_its_chart(tmp_path)
     path = tmp_path / "data.json"
     path.write_text(json.dumps({"runs": runs}))
     result = subprocess.run([sys.executable, os.path.join(BENCHMARKS, "drude_step_instructions.py"),
-                             "--out", str(tmp_path), "--replot", str(path)], capture_output=True, text=True,
+                             "--out", str(tmp_path), "--replot", str(path)], capture_output=True, text=True, encoding="utf-8",
                             env=dict(os.environ, MPLBACKEND="Agg"))
     assert result.returncode == 0, result.stderr[-2000:]
     assert (tmp_path / "drude_step_instructions.png").stat().st_size > 0

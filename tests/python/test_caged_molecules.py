@@ -170,7 +170,7 @@ def test_the_readme_replica_table_is_the_stored_replicas():
     table = module.seed_table(files, "DrudeLangevin:0.25").splitlines()
     header = [cell.strip() for cell in table[0].split("|")[1:-1]]
     temperatures = dict(zip(header, (cell.strip() for cell in table[2].split("|")[1:-1])))
-    with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md")) as f:
+    with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md"), encoding="utf-8") as f:
         readme = f.read()
     for peer in ("DrudeLangevin:0.25", "DrudeLangevin:0.125", "DrudeLangevin:0.5", "WarpedMiddle:0.5",
                  "WarpedMiddle:1", "WarpedMiddleScaled:2.5", "DrudeLangevin:0.25 @ 297 K", "Twin:0.25:2.5:2.05"):

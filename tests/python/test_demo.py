@@ -13,7 +13,7 @@ def test_demo_quick_prints_both_scenes_with_their_peers(tmp_path):
     package_parent = os.path.dirname(os.path.dirname(os.path.abspath(openmmflavors.__file__)))
     env = dict(os.environ, PYTHONPATH=package_parent, PYTHONDONTWRITEBYTECODE="1")
     result = subprocess.run([sys.executable, os.path.join(REPO_ROOT, "examples", "demo", "demo.py"), "--quick"],
-                            capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+                            capture_output=True, text=True, encoding="utf-8", timeout=300, env=env, cwd=tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
     out = result.stdout
     assert out.index("== 1. Polarizable water") < out.index("== 2. Flexible water"), out

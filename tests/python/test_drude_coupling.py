@@ -95,7 +95,7 @@ def test_the_script_writes_its_tables(tmp_path):
     import subprocess
     import sys
     result = subprocess.run([sys.executable, SCRIPT, "--frames", "1", "--samples", "20", "--molecules", "27",
-                             "--out", str(tmp_path)], capture_output=True, text=True, timeout=600)
+                             "--out", str(tmp_path)], capture_output=True, text=True, encoding="utf-8", timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
     with open(tmp_path / "drude_coupling.json") as f:
         report = json.load(f)
@@ -104,5 +104,5 @@ def test_the_script_writes_its_tables(tmp_path):
     assert [row["step_fs"] for row in report["curvature"]] == list(np.array([2.0, 2.5, 3.0, 3.5, 4.0]))
     for row in report["curvature"]:
         assert all(0 <= share for share in row["beyond_share"].values())
-    bad = subprocess.run([sys.executable, SCRIPT, "--samples", "3"], capture_output=True, text=True, timeout=600)
+    bad = subprocess.run([sys.executable, SCRIPT, "--samples", "3"], capture_output=True, text=True, encoding="utf-8", timeout=600)
     assert bad.returncode != 0 and "--samples" in bad.stderr

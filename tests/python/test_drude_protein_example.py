@@ -16,6 +16,7 @@ OBSERVABLES = ["t_peptide", "t_water", "t_drude", "induced_ratio_peptide", "indu
                "bond_width_nm", "angle_width_deg", "phi_deg", "extended", "pe_per_pair"]
 
 
+@pytest.mark.long
 def test_drude_protein_quick(tmp_path):
     result = conftest.run_quick(SCRIPT, tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -32,6 +33,7 @@ def test_drude_protein_quick(tmp_path):
         assert run["rmsd_nm"][0] < 0.1, label
 
 
+@pytest.mark.long
 def test_step_limit_probe_quick(tmp_path):
     """The --quick probe runs the SIM on the peptide as it is and with the Thole screening off, one record per run."""
     script = os.path.join(REPO_ROOT, "examples", "drude_protein", "step_limit_probe.py")

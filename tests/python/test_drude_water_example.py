@@ -26,7 +26,7 @@ def _load(path):
     return module
 def _run_analysis(script, out, *arguments):
     """An analysis script (one without --quick) run with the arguments and --out OUT in a child process."""
-    return subprocess.run([sys.executable, script, *arguments, "--out", str(out)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, script, *arguments, "--out", str(out)], capture_output=True, text=True, encoding="utf-8",
                           timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
 
 
@@ -173,7 +173,7 @@ def test_table_reprints_the_readme_rows_from_the_stored_runs(tmp_path):
     stored = [os.path.join(results, name) for name in ("hard_wall_peers.json", "hard_wall_interleaved_timing.json")]
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--table", *stored))
     assert result.returncode == 0, result.stderr[-3000:]
-    with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md")) as f:
+    with open(os.path.join(REPO_ROOT, "examples", "drude_water", "README.md"), encoding="utf-8") as f:
         readme = f.read()
     rows = [line for line in result.stdout.splitlines() if line.startswith("| DrudeLangevin")]
     assert rows and all(row in readme for row in rows)
@@ -296,6 +296,7 @@ def test_temperature_probe_rejects_a_bad_setting(tmp_path, option, value, messag
     conftest.assert_cli_rejects(PROBE, tmp_path, ("--peers", "DrudeLangevin:1:1", option, value), message)
 
 
+@pytest.mark.long
 def test_heat_model_what_scaling_leaves_is_the_heavier_drudes_dressing_and_does_not_follow_the_friction(tmp_path):
     """heat_model.py --friction (docs/sim_drude.md section 7): what the scaled SIM leaves is the dressing of the soft
     mode by a Drude (m - 1) times heavier, a kinetic-energy deficit of (m - 1) r (Omega/omega)^2 of the temperature
@@ -376,6 +377,7 @@ def test_the_history_term_destabilizes_every_softening_mode_that_the_bath_does_n
     assert module.stable_interval(trace, det, 0.0) == pytest.approx((-1.0, (1 + det + trace) / s), abs=1e-9)
 
 
+@pytest.mark.long
 def test_force_history_the_lead_heats_the_molecules_and_the_coupling_needs_a_small_phase(tmp_path):
     """force_history.py: with the friction scaled, the term heats heat_model.py's soft mode as a Drude friction of
     -(b2 / b) omega^2 Omega^2 H^3 would (to 15 %); stable over SWM4-NDP's lambda only at flow phases below 0.5, where

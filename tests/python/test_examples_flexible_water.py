@@ -5,12 +5,15 @@ import json
 import math
 import os
 
+import pytest
+
 import conftest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "flexible_water", "flexible_water.py")
 
 
+@pytest.mark.long
 def test_quick_run_writes_json_and_png(tmp_path):
     result = conftest.run_quick(SCRIPT, tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -34,6 +37,7 @@ def test_quick_run_writes_json_and_png(tmp_path):
     assert 0.095 < reference["oh_mean"] < 0.099
 
 
+@pytest.mark.long
 def test_peers_option_runs_only_the_named_peers(tmp_path):
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--peers", "0.25 fs", "+angles"))
     assert result.returncode == 0, result.stderr[-3000:]

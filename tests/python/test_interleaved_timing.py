@@ -83,6 +83,7 @@ def test_no_round_or_no_time_is_rejected(rounds, round_ps, message):
     ("drude_protein", ("--sim-steps", "2", "2.5", "--max-warped-phase", "1.77", "--scaled-friction"),
      ["DrudeLangevin 1 fs", "WarpedMiddle 2 fs", "WarpedMiddle 2.5 fs"]),
 ])
+@pytest.mark.long
 def test_the_drude_scenes_time_their_peers_interleaved(tmp_path, scene, extra, peers):
     script = os.path.join(REPO_ROOT, "examples", scene, scene + ".py")
     result = conftest.run_quick(script, tmp_path, extra=("--interleaved-timing", "2", "--round-ps", "0.01", *extra))
@@ -102,6 +103,7 @@ def test_the_drude_scenes_reject_a_timing_without_rounds(tmp_path, scene):
                                 "--interleaved-timing needs at least 1 round (got 0)")
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("scene", ["drude_ions", "drude_protein"])
 def test_the_drude_scenes_time_single_steps_with_and_without_the_wall(tmp_path, scene):
     script = os.path.join(REPO_ROOT, "examples", scene, scene + ".py")

@@ -34,6 +34,6 @@ def test_kernels_load_whatever_the_plugin_directory(plugin_dir, tmp_path):
     env.pop("OPENMM_PLUGIN_DIR", None)
     if plugin_dir is not None:
         env["OPENMM_PLUGIN_DIR"] = str(tmp_path) if plugin_dir == "empty" else plugin_dir
-    result = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, timeout=120)
+    result = subprocess.run([sys.executable, "-c", SCRIPT], env=env, capture_output=True, text=True, encoding="utf-8", timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip().endswith("ok")

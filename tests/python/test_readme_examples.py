@@ -7,6 +7,7 @@ import shutil
 import subprocess
 import sys
 
+import openmm
 import pytest
 
 import openmmflavors
@@ -25,16 +26,16 @@ def run_script(name):
     package_parent = os.path.dirname(os.path.dirname(os.path.abspath(openmmflavors.__file__)))
     env = dict(os.environ, PYTHONPATH=package_parent, PYTHONDONTWRITEBYTECODE="1")
     result = subprocess.run([sys.executable, os.path.join("examples", "scripts", name + ".py"), "--quick"],
-                            capture_output=True, text=True, timeout=300, env=env, cwd=REPO_ROOT)
+                            capture_output=True, text=True, encoding="utf-8", timeout=300, env=env, cwd=REPO_ROOT)
     assert result.returncode == 0, result.stderr[-3000:]
     return result.stdout
 
 
 def test_readme_shows_each_script_as_it_is():
-    readme = open(os.path.join(REPO_ROOT, "README.md")).read()
+    readme = open(os.path.join(REPO_ROOT, "README.md"), encoding="utf-8").read()
     blocks = re.findall(r"```python\n(.*?)```", readme, re.S)
     for name in SCRIPTS:
-        with open(os.path.join(REPO_ROOT, "examples", "scripts", name + ".py")) as f:
+        with open(os.path.join(REPO_ROOT, "examples", "scripts", name + ".py"), encoding="utf-8") as f:
             assert f.read() in blocks, f"README.md does not show examples/scripts/{name}.py as it is"
 
 
@@ -79,7 +80,7 @@ def test_drude_water_script_keeps_the_drudes_cold():
 def prefix(tmp_path_factory):
     prefix = tmp_path_factory.mktemp("prefix")
     result = subprocess.run(["cmake", "--install", BUILD_DIR, "--prefix", str(prefix)], capture_output=True,
-                            text=True, timeout=300)
+                            text=True, encoding="utf-8", timeout=300)
     assert result.returncode == 0, result.stderr
     return prefix
 
@@ -124,7 +125,7 @@ for line in open("/proc/self/maps"):
 
 def test_installed_python_package_uses_the_installed_libraries(prefix, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(prefix / "lib" / "python3" / "dist-packages"), PYTHONDONTWRITEBYTECODE="1")
-    result = subprocess.run([sys.executable, "-c", INSTALLED_SCRIPT], capture_output=True, text=True, timeout=300,
+    result = subprocess.run([sys.executable, "-c", INSTALLED_SCRIPT], capture_output=True, text=True, encoding="utf-8", timeout=300,
                             env=env, cwd=tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
     paths = set(result.stdout.split())
@@ -139,13 +140,21 @@ def test_cpp_example_compiles_and_runs_against_the_installation(prefix, tmp_path
     if compiler is None:
         pytest.fail("g++ is needed to compile the C++ example")
     program = tmp_path / "flavor_harmonic_chain"
-    # The command of docs/USER_GUIDE.md, with PREFIX replaced.
+    # The command of docs/USER_GUIDE.md, with PREFIX replaced; for an OpenMM outside the system's paths (the wheel's
+    # OpenMM.libs) its include and lib folders too, and its plugin folder for the program.
+    openmm_lib = openmm.version.openmm_library_path  # empty for Debian's OpenMM, which is in the system's paths
+    openmm_flags, environment = [], dict(os.environ)
+    if openmm_lib:
+        openmm_flags = ["-I", os.path.join(os.path.dirname(openmm_lib), "include"), "-L", openmm_lib,
+                        f"-Wl,-rpath,{openmm_lib}"]
+        environment["OPENMM_PLUGIN_DIR"] = os.path.join(openmm_lib, "plugins")
     compile_result = subprocess.run(
         [compiler, "-std=c++17", os.path.join(REPO_ROOT, "examples", "cpp", "flavor_harmonic_chain.cpp"),
-         "-I", f"{prefix}/include/openmmflavors", "-L", f"{prefix}/lib", f"-Wl,-rpath,{prefix}/lib", "-lOpenMMFlavors", "-lOpenMM",
-         "-o", str(program)], capture_output=True, text=True, timeout=600)
+         "-I", f"{prefix}/include/openmmflavors", *openmm_flags, "-L", f"{prefix}/lib", f"-Wl,-rpath,{prefix}/lib",
+         "-lOpenMMFlavors", "-lOpenMM", "-o", str(program)], capture_output=True, text=True, encoding="utf-8", timeout=600)
     assert compile_result.returncode == 0, compile_result.stderr[-3000:]
-    run = subprocess.run([str(program), f"{prefix}/lib/plugins"], capture_output=True, text=True, timeout=300)
+    run = subprocess.run([str(program), f"{prefix}/lib/plugins"], capture_output=True, text=True, encoding="utf-8", timeout=300,
+                         env=environment)
     assert run.returncode == 0, run.stderr[-3000:]
     rows = [line.split() for line in run.stdout.splitlines() if re.match(r"^\s*\d+\.\d+\s", line)]
     assert len(rows) == 11 and float(rows[-1][0]) == pytest.approx(100.0)

@@ -33,5 +33,5 @@ def test_both_integrators_step_the_fpu_chain(platform, make):
 
 def test_a_readme_script_runs():
     result = subprocess.run([sys.executable, os.path.join(REPO_ROOT, "examples", "scripts", "drude_water.py"),
-                             "--quick"], capture_output=True, text=True, timeout=600, cwd=REPO_ROOT)
+                             "--quick"], capture_output=True, text=True, encoding="utf-8", timeout=600, cwd=REPO_ROOT)
     assert result.returncode == 0, result.stderr[-3000:]

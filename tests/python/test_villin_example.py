@@ -6,12 +6,15 @@ import json
 import math
 import os
 
+import pytest
+
 import conftest
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCRIPT = os.path.join(REPO_ROOT, "examples", "villin", "villin.py")
 
 
+@pytest.mark.long
 def test_quick_run_writes_json_and_png(tmp_path):
     result = conftest.run_quick(SCRIPT, tmp_path)
     assert result.returncode == 0, result.stderr[-3000:]
@@ -31,6 +34,7 @@ def test_quick_run_writes_json_and_png(tmp_path):
         assert 0 < peer["bond_rms all"] < 0.01 and 0 < peer["angle_rms all"] < 20
 
 
+@pytest.mark.long
 def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path):
     result = conftest.run_quick(SCRIPT, tmp_path, extra=("--flavors", "3:0.5:middle"))
     assert result.returncode == 0, result.stderr[-3000:]
@@ -52,6 +56,7 @@ def test_a_middle_placement_peer_runs_and_a_bad_flavor_flag_is_an_error(tmp_path
                                 "'3:0.5:sideways' is not delta:tau[:bonds|:planar][:middle]")
 
 
+@pytest.mark.long
 def test_a_small_step_langevin_peer_runs_and_a_step_out_of_range_is_an_error(tmp_path):
     # With hydrogen mass repartitioning peers too (createSystem's hydrogenMass), all timed interleaved against
     # LangevinMiddle 4 fs HMR 1.5 amu.

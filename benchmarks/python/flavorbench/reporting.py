@@ -59,7 +59,7 @@ def jsonable(obj):
 def write_json(path, data, strict=True):
     """data as JSON at path; strict: through jsonable(), otherwise as it is (inf and NaN stay)."""
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    with open(path, "w") as f:
+    with open(path, "w", encoding="utf-8") as f:
         json.dump(jsonable(data) if strict else data, f, indent=1, default=float)
 
 
@@ -73,7 +73,7 @@ def save_outputs(out, name, data, plot):
 
 def replot(json_path, out, name, plot):
     """Redraw <out>/<name>.png with plot(data, path) from the JSON of an earlier run (the scenes' --replot)."""
-    with open(json_path) as f:
+    with open(json_path, encoding="utf-8") as f:
         data = json.load(f)
     set_smoke_run(data.get("quick", False) if isinstance(data, dict) else False)
     os.makedirs(out, exist_ok=True)

@@ -51,8 +51,10 @@ command -v nvidia-smi >/dev/null 2>&1 && nvidia-smi --query-gpu=name,driver_vers
         --find-links device/wheels openmm openmm-cuda-13 numpy swig || fail "could not install the carried wheels"
 OPENMM_DIR=$("$PYTHON" -c 'import os, openmm.version as v; print(os.path.dirname(v.openmm_library_path))') ||
     fail "openmm does not import"
-SWIG=$("$PYTHON" -c 'import os, swig; print(os.path.join(os.path.dirname(swig.__file__), "data", "bin", "swig"))')
-[ -x "$SWIG" ] || SWIG=$(command -v swig || true)
+# The swig wheel's binary, told where its library is (its console script would do that, were it on PATH).
+SWIG=$("$PYTHON" -c 'import os, swig; print(os.path.join(swig.BIN_DIR, "swig"))') || fail "swig does not import"
+SWIG_LIB=$("$PYTHON" -c 'import glob, os, swig; print(glob.glob(os.path.join(swig.SWIG_SHARE_DIR, "*"))[0])')
+export SWIG_LIB
 "$PYTHON" - "$OUT/devices.json" <<'EOF'
 import json
 import sys

@@ -8,6 +8,7 @@
 #include "StochasticImpulseIntegrator.h"
 #include "TestSystems.h"
 #include "openmm/Context.h"
+#include "openmm/VerletIntegrator.h"
 #include "openmm/reference/SimTKOpenMMRealType.h"
 #include "openmm/serialization/XmlSerializer.h"
 #include <cmath>
@@ -380,4 +381,56 @@ TEST(ImpulseModeBathInput, SerializationKeepsTheBathAndReadsVersion1) {
     EXPECT_EQ(300.0, oldSim.getStiffModeTemperature());
     EXPECT_EQ(5.0, oldSim.getStiffModeFriction());
     EXPECT_EQ(0.002, oldSim.getStepSize());
+}
+
+namespace {
+
+/** The temperatures (K) of the pairs' centre-of-mass motion and of their relative motion, from the velocities. */
+std::pair<double, double> pairTemperatures(const vector<Vec3>& v, int pairs) {
+    const double M = DrudePairs::CoreMass + DrudePairs::DrudeMass;
+    const double mu = DrudePairs::CoreMass * DrudePairs::DrudeMass / M;
+    double centre = 0, relative = 0;
+    for (int c = 0; c < pairs; ++c) {
+        const Vec3 com = (v[2 * c] * DrudePairs::CoreMass + v[2 * c + 1] * DrudePairs::DrudeMass) / M;
+        const Vec3 rel = v[2 * c + 1] - v[2 * c];
+        centre += M * com.dot(com);
+        relative += mu * rel.dot(rel);
+    }
+    return {centre / (3 * pairs * BOLTZ), relative / (3 * pairs * BOLTZ)};
+}
+
+} // namespace
+
+TEST_P(ImpulseModeBath, SetVelocitiesToTemperatureGivesThePairsRelativeMotionTheStiffModeTemperature) {
+    // 2,000 pairs: each temperature is a mean of 6,000 squared normals, relative standard error sqrt(2/6000) = 1.8 %;
+    // the bounds are 5 of those.
+    const int pairs = 2000;
+    DrudePairs drudes(pairs, 4e5, 1.0);
+    StochasticImpulseIntegrator sim(300.0, 5.0, 0.002, StiffMask);
+    sim.setStiffModeTemperature(1.0);
+    Context context(drudes.system, sim, platform(), properties());
+    context.setPositions(vector<Vec3>(2 * pairs, Vec3()));
+    context.setVelocitiesToTemperature(300.0, 17);
+    const std::pair<double, double> t = pairTemperatures(context.getState(State::Velocities).getVelocities(), pairs);
+    const double bound = 5 * std::sqrt(2.0 / (3 * pairs));
+    EXPECT_NEAR(t.first, 300.0, 300.0 * bound);
+    EXPECT_NEAR(t.second, 1.0, 1.0 * bound);
+}
+
+TEST(ImpulseModeBathInput, WithoutAStiffModeTemperatureVelocitiesAreOpenMMsOwn) {
+    // Until setStiffModeTemperature() the stiff modes follow the integrator's temperature: the draw is Integrator's,
+    // the one a VerletIntegrator's Context makes from the same seed.
+    DrudePairs drudes(50, 4e5, 1.0);
+    StochasticImpulseIntegrator sim(300.0, 5.0, 0.002, StiffMask);
+    VerletIntegrator verlet(0.002);
+    vector<vector<Vec3>> velocities;
+    for (Integrator* integrator : {static_cast<Integrator*>(&sim), static_cast<Integrator*>(&verlet)}) {
+        Context context(drudes.system, *integrator, Platform::getPlatformByName("Reference"));
+        context.setPositions(vector<Vec3>(100, Vec3()));
+        context.setVelocitiesToTemperature(300.0, 5);
+        velocities.push_back(context.getState(State::Velocities).getVelocities());
+    }
+    for (size_t i = 0; i < velocities[0].size(); ++i)
+        EXPECT_EQ(0.0, (velocities[0][i] - velocities[1][i]).dot(velocities[0][i] - velocities[1][i]))
+            << "particle " << i;
 }

@@ -336,6 +336,19 @@ protected:
     void stateChanged(OpenMM::State::DataType changed) override;
     double computeKineticEnergy() override;
     bool kineticEnergyRequiresForce() const override { return false; }
+    /**
+     * Random velocities for Context::setVelocitiesToTemperature().  Once setStiffModeTemperature() has been called,
+     * drawn as OpenMM's Drude integrators draw them: the particles that the two-particle terms of the stiff groups link
+     * (HarmonicBondForce and CustomBondForce bonds, DrudeForce pairs: a Drude particle and its core) move as components
+     * whose centre of mass is at temperature and whose relative motion is at the stiff-mode temperature; every other
+     * particle at temperature.  Otherwise every particle at temperature, as for any integrator.
+     *
+     * @param system       the System whose particles are given velocities
+     * @param temperature  the temperature (K) of every motion but the stiff components' relative motion
+     * @param randomSeed   the seed of the draw
+     */
+    std::vector<OpenMM::Vec3> getVelocitiesForTemperature(const OpenMM::System& system, double temperature,
+                                                          int randomSeed) const override;
     void createCheckpoint(std::ostream& stream) const override;
     void loadCheckpoint(std::istream& stream) override;
 

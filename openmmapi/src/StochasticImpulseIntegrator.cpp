@@ -4,6 +4,7 @@
 #include "internal/ParameterChecks.h"
 #include "internal/StepKernelBinding.h"
 #include "internal/StiffGroupChecks.h"
+#include "internal/StiffVelocities.h"
 #include "openmm/Context.h"
 #include "openmm/Force.h"
 #include "openmm/OpenMMException.h"
@@ -173,4 +174,11 @@ string StochasticImpulseIntegrator::describeStep() const {
 
 double StochasticImpulseIntegrator::getAcceptanceRate() const {
     return binding.getAcceptanceRate(Owner);
+}
+
+vector<Vec3> StochasticImpulseIntegrator::getVelocitiesForTemperature(const System& system, double temperature,
+                                                                      int randomSeed) const {
+    if (!hasStiffModeTemperature())
+        return Integrator::getVelocitiesForTemperature(system, temperature, randomSeed);
+    return velocitiesWithStiffTemperature(system, stiffGroups, temperature, stiffModeTemperature, randomSeed);
 }

@@ -13,17 +13,17 @@ import os
 import re
 import textwrap
 
-import numpy as np  # noqa: E402
-import openmm  # noqa: E402
-import openmm.app as app  # noqa: E402
-import openmm.unit as unit  # noqa: E402
-from flavorbench import reporting  # noqa: E402
-from flavorbench.ensemble import mean_se  # noqa: E402
-from flavorbench.interleaved import interleaved_ns_per_day  # noqa: E402
-from flavorbench.runners import KB as BOLTZ  # noqa: E402
-from flavorbench.solvation import AMU_PER_NM3, WATER_DENSITY_300K, volume_nm3  # noqa: E402
-from flavorbench.timeseries import ProductionFrames, block_error  # noqa: E402
-from openmmflavors import StochasticImpulseIntegrator  # noqa: E402
+import numpy as np
+import openmm
+import openmm.app as app
+import openmm.unit as unit
+from flavorbench import reporting
+from flavorbench.ensemble import mean_se
+from flavorbench.interleaved import interleaved_ns_per_day
+from flavorbench.runners import KB as BOLTZ
+from flavorbench.solvation import AMU_PER_NM3, WATER_DENSITY_300K, volume_nm3
+from flavorbench.timeseries import ProductionFrames, block_error
+from openmmflavors import StochasticImpulseIntegrator
 
 DRUDE_GROUP = 1
 E_NM_TO_DEBYE = 48.0321  # 1 e nm in debye

@@ -11,7 +11,6 @@ import subprocess
 import sys
 
 import conftest
-import openmm
 import pytest
 from flavorbench.helper import find_helper
 
@@ -183,15 +182,11 @@ def test_frozen_energy_drift_rejects_a_mesostep_not_above_the_microstep(tmp_path
     assert "--deltas: 1 fs is not allowed" in result.stderr
 
 
-def has_platform(name):
-    return any(openmm.Platform.getPlatform(i).getName() == name for i in range(openmm.Platform.getNumPlatforms()))
-
-
 @pytest.mark.parametrize("platform", ["OpenCL", "CUDA"])
 def test_gpu_benchmark_quick(tmp_path, platform):
     """The FPU scene of benchmarks/gpu_benchmark.py in double precision: every peer runs on the platform and is
     timed."""
-    if not has_platform(platform):
+    if platform not in conftest.GPU_PLATFORMS:
         pytest.skip(f"OpenMM has no {platform} platform here")
     result = conftest.run_quick(os.path.join(BENCHMARKS, "gpu_benchmark.py"), tmp_path, timeout=300,
                                 extra=("--platform", platform, "--scenes", "fpu", "--precision", "double"))
@@ -214,7 +209,7 @@ def test_gpu_benchmark_quick_runs_the_drude_2019_peptide_under_every_peer(tmp_pa
     """The drude_protein scene in mixed precision (the GPU's): the Drude-2019 System (anisotropic and Thole-screened
     Drude particles, lone pairs, X-H constraints on cores with Drude particles) runs behind the hard wall under
     DrudeLangevin and under the SIM at 2, 2.5 and 3 fs, each timed in every repeat."""
-    if not has_platform(platform):
+    if platform not in conftest.GPU_PLATFORMS:
         pytest.skip(f"OpenMM has no {platform} platform here")
     result = conftest.run_quick(os.path.join(BENCHMARKS, "gpu_benchmark.py"), tmp_path, timeout=600,
                                 extra=("--platform", platform, "--scenes", "drude_protein", "--precision", "mixed"))

@@ -11,15 +11,13 @@ import pytest
 
 from openmmflavors import FlavorIntegrator
 
-
-def has_platform(name):
-    return any(openmm.Platform.getPlatform(i).getName() == name for i in range(openmm.Platform.getNumPlatforms()))
+import conftest
 
 
 @pytest.mark.parametrize("gpu", ["OpenCL", "CUDA"])
 @pytest.mark.parametrize("method, tolerance", [(app.NoCutoff, 1e-7), (app.PME, 1e-5)])
 def test_the_nonintrusive_flavor_on_a_gpu_platform_follows_the_reference_platform(method, tolerance, gpu):
-    if not has_platform(gpu):
+    if gpu not in conftest.GPU_PLATFORMS:
         pytest.skip(f"OpenMM has no {gpu} platform here")
     forcefield = app.ForceField("tip3p.xml")
     modeller = app.Modeller(app.Topology(), [])

@@ -52,9 +52,10 @@ endif
 # for the rest of the machine (/etc/OpenCL/vendors), where it would become the platform OpenMM picks for every script.
 OPENCL_VENDORS = $(if $(wildcard $(BUILD)/opencl-vendors),OCL_ICD_VENDORS=$(CURDIR)/$(BUILD)/opencl-vendors)
 PYTHON_ENV = PYTHONPATH=$(CURDIR)/$(BUILD)/python PYTHONDONTWRITEBYTECODE=1 $(OPENCL_VENDORS)
-# The layer that refuses OpenCL kernel arguments of the wrong size as NVIDIA's driver does (tests/OpenCLArgumentCheck.cpp),
+# The layer that refuses OpenCL kernel arguments of the wrong size as NVIDIA's driver does and counts launches and
+# transfers (tests/OpenCLArgumentCheck.cpp, tests/OpenCLCallCounts.cpp),
 # where the OpenCL backend was built.
-OPENCL_CHECK = $(if $(wildcard $(BUILD)/tests/libOpenCLArgumentCheck.so),LD_PRELOAD=$(CURDIR)/$(BUILD)/tests/libOpenCLArgumentCheck.so)
+OPENCL_CHECK = $(if $(wildcard $(BUILD)/tests/libOpenCLTestLayer.so),LD_PRELOAD=$(CURDIR)/$(BUILD)/tests/libOpenCLTestLayer.so)
 PYTEST = $(PYTHON_ENV) $(OPENCL_CHECK) $(PYTHON) -m pytest -q -p no:cacheprovider
 
 .PHONY: deps venv build format-check test test-cpp test-python test-long smoke demo install bench clean

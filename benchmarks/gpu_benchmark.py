@@ -14,7 +14,7 @@ Scenes (each in every precision of --precision: mixed and double by default; Ope
   flexible_water  flexible TIP3P water (PME; examples/flexible_water): LangevinMiddle flexible 0.5, 1 and 2 fs against
                   the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,
                   tau = 0.5 fs), and the scene's artificial FLAVOR (ArtificialProjected, bonds and angles frozen,
-                  Middle, tau = 0.5 fs) at delta = 4 and 6 fs, its frozen stage on the host.
+                  Middle, tau = 0.5 fs) at delta = 4 and 6 fs, its frozen stage on the device.
   villin          villin in water (examples/villin; amber14, PME, HBonds, rigid water): LangevinMiddle 2 fs and 4 fs with
                   hydrogen mass repartitioning (1.5 amu) against the scene's FLAVOR recipe (ArtificialProjected, bonds
                   and non-planar angles frozen, Middle, delta = 2.5 fs, tau = 1 fs) and the FLAVOR with HMR 3 amu at
@@ -216,7 +216,7 @@ def flexible_scene(quick, states):
     for delta in (4.0, 6.0):
         name, _, factory, _ = flexible_water.flavor_peer("ArtificialProjected", delta, 0.5, True, True)
         peers.append((name, delta, system, lambda factory=factory: factory(1234),
-                      "the scene's artificial FLAVOR (frozen stage on the host)"))
+                      "the scene's artificial FLAVOR (frozen stage on the device)"))
 
     description = f"{molecules} flexible TIP3P molecules ({3 * molecules} atoms), PME, 300 K, friction 1/ps"
     return description, thermal_start(positions, flexible_water.TEMPERATURE), peers

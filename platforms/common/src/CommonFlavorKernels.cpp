@@ -88,17 +88,20 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     std::map<string, string> defines;
     defines["NUM_ATOMS"] = cc.intToString(cc.getNumAtoms());
     defines["PADDED_NUM_ATOMS"] = cc.intToString(cc.getPaddedNumAtoms());
-    program = cc.compileProgram(CommonFlavorKernelSources::flowPasses, defines);
+    program = cc.compileProgram(
+        string(CommonFlavorKernelSources::flowPasses) + CommonFlavorKernelSources::frozenClusters, defines);
     copyForcesKernel = program->createKernel("copyForces");
     findAtomsKernel = program->createKernel("findAtoms");
     driftDisplacementKernel = program->createKernel("driftDisplacement");
     applyDisplacementKernel = program->createKernel("applyDisplacement");
+    snapshotKernel = program->createKernel("snapshotState");
     const ZigguratTables& tables = ZigguratTables::get();
     kn.initialize<unsigned int>(cc, 128, "flavorZigguratKn");
     kn.upload(vector<unsigned int>(tables.kn, tables.kn + 128));
     uploadMixed(cc, wn, vector<double>(tables.wn, tables.wn + 128), "flavorZigguratWn");
     uploadMixed(cc, fn, vector<double>(tables.fn, tables.fn + 128), "flavorZigguratFn");
     slotOf.initialize<int>(cc, numParticles, "flavorSlotOf");
+    deviceFrozen = std::make_unique<DeviceFrozenStage>(cc, program, slotOf);
     uploadInts(cc, thermostated, vector<int>(numParticles, 1), "flavorThermostated");
     uploadMixed(cc, thermalSpeed, vector<double>(numParticles, 0.0), "flavorThermalSpeed");
     const bool doubles = mixedIsDouble(cc);
@@ -109,6 +112,15 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     slotValid.assign(MaxForceSlots, false);
     initializeMixed4(cc, forceDifferences, numParticles, "flavorForceDifferences");
     initializeMixed4(cc, openingForces, numParticles, "flavorOpeningForces");
+    initializeMixed4(cc, savedPositions, numParticles, "flavorSavedPositions");
+    initializeMixed4(cc, savedVelocities, numParticles, "flavorSavedVelocities");
+    savedCellOffsets.assign(numParticles, mm_int4(0, 0, 0, 0));
+    snapshotKernel->addArg(cc.getPosq());
+    snapshotKernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+    snapshotKernel->addArg(cc.getVelm());
+    snapshotKernel->addArg(cc.getAtomIndexArray());
+    snapshotKernel->addArg(savedPositions);
+    snapshotKernel->addArg(savedVelocities);
     if (hostConstraints && hasConstraints)
         projector = std::make_unique<ConstraintProjector>(system, particles, true);
     slotClock.assign(MaxForceSlots, SlotClock());
@@ -210,6 +222,7 @@ void CommonFlowStepper::setFrozenCoordinates(std::shared_ptr<const StiffModes> f
     if (frozenModes)
         setStiffModes(frozenModes);
     frozenStage.setStiffModes(std::move(frozenModes));
+    deviceFrozen->setDistances(distances.get());
     frozenStage.setDistances(std::move(distances));
     if (!plan.passes.empty())
         prepare();
@@ -412,6 +425,14 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
     return kernel;
 }
 
+void CommonFlowStepper::findAtoms() {
+    // The atoms are reordered only where a step ends (or a checkpoint is loaded): once per step.
+    if (atomsFound)
+        return;
+    findAtomsKernel->execute(cc.getNumAtoms());
+    atomsFound = true;
+}
+
 void CommonFlowStepper::invalidateForces() {
     std::fill(slotValid.begin(), slotValid.end(), false);
     virtualSitesPlaced = false;
@@ -512,7 +533,7 @@ void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
     if (!modes)
         throw OpenMMException(owner + ": a stiff flow needs the stiff modes");
     ComputeKernel& kernel = passKernels[passIndex][0];
-    findAtomsKernel->execute(cc.getNumAtoms());
+    findAtoms();
     kernel->setArg(15, slotForces[fusedSlot >= 0 ? fusedSlot : 0]);
     setMixedArg(cc, kernel, 16, fusedSlot >= 0 ? fusedStep : 0.0);
     kernel->setArg(18, (std::uint64_t)(nextStream + (std::uint64_t)std::max(0, pass.streams[0])));
@@ -526,7 +547,11 @@ void CommonFlowStepper::runFrozenPass(const FlowPass& pass, double constraintTol
     const SubFlow& flow = pass.flows[0];
     // A kick's forces were evaluated where the pass begins, as for every pass with a force slot (step()).
     const bool kick = flow.kind == SubFlow::FrozenKick;
-    frozenStage.run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance, !pass.othersFixedLater);
+    if (flow.frozen == SubFlow::FrozenSet::Distances && deviceFrozen->isActive()) {
+        findAtoms();
+        deviceFrozen->run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance);
+    } else
+        frozenStage.run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance, !pass.othersFixedLater);
     if (!kick)
         invalidateForces();
 }
@@ -534,7 +559,7 @@ void CommonFlowStepper::runFrozenPass(const FlowPass& pass, double constraintTol
 void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
     if (!modes)
         throw OpenMMException(owner + ": a Filtered step needs the stiff modes");
-    findAtomsKernel->execute(cc.getNumAtoms());
+    findAtoms();
     passKernels[passIndex][kernelIndex]->execute(modes->getNumComponents());
 }
 
@@ -556,6 +581,7 @@ void CommonFlowStepper::runHardWall(const SubFlow& flow) {
 
 void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ContextSelector selector(cc);
+    deviceFrozen->checkFailure();
     if (!forcesValid)
         invalidateForces();
     history.stepStarted();
@@ -618,7 +644,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     cc.setTime(cc.getTime() + stepSize);
     cc.setStepCount(cc.getStepCount() + 1);
     stiffClock.endStep(cc.getTime());
+    deviceFrozen->finishStep();
     cc.reorderAtoms();
+    atomsFound = false;
     forcesValid = true;
 }
 
@@ -642,6 +670,7 @@ void CommonFlowStepper::forgetStepHistory() {
     uploadHistory();
     // A cached factorization from where the Context was before would steer the next solves, as in FlowStepRunner.
     frozenStage.forgetFactorizations();
+    deviceFrozen->forgetFactorizations();
 }
 
 void CommonFlowStepper::downloadHistory(StepHistory& target) const {
@@ -661,7 +690,7 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     const string problem =
         readFlowCheckpoint(stream, owner, history, storedSeed, storedStream, storedHistory, &storedClock);
     if (!problem.empty()) {
-        rollback.restore(context);
+        restoreSavedState(context);
         invalidateForces();
         throw OpenMMException(flowCheckpointError(owner, problem));
     }
@@ -671,11 +700,39 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     history.load(storedHistory);
     uploadHistory();
     frozenStage.forgetFactorizations();
+    deviceFrozen->forgetFactorizations();
+    atomsFound = false;
     invalidateForces();
 }
 
 void CommonFlowStepper::saveContextState(ContextImpl& context, bool withParameters) {
-    rollback.save(context, withParameters);
+    // The particles on the device, so that saving after every step() costs no transfer; the cell offsets, box, time
+    // and parameters are host values.
+    rollback.saveAllButParticles(context, withParameters);
+    snapshotKernel->execute(cc.getNumAtoms());
+    const vector<int>& order = cc.getAtomIndex();
+    const vector<mm_int4>& offsets = cc.getPosCellOffsets();
+    for (int i = 0; i < numParticles; ++i)
+        savedCellOffsets[order[i]] = offsets[i];
+}
+
+void CommonFlowStepper::restoreSavedState(ContextImpl& context) {
+    // The positions as ContextImpl::getPositions() gives them: the cell offsets taken off.
+    vector<Vec3>& positions = rollback.savedPositions();
+    vector<Vec3>& velocities = rollback.savedVelocities();
+    positions.resize(numParticles);
+    velocities.resize(numParticles);
+    savedPositions.download(staging.data());
+    staging.toVec3(positions);
+    savedVelocities.download(staging.data());
+    staging.toVec3(velocities);
+    Vec3 box[3];
+    cc.getPeriodicBoxVectors(box[0], box[1], box[2]);
+    for (int i = 0; i < numParticles; ++i) {
+        const mm_int4 offset = savedCellOffsets[i];
+        positions[i] = positions[i] - box[0] * offset.x - box[1] * offset.y - box[2] * offset.z;
+    }
+    rollback.restore(context);
 }
 
 namespace {

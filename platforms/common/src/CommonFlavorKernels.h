@@ -3,6 +3,7 @@
 
 #include "ConstraintProjector.h"
 #include "ContextRollback.h"
+#include "DeviceFrozenStage.h"
 #include "FlavorKernels.h"
 #include "FrozenCoordinates.h"
 #include "HardWall.h"
@@ -49,9 +50,11 @@ namespace FlavorPlugin {
  * (HostStateMirror): a device constraint solve for constrained stiff components is future work.  Without it,
  * constraints are applied on the device by IntegrationUtilities.
  *
- * Two more kinds of passes run the engine's host code on such copies: the artificial FLAVOR's frozen stage
- * (FrozenDrift, FrozenKick: HostFrozenStage) and the SIM's hard wall (HardWall).  The Metropolis proposals are not
- * here yet.
+ * The artificial FLAVOR's frozen stage (FrozenDrift, FrozenKick) runs on the device where its clusters are small and
+ * free of System constraints (DeviceFrozenStage: flexible water, one work-item per molecule); elsewhere (proteins,
+ * frozen stiff modes) it runs the engine's host code on such copies (HostFrozenStage), as does the SIM's hard wall
+ * (HardWall).  The particles' state for a failed checkpoint to put back is kept on the device.  The Metropolis
+ * proposals are not here yet.
  */
 class CommonFlowStepper {
 public:
@@ -88,17 +91,22 @@ public:
     double kineticEnergy();
     void createCheckpoint(std::ostream& stream) const;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream);
+    /** Remembers the Context's state for a failed loadCheckpoint() to put back, the particles on the device. */
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
     /** Forgets the step history as the CPU engine does (StepHistory::forget), on the device too. */
     void forgetStepHistory();
 
 private:
+    /** Puts back the state saveContextState() remembered. */
+    void restoreSavedState(OpenMM::ContextImpl& context);
     /** Analyses the schedule, checks that every sub-flow is supported and precomputes the constants of each pass. */
     void prepare();
     /** Evaluates the forces of a slot (virtual sites placed first) unless they are valid. */
     /** The forces of a slot at the current positions; a clocked kick's at the stiff clock value clock. */
     void ensureForces(OpenMM::ContextImpl& context, int slot, bool clocked = false, double clock = 0.0);
     void placeVirtualSites();
+    /** Makes slotOf current (once per step). */
+    void findAtoms();
     void invalidateForces();
     void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
     void runStiffFlow(const FlowPass& pass, size_t passIndex);
@@ -145,7 +153,11 @@ private:
     ContextRollback rollback;
 
     OpenMM::ComputeProgram program;
-    OpenMM::ComputeKernel copyForcesKernel, findAtomsKernel, driftDisplacementKernel, applyDisplacementKernel;
+    OpenMM::ComputeKernel copyForcesKernel, findAtomsKernel, driftDisplacementKernel, applyDisplacementKernel,
+        snapshotKernel;
+    // What saveContextState() remembers of the particles (system order): on the device, and the cell offsets.
+    OpenMM::ComputeArray savedPositions, savedVelocities;
+    std::vector<OpenMM::mm_int4> savedCellOffsets;
     std::vector<OpenMM::ComputeArray> slotForces;
     std::vector<bool> slotValid;
     // Per slot: the stiff clock value its forces were evaluated at, if any.
@@ -172,6 +184,9 @@ private:
     ParticleTable particles;
     HostStateMirror mirror;
     HostFrozenStage frozenStage;
+    // The frozen stage of small clusters (flexible water) on the device; the others run on the host (frozenStage).
+    std::unique_ptr<DeviceFrozenStage> deviceFrozen;
+    bool atomsFound = false;
     HardWall hardWall;
     // With host constraints: the projector and, per stiff flow pass, how its correction moves the particles.
     std::unique_ptr<ConstraintProjector> projector;
@@ -184,7 +199,8 @@ private:
 
 /**
  * The FlavorIntegrator kernel of the common compute platforms: the nonintrusive averaging on the device, the artificial
- * ones with their frozen stage on the host (HostFrozenStage).
+ * ones with their frozen stage on the device (DeviceFrozenStage) or, for clusters it does not take, on the host
+ * (HostFrozenStage).
  */
 class CommonFlavorStepKernel : public IntegrateFlavorStepKernel {
 public:

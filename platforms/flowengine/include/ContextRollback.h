@@ -23,6 +23,13 @@ class OPENMM_EXPORT_FLAVORS ContextRollback {
 public:
     /** Remembers the Context's state (no allocation after the first call), its parameters too if withParameters. */
     void save(OpenMM::ContextImpl& context, bool withParameters);
+    /**
+     * Remembers all but the particles' positions and velocities, which the caller keeps (a GPU platform: a copy on the
+     * device, which costs no transfer) and puts into savedPositions() and savedVelocities() before restore().
+     */
+    void saveAllButParticles(OpenMM::ContextImpl& context, bool withParameters);
+    std::vector<OpenMM::Vec3>& savedPositions() { return positions; }
+    std::vector<OpenMM::Vec3>& savedVelocities() { return velocities; }
     /** Puts the remembered state back (nothing if none was saved). */
     void restore(OpenMM::ContextImpl& context);
 

@@ -64,6 +64,25 @@ OPENMM_EXPORT_FLAVORS std::vector<char> independentConstraints(const std::vector
                                                                double threshold);
 
 /**
+ * FrozenDistances' clusters laid out for a device that solves each cluster in one work-item (the common compute
+ * platforms' frozen stage), with fixed strides: MaxParticles entries per cluster in particles, 2 MaxConstraints in ends
+ * and MaxConstraints in order.
+ */
+struct SmallClusterTable {
+    static constexpr int MaxParticles = 5, MaxConstraints = SparseLDLT::MaxDense;
+    /** Per cluster: its particles (System indices, -1 past the last). */
+    std::vector<int> particles;
+    /** Per cluster: each constraint's two ends as indices into its particles (-1 past the last constraint). */
+    std::vector<int> ends;
+    /** Per cluster: the constraint eliminated k-th in factorizing B (SparseLDLT's order). */
+    std::vector<int> order;
+    /** Per cluster: the number of particles, of constraints, and 1 if it holds its normal momenta; then a 0. */
+    std::vector<int> counts;
+    /** The particles with mass in no cluster and under no constraint: their drift and kick are free. */
+    std::vector<int> freeParticles;
+};
+
+/**
  * The frozen drift and kick of the artificial FLAVOR for stiff bonded forces: the frozen distances are held as
  * temporary constraints next to the System's own (which stay on throughout), each cluster of coupled constraints on
  * its own through the platform's ParallelLoop.
@@ -147,6 +166,14 @@ public:
      * cluster; the two drifts agree to the constraint tolerance (tests compare them).
      */
     void setRigidShortcut(bool use) { rigidShortcut = use; }
+    /**
+     * Lays the clusters out for a device solver, if they all fit it: no System constraint in the System, at most
+     * SmallClusterTable::MaxConstraints constraints (dense B) and MaxParticles particles per cluster, rigid shortcut
+     * on. Returns false (table unchanged) otherwise.
+     */
+    bool describeSmallClusters(SmallClusterTable& table) const;
+    /** The exception's message where the frozen distances could not be held to tolerance. */
+    static std::string unstableMessage(double tolerance);
     /**
      * Forgets every cluster's factorization: the next drift or kick factorizes where it starts, as the first one does.
      * Called when the Context's state is set from outside (positions, velocities, a checkpoint), so that what follows

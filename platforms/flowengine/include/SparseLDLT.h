@@ -71,6 +71,8 @@ public:
     bool isDependent(int i) const { return dependent[position[i]] != 0; }
     /** Whether factorize() and solve() take the dense path. */
     bool isDense() const { return dense; }
+    /** The row (constructor's numbering) eliminated k-th. */
+    int eliminatedAt(int k) const { return order[k]; }
 
 private:
     void solveSparse(double* b) const;

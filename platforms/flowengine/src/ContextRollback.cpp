@@ -40,6 +40,15 @@ void ContextRollback::save(ContextImpl& context, bool withParameters) {
     valid = true;
 }
 
+void ContextRollback::saveAllButParticles(ContextImpl& context, bool withParameters) {
+    context.getPeriodicBoxVectors(boxVectors[0], boxVectors[1], boxVectors[2]);
+    time = context.getTime();
+    stepCount = context.getStepCount();
+    if (withParameters || !valid)
+        parameters = context.getParameters();
+    valid = true;
+}
+
 void ContextRollback::restore(ContextImpl& context) {
     if (!valid)
         return;

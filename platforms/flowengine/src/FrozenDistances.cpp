@@ -406,14 +406,17 @@ void FrozenDistances::run(vector<Vec3>& q, vector<Vec3>& v, const vector<Vec3>* 
     checkConvergence();
 }
 
+std::string FrozenDistances::unstableMessage(double tolerance) {
+    return "FlavorIntegrator: the frozen distances could not be held to the constraint tolerance " +
+           std::to_string(tolerance) + " in " + std::to_string(MaxIterations) +
+           " iterations; the simulation is unstable (reduce the mesostep)";
+}
+
 void FrozenDistances::checkConvergence() {
     for (size_t k = 0; k < failed.size(); ++k)
         if (failed[k]) {
             std::fill(failed.begin(), failed.end(), 0);
-            throw OpenMMException("FlavorIntegrator: the frozen distances could not be held to the constraint "
-                                  "tolerance " +
-                                  std::to_string(tolerance) + " in " + std::to_string(MaxIterations) +
-                                  " iterations; the simulation is unstable (reduce the mesostep)");
+            throw OpenMMException(unstableMessage(tolerance));
         }
 }
 
@@ -749,4 +752,40 @@ bool FrozenDistances::constrainVelocities(int k, Vec3* v, int maxIterations, boo
         addAlongConstraints(k, v, u, mu);
     }
     return false;
+}
+
+bool FrozenDistances::describeSmallClusters(SmallClusterTable& table) const {
+    using Table = SmallClusterTable;
+    if (!rigidShortcut)
+        return false;
+    for (const OtherChunk& chunk : otherChunks)
+        if (chunk.constraints || !chunk.constrainedParticles.empty())
+            return false;
+    for (int k = 0; k < getNumClusters(); ++k)
+        if (systemCount[k] != 0 || !solvers[k].isDense() ||
+            constraintStart[k + 1] - constraintStart[k] > Table::MaxConstraints ||
+            particleStart[k + 1] - particleStart[k] > Table::MaxParticles)
+            return false;
+    Table result;
+    for (int k = 0; k < getNumClusters(); ++k) {
+        const int firstParticle = particleStart[k], numParticles = particleStart[k + 1] - firstParticle;
+        const int firstConstraint = constraintStart[k], numConstraints = constraintStart[k + 1] - firstConstraint;
+        auto local = [&](int particle) {
+            return (int)(std::find(&particles[firstParticle], &particles[firstParticle] + numParticles, particle) -
+                         &particles[firstParticle]);
+        };
+        for (int i = 0; i < Table::MaxParticles; ++i)
+            result.particles.push_back(i < numParticles ? particles[firstParticle + i] : -1);
+        for (int c = 0; c < Table::MaxConstraints; ++c) {
+            const bool present = c < numConstraints;
+            result.ends.push_back(present ? local(pairs[firstConstraint + c].first) : -1);
+            result.ends.push_back(present ? local(pairs[firstConstraint + c].second) : -1);
+            result.order.push_back(present ? solvers[k].eliminatedAt(c) : -1);
+        }
+        result.counts.insert(result.counts.end(), {numParticles, numConstraints, (int)holdsMomenta[k], 0});
+    }
+    for (const OtherChunk& chunk : otherChunks)
+        result.freeParticles.insert(result.freeParticles.end(), chunk.freeParticles.begin(), chunk.freeParticles.end());
+    table = std::move(result);
+    return true;
 }

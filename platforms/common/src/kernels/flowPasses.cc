@@ -517,3 +517,14 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
         }
     }
 }
+
+/** Copies the positions and velocities in system order into a snapshot (for a failed checkpoint to put back). */
+KERNEL void snapshotState(GLOBAL const real4* RESTRICT posq, GLOBAL const real4* RESTRICT posqCorrection,
+                          GLOBAL const mixed4* RESTRICT velm, GLOBAL const int* RESTRICT atomIndex,
+                          GLOBAL mixed4* RESTRICT positions, GLOBAL mixed4* RESTRICT velocities) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        const int particle = atomIndex[atom];
+        positions[particle] = loadPosition(posq, posqCorrection, atom);
+        velocities[particle] = velm[atom];
+    }
+}

@@ -1,0 +1,149 @@
+#include "DeviceFrozenStage.h"
+#include "openmm/OpenMMException.h"
+#include <algorithm>
+#include <string>
+#include <vector>
+
+using namespace FlavorPlugin;
+using namespace OpenMM;
+using std::vector;
+
+namespace {
+
+bool mixedIsDouble(const ComputeContext& cc) {
+    return cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
+}
+
+/** Uploads values into array, created with at least one element (filler where values is empty). */
+template <class T>
+void uploadList(ComputeContext& cc, ComputeArray& array, vector<T> values, const T& filler, const char* name) {
+    if (values.empty())
+        values.push_back(filler);
+    if (array.isInitialized())
+        array.resize((int)values.size());
+    else
+        array.initialize<T>(cc, (int)values.size(), name);
+    array.upload(values);
+}
+
+void addMixed(const ComputeContext& cc, ComputeKernel& kernel, double value) {
+    if (mixedIsDouble(cc))
+        kernel->addArg(value);
+    else
+        kernel->addArg((float)value);
+}
+
+void setMixed(const ComputeContext& cc, ComputeKernel& kernel, int index, double value) {
+    if (mixedIsDouble(cc))
+        kernel->setArg(index, value);
+    else
+        kernel->setArg(index, (float)value);
+}
+
+} // namespace
+
+DeviceFrozenStage::DeviceFrozenStage(ComputeContext& cc, ComputeProgram& program, ComputeArray& slotOf)
+    : cc(cc), program(program), slotOf(slotOf) {
+    failure.initialize<int>(cc, 1, "flavorFrozenFailure");
+    cc.clearBuffer(failure);
+    failureRead = cc.createEvent();
+}
+
+DeviceFrozenStage::~DeviceFrozenStage() {
+    if (readPending)
+        failureRead->wait();
+}
+
+bool DeviceFrozenStage::setDistances(const FrozenDistances* distances) {
+    using Table = SmallClusterTable;
+    Table table;
+    active = distances != nullptr && distances->describeSmallClusters(table);
+    if (!active)
+        return false;
+    numClusters = (int)table.counts.size() / 4;
+    numFree = (int)table.freeParticles.size();
+    uploadList(cc, particles, table.particles, 0, "flavorFrozenParticles");
+    uploadList(cc, ends, table.ends, 0, "flavorFrozenEnds");
+    uploadList(cc, order, table.order, 0, "flavorFrozenOrder");
+    vector<mm_int4> clusterCounts(numClusters);
+    for (int k = 0; k < numClusters; ++k)
+        clusterCounts[k] = mm_int4(table.counts[4 * k], table.counts[4 * k + 1], table.counts[4 * k + 2], 0);
+    uploadList(cc, counts, clusterCounts, mm_int4(0, 0, 0, 0), "flavorFrozenCounts");
+    uploadList(cc, flags, vector<mm_int4>(numClusters, mm_int4(0, 0, 0, 0)), mm_int4(0, 0, 0, 0), "flavorFrozenFlags");
+    uploadList(cc, freeParticles, table.freeParticles, 0, "flavorFrozenFree");
+    // Per cluster: G, the directions and where it was factorized (frozenClusters.cc's CLUSTER_REALS).
+    const int realsPerCluster =
+        Table::MaxConstraints * Table::MaxConstraints + 3 * Table::MaxConstraints + 3 * Table::MaxParticles;
+    const int numReals = std::max(1, numClusters * realsPerCluster);
+    if (reals.isInitialized())
+        reals.resize(numReals);
+    else
+        reals.initialize(cc, numReals, mixedIsDouble(cc) ? sizeof(double) : sizeof(float), "flavorFrozenReals");
+    cc.clearBuffer(reals);
+    // The arguments are set once here; run() sets the step, the tolerance and a kick's forces.
+    driftKernel = program->createKernel("frozenDrift");
+    kickKernel = program->createKernel("frozenKick");
+    for (ComputeKernel* kernel : {&driftKernel, &kickKernel}) {
+        ComputeKernel& k = *kernel;
+        k->addArg(numClusters);
+        k->addArg(numFree);
+        k->addArg(particles);
+        k->addArg(ends);
+        k->addArg(order);
+        k->addArg(counts);
+        k->addArg(flags);
+        k->addArg(reals);
+        k->addArg(freeParticles);
+        k->addArg(slotOf);
+        k->addArg(cc.getPosq());
+        k->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+        k->addArg(cc.getVelm());
+        k->addArg(failure);
+    }
+    kickKernel->addArg(slotOf); // the forces, set per kick
+    for (ComputeKernel* kernel : {&driftKernel, &kickKernel}) {
+        addMixed(cc, *kernel, 0.0);
+        addMixed(cc, *kernel, 0.0);
+    }
+    return true;
+}
+
+void DeviceFrozenStage::run(const SubFlow& flow, ComputeArray* forces, double tolerance) {
+    const bool drift = flow.kind == SubFlow::FrozenDrift;
+    ComputeKernel& kernel = drift ? driftKernel : kickKernel;
+    // Arguments: 14 in common, a kick's forces, then h and the tolerance.
+    const int first = drift ? 14 : 15;
+    if (!drift)
+        kernel->setArg(14, *forces);
+    setMixed(cc, kernel, first, flow.h);
+    setMixed(cc, kernel, first + 1, tolerance);
+    lastTolerance = tolerance;
+    kernel->execute(numClusters + numFree);
+    ranThisStep = true;
+}
+
+void DeviceFrozenStage::forgetFactorizations() {
+    if (active)
+        cc.clearBuffer(flags);
+}
+
+void DeviceFrozenStage::finishStep() {
+    if (!ranThisStep)
+        return;
+    ranThisStep = false;
+    failure.download(&failureFlag, false);
+    failureRead->enqueue();
+    readPending = true;
+}
+
+void DeviceFrozenStage::checkFailure() {
+    if (!readPending)
+        return;
+    failureRead->wait();
+    readPending = false;
+    if (failureFlag == 0)
+        return;
+    failureFlag = 0;
+    cc.clearBuffer(failure);
+    throw OpenMMException(FrozenDistances::unstableMessage(lastTolerance));
+}

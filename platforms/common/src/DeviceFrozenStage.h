@@ -1,0 +1,64 @@
+#ifndef OPENMM_FLAVORS_DEVICE_FROZEN_STAGE_H_
+#define OPENMM_FLAVORS_DEVICE_FROZEN_STAGE_H_
+
+#include "FrozenDistances.h"
+#include "internal/FlowSchedule.h"
+#include "openmm/common/ComputeArray.h"
+#include "openmm/common/ComputeContext.h"
+#include "openmm/common/ComputeEvent.h"
+#include "openmm/common/ComputeKernel.h"
+#include "openmm/common/ComputeProgram.h"
+
+namespace FlavorPlugin {
+
+/**
+ * The artificial FLAVOR's frozen stage (FrozenDrift, FrozenKick on frozen distances) on the device, for Systems whose
+ * clusters FrozenDistances::describeSmallClusters() lays out: every cluster at most four frozen distances and no System
+ * constraint (flexible water: one triangle per molecule).  One work-item per cluster runs the host's iterations
+ * (kernels/frozenClusters.cc); the host's FrozenDistances, which HostFrozenStage runs for every other System, is the
+ * oracle its tests compare with.  Nothing is copied to or from the host per pass: a drift that cannot be held sets a
+ * flag on the device, which finishStep() downloads without waiting and checkFailure() reads where the next step
+ * starts.
+ */
+class DeviceFrozenStage {
+public:
+    /**
+     * program: compiled from flowPasses.cc and frozenClusters.cc; slotOf: each particle's atom (current whenever run()
+     * is called).
+     */
+    DeviceFrozenStage(OpenMM::ComputeContext& cc, OpenMM::ComputeProgram& program, OpenMM::ComputeArray& slotOf);
+    /** Waits for a download still on its way into failureFlag. */
+    ~DeviceFrozenStage();
+    /**
+     * Takes the clusters of distances onto the device if they fit; returns whether they did (false and inactive for
+     * null or clusters that do not fit: the host stage runs them).
+     */
+    bool setDistances(const FrozenDistances* distances);
+    /** Whether run() serves frozen flows on distances. */
+    bool isActive() const { return active; }
+    /** One frozen drift (flow.h) or kick with the forces of a slot (mixed4, System order). */
+    void run(const SubFlow& flow, OpenMM::ComputeArray* forces, double tolerance);
+    /** Forgets every cluster's factorization (FrozenDistances::forgetFactorizations). */
+    void forgetFactorizations();
+    /** After a step that ran a frozen flow: starts the download of the failure flag, without waiting for it. */
+    void finishStep();
+    /** Throws the host's exception if a drift of the last step could not be held (waits for finishStep()'s copy). */
+    void checkFailure();
+
+private:
+    OpenMM::ComputeContext& cc;
+    OpenMM::ComputeProgram& program;
+    OpenMM::ComputeArray& slotOf;
+    OpenMM::ComputeKernel driftKernel, kickKernel;
+    OpenMM::ComputeArray particles, ends, order, counts, flags, reals, freeParticles, failure;
+    OpenMM::ComputeEvent failureRead;
+    int numClusters = 0, numFree = 0;
+    bool active = false, ranThisStep = false, readPending = false;
+    double lastTolerance = 0.0;
+    // Where the failure flag is downloaded to; read only after failureRead has completed.
+    int failureFlag = 0;
+};
+
+} // namespace FlavorPlugin
+
+#endif

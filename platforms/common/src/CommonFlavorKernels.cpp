@@ -267,6 +267,11 @@ void CommonFlowStepper::prepare() {
     processings.resize(plan.passes.size());
     carrying.clear();
     carrying.resize(plan.passes.size());
+    fusedPassKernels.assign(plan.passes.size(), ComputeKernel());
+    fusedOps.clear();
+    fusedOps.resize(plan.passes.size());
+    fusedOpReals.clear();
+    fusedOpReals.resize(plan.passes.size());
     bool haveBath = false;
     Bath bath;
     for (size_t p = 0; p < plan.passes.size(); ++p) {
@@ -346,6 +351,7 @@ void CommonFlowStepper::prepare() {
             }
             passKernels[p].push_back(kernel);
         }
+        fusedPassKernels[p] = createFusedPassKernel(pass, p);
     }
     vector<double> speeds(numParticles, 0.0);
     for (int i = 0; i < numParticles; ++i) {
@@ -354,6 +360,47 @@ void CommonFlowStepper::prepare() {
     }
     thermalSpeed.upload(speeds, true);
     invalidateForces();
+}
+
+ComputeKernel CommonFlowStepper::createFusedPassKernel(const FlowPass& pass, size_t p) {
+    // Constrained drifts and projected kicks need the platform's constraint algorithms between the flows.
+    if (hasConstraints || pass.flows.size() < 2)
+        return ComputeKernel();
+    vector<mm_int4> ops;
+    vector<double> reals;
+    for (size_t k = 0; k < pass.flows.size(); ++k) {
+        const SubFlow& flow = pass.flows[k];
+        if (flow.kind == SubFlow::Kick) {
+            ops.push_back(mm_int4(0, pass.slots[k], 0, 0));
+            reals.insert(reals.end(), {flow.h, 0.0});
+        } else if (flow.kind == SubFlow::Drift) {
+            ops.push_back(mm_int4(1, 0, 0, 0));
+            reals.insert(reals.end(), {flow.h, 0.0});
+        } else if (flow.kind == SubFlow::Thermostat) {
+            const VelocityFlow ou = computeVelocityFlow(flow.bath.friction, flow.h);
+            ops.push_back(mm_int4(2, 0, pass.streams[k], 0));
+            reals.insert(reals.end(), {ou.decay, ou.noise});
+        } else
+            return ComputeKernel();
+    }
+    fusedOps[p].initialize<mm_int4>(cc, (int)ops.size(), "flavorFusedOps");
+    fusedOps[p].upload(ops);
+    uploadMixed(cc, fusedOpReals[p], reals, "flavorFusedOpReals");
+    ComputeKernel kernel = program->createKernel("particlePass");
+    kernel->addArg((int)ops.size());
+    kernel->addArg(fusedOps[p]);
+    kernel->addArg(fusedOpReals[p]);
+    kernel->addArg(cc.getPosq());
+    kernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+    kernel->addArg(cc.getVelm());
+    kernel->addArg(cc.getAtomIndexArray());
+    for (int s = 0; s < MaxForceSlots; ++s)
+        kernel->addArg(slotForces[s]);
+    kernel->addArg(thermalSpeed);
+    kernel->addArg(thermostated);
+    kernel->addArg((std::uint64_t)0);
+    addRandomArgs(kernel);
+    return kernel;
 }
 
 ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size_t p) {
@@ -426,10 +473,15 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
 }
 
 void CommonFlowStepper::findAtoms() {
-    // The atoms are reordered only where a step ends (or a checkpoint is loaded): once per step.
+    // The atoms are reordered only between steps (where a step ends, a checkpoint is loaded, molecules are regrouped):
+    // slotOf is made again only where the platform's host copy of the order changed since.
     if (atomsFound)
         return;
-    findAtomsKernel->execute(cc.getNumAtoms());
+    const vector<int>& order = cc.getAtomIndex();
+    if (order != slotOfOrder) {
+        findAtomsKernel->execute(cc.getNumAtoms());
+        slotOfOrder = order;
+    }
     atomsFound = true;
 }
 
@@ -459,6 +511,18 @@ void CommonFlowStepper::ensureForces(ContextImpl& context, int slot, bool clocke
 }
 
 void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance) {
+    if (fusedPassKernels[passIndex]) {
+        ComputeKernel& fused = fusedPassKernels[passIndex];
+        // Its stream argument comes after the force slots, the thermal speeds and the thermostated flags.
+        fused->setArg(9 + MaxForceSlots, (std::uint64_t)nextStream);
+        fused->execute(cc.getNumAtoms());
+        for (const SubFlow& flow : pass.flows)
+            if (flow.kind == SubFlow::Drift) {
+                invalidateForces();
+                break;
+            }
+        return;
+    }
     bool drifts = false;
     vector<ComputeKernel>& kernels = passKernels[passIndex];
     for (size_t k = 0; k < pass.flows.size(); ++k) {

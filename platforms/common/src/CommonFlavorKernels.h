@@ -127,6 +127,11 @@ private:
     /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
      */
     void runForceResponse(size_t passIndex, size_t kernelIndex);
+    /**
+     * One kernel for a pass of kicks, drifts and thermostats (particlePass), or none where the pass has another flow
+     * or the System has constraints.
+     */
+    OpenMM::ComputeKernel createFusedPassKernel(const FlowPass& pass, size_t p);
     /** The stiffFlow kernel of pass p with its propagator, for a StiffFlow or FilteredStiffFlow. */
     OpenMM::ComputeKernel createStiffFlowKernel(const SubFlow& flow, size_t p);
     /** The forceResponse kernel of pass p with its responses, for a FilteredStiffFlow or FilteredKick. */
@@ -166,6 +171,9 @@ private:
     OpenMM::ComputeArray kn, wn, fn, thermalSpeed, thermostated, slotOf;
     // Per pass, per flow: the kernel with its arguments set (the stream of a thermostat is set per step).
     std::vector<std::vector<OpenMM::ComputeKernel>> passKernels;
+    // Per pass: its flows as one kernel where it has one (createFusedPassKernel), with their table.
+    std::vector<OpenMM::ComputeKernel> fusedPassKernels;
+    std::vector<OpenMM::ComputeArray> fusedOps, fusedOpReals;
     // The stiff components: their table, particles, eigenvectors, masses, scratch, and per StiffFlow pass its
     // propagator with its offsets and whether it is noisy.
     OpenMM::ComputeArray components, componentLayout, componentParticles, eigenvectors, eigenvectorOffset, sqrtMass,
@@ -187,6 +195,8 @@ private:
     // The frozen stage of small clusters (flexible water) on the device; the others run on the host (frozenStage).
     std::unique_ptr<DeviceFrozenStage> deviceFrozen;
     bool atomsFound = false;
+    // The atom order slotOf was made for (the platform's host copy of it).
+    std::vector<int> slotOfOrder;
     HardWall hardWall;
     // With host constraints: the projector and, per stiff flow pass, how its correction moves the particles.
     std::unique_ptr<ConstraintProjector> projector;

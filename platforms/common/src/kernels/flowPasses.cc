@@ -528,3 +528,53 @@ KERNEL void snapshotState(GLOBAL const real4* RESTRICT posq, GLOBAL const real4*
         velocities[particle] = velm[atom];
     }
 }
+
+/**
+ * A pass of kicks, drifts and thermostats without constraints as one kernel: each particle runs the pass's flows in
+ * order (ops: per flow its kind, 0 kick, 1 drift, 2 thermostat, its force slot and its stream offset; opReals: per flow
+ * its step, or its decay and noise), with the arithmetic of kick, drift and thermostat above.
+ */
+KERNEL void particlePass(int numOps, GLOBAL const int4* RESTRICT ops, GLOBAL const mixed* RESTRICT opReals,
+                         GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
+                         GLOBAL mixed4* RESTRICT velm, GLOBAL const int* RESTRICT atomIndex,
+                         GLOBAL const mixed4* RESTRICT slot0, GLOBAL const mixed4* RESTRICT slot1,
+                         GLOBAL const mixed4* RESTRICT slot2, GLOBAL const mixed4* RESTRICT slot3,
+                         GLOBAL const mixed* RESTRICT thermalSpeed, GLOBAL const int* RESTRICT thermostated,
+                         mm_ulong stream, unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
+                         GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        mixed4 v = velm[atom];
+        if (v.w == 0)
+            continue;
+        const int particle = atomIndex[atom];
+        mixed4 pos = loadPosition(posq, posqCorrection, atom);
+        bool moved = false;
+        for (int k = 0; k < numOps; ++k) {
+            const int4 op = ops[k];
+            if (op.x == 0) {
+                GLOBAL const mixed4* slot = op.y == 0 ? slot0 : op.y == 1 ? slot1 : op.y == 2 ? slot2 : slot3;
+                const mixed4 f = slot[particle];
+                const mixed scale = opReals[2 * k] * v.w;
+                v.x += scale * f.x;
+                v.y += scale * f.y;
+                v.z += scale * f.z;
+            } else if (op.x == 1) {
+                const mixed h = opReals[2 * k];
+                pos.x += h * v.x;
+                pos.y += h * v.y;
+                pos.z += h * v.z;
+                moved = true;
+            } else if (thermostated[particle] != 0) {
+                mixed xi[3];
+                counterNormals(stream + (mm_ulong)op.z, (unsigned int)particle, k0, k1, kn, wn, fn, xi);
+                const mixed decay = opReals[2 * k], scale = opReals[2 * k + 1] * thermalSpeed[particle];
+                v.x = v.x * decay + xi[0] * scale;
+                v.y = v.y * decay + xi[1] * scale;
+                v.z = v.z * decay + xi[2] * scale;
+            }
+        }
+        if (moved)
+            storePosition(posq, posqCorrection, atom, pos);
+        velm[atom] = v;
+    }
+}

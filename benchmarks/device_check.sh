@@ -14,7 +14,8 @@
 # 4. runs benchmarks/gpu_benchmark.py on CUDA (and OpenCL where OpenMM has it) from device/states, JSON only (the chart
 #    is drawn here afterwards with --replot) -> OUT/gpu_benchmark_<platform>.json, .log.
 # OUT/device_check.json sums it up, with the time of each part.  Environment: DEVICE_CHECK_SCENES (default
-# "flexible_water drude_water"), DEVICE_CHECK_PRECISION (default "mixed"), DEVICE_CHECK_TARGET and
+# "flexible_water drude_water"), DEVICE_CHECK_FLEXIBLE_SIZES and DEVICE_CHECK_DRUDE_SIZES (the scenes' numbers of
+# molecules; default "501 16000" and "256 8192"), DEVICE_CHECK_PRECISION (default "mixed"), DEVICE_CHECK_TARGET and
 # DEVICE_CHECK_REPEATS (the benchmark's seconds per batch and rounds; default 1 and 3), DEVICE_CHECK_TEST_FILTER (the
 # tests' GoogleTest filter), DEVICE_CHECK_PYTHON (python3).
 set -u -o pipefail
@@ -22,6 +23,8 @@ set -u -o pipefail
 OUT=${1:-${OUT:-results/device_check}}
 PYTHON=${DEVICE_CHECK_PYTHON:-python3}
 SCENES=${DEVICE_CHECK_SCENES:-flexible_water drude_water}
+FLEXIBLE_SIZES=${DEVICE_CHECK_FLEXIBLE_SIZES:-501 16000}
+DRUDE_SIZES=${DEVICE_CHECK_DRUDE_SIZES:-256 8192}
 PRECISION=${DEVICE_CHECK_PRECISION:-mixed}
 TARGET=${DEVICE_CHECK_TARGET:-1}
 REPEATS=${DEVICE_CHECK_REPEATS:-3}
@@ -113,7 +116,8 @@ platforms=$("$PYTHON" -c 'import json, sys; print(" ".join(p for p in ("CUDA", "
 for platform in $platforms; do
     echo "-- $platform"
     "$PYTHON" benchmarks/gpu_benchmark.py --platform "$platform" --out "$OUT" --states device/states --no-chart \
-        --scenes $SCENES --precision $PRECISION --target "$TARGET" --repeats "$REPEATS" \
+        --scenes $SCENES --flexible-sizes $FLEXIBLE_SIZES --drude-sizes $DRUDE_SIZES --precision $PRECISION \
+        --target "$TARGET" --repeats "$REPEATS" \
         2>"$OUT/gpu_benchmark_${platform,,}.stderr.log" | tee "$OUT/gpu_benchmark_${platform,,}.log" ||
         bench_status=1
 done

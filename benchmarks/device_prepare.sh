@@ -42,7 +42,8 @@ cuda_include=$(dirname "$(readlink -f "$(command -v nvcc)")")/../include
 
 # The start states of the device check's scenes, made once on the CPU platform (the benchmark reads them back).
 PYTHONPATH=build/python .venv/bin/python benchmarks/gpu_benchmark.py --platform OpenCL --states "$DEVICE/states" \
-    --make-states-only --scenes ${DEVICE_CHECK_SCENES:-flexible_water drude_water}
+    --make-states-only --scenes ${DEVICE_CHECK_SCENES:-flexible_water drude_water} \
+    --flexible-sizes ${DEVICE_CHECK_FLEXIBLE_SIZES:-501 16000} --drude-sizes ${DEVICE_CHECK_DRUDE_SIZES:-256 8192}
 
 du -sh "$DEVICE"/*
 total=$(du -sm "$DEVICE" | cut -f1)

@@ -43,7 +43,7 @@ machine, so that a run on a borrowed GPU spends no time equilibrating.  With PoC
 
     PYTHONPATH=build/python .venv/bin/python benchmarks/gpu_benchmark.py [--platform CUDA|OpenCL] [--quick] [--out DIR]
         [--precision mixed double] [--scenes drude_water flexible_water villin drude_protein drude_villin fpu]
-        [--target S] [--repeats N]
+        [--target S] [--repeats N] [--flexible-sizes N ...] [--drude-sizes N ...]
         [--states DIR] [--no-chart] [--replot JSON]
 
 $FLAVORS_BENCH_QUICK=1 acts as --quick; $FLAVORS_OPENCL_PLATFORM_INDEX and $FLAVORS_OPENCL_DEVICE_INDEX pick the OpenCL
@@ -172,8 +172,8 @@ def thermal_start(positions, temperature):
 # Scenes: each returns (description, start, peers); a peer is (name, step in fs, system, integrator factory, note)
 # and start(context) puts a new Context at the scene's start state.
 
-def drude_scene(quick, states):
-    molecules = 64 if quick else 256
+def drude_scene(quick, states, molecules=None):
+    molecules = molecules or (64 if quick else 256)
     log(f"drude_water: {molecules} SWM4-NDP molecules, minimizing and equilibrating on the CPU platform")
     system, _, positions, _ = drude_water.build_water(molecules)
     steps = 50 if quick else 1000
@@ -186,8 +186,8 @@ def drude_scene(quick, states):
     return description, lambda context: context.setState(state), peers
 
 
-def flexible_scene(quick, states):
-    molecules = 216 if quick else 501
+def flexible_scene(quick, states, molecules=None):
+    molecules = molecules or (216 if quick else 501)
     log(f"flexible_water: {molecules} TIP3P molecules, minimizing and equilibrating on the CPU platform")
     forcefield, modeller = flexible_water.build_box(molecules)
     system = flexible_water.make_system(forcefield, modeller.topology, False)
@@ -453,6 +453,10 @@ def main():
                    help="keep the scenes' start states in DIR (XML): read when there, made and written otherwise")
     p.add_argument("--make-states-only", action="store_true",
                    help="make the scenes' start states into --states and stop (benchmarks/device_prepare.sh)")
+    p.add_argument("--flexible-sizes", nargs="+", type=int, default=None, metavar="N",
+                   help="flexible_water at these numbers of molecules (default 501, --quick 216), e.g. 501 4000 16000")
+    p.add_argument("--drude-sizes", nargs="+", type=int, default=None, metavar="N",
+                   help="drude_water at these numbers of molecules (default 256, --quick 64), e.g. 256 2048 8192")
     p.add_argument("--no-chart", action="store_true", help="write the JSON only (draw it later with --replot)")
     p.add_argument("--replot", metavar="JSON", help="only draw the chart of an earlier run's JSON into --out")
     args = p.parse_args()
@@ -472,16 +476,23 @@ def main():
     data = {"command": " ".join(sys.argv), "platform": PLATFORM_NAME, "quick": args.quick, "batch_target_s": target,
             "repeats": repeats,
             "openmm_version": mm.Platform.getOpenMMVersion(), "scenes": {}}
+    sizes = {"flexible_water": args.flexible_sizes, "drude_water": args.drude_sizes}
+    # Each scene at each of its sizes: (key in the JSON, scene, molecules or None for the scene's own).
+    runs = [(f"{name}_{n}" if sizes.get(name) else name, name, n) for name in args.scenes
+            for n in (sizes.get(name) or [None])]
+
+    def build(name, molecules):
+        return builders[name](args.quick, args.states, molecules) if molecules else builders[name](args.quick,
+                                                                                                    args.states)
     if args.make_states_only:
         if not args.states:
             p.error("--make-states-only needs --states DIR")
-        for name in args.scenes:
-            builders[name](args.quick, args.states)
+        for _, name, molecules in runs:
+            build(name, molecules)
         return
     platform = gpu_platform()
-    for name in args.scenes:
-        data["scenes"][name] = run_scene(name, builders[name](args.quick, args.states), platform, args.precision,
-                                         target, repeats)
+    for key, name, molecules in runs:
+        data["scenes"][key] = run_scene(key, build(name, molecules), platform, args.precision, target, repeats)
     print_tables(data)
     stem = f"gpu_benchmark_{PLATFORM_NAME.lower()}"
     if args.no_chart:

@@ -10,7 +10,7 @@ which the script preloads into itself when it is not yet loaded.  Mixed precisio
 (kernel compilation, the first step's set-up), then --steps counted steps in one integrator.step() call.
 
     PYTHONPATH=build/python .venv/bin/python benchmarks/opencl_call_counts.py [--quick] [--out DIR]
-        [--scenes flexible_water drude_water] [--steps N]
+        [--scenes flexible_water drude_water] [--steps N] [--flexible-sizes N ...] [--drude-sizes N ...]
 
 Writes DIR/opencl_call_counts.json and prints the table.
 """
@@ -80,13 +80,19 @@ def main():
     p.add_argument("--scenes", nargs="+", default=["flexible_water", "drude_water"],
                    choices=["flexible_water", "drude_water"])
     p.add_argument("--steps", type=int, default=20, help="counted steps per peer (default 20)")
+    p.add_argument("--flexible-sizes", nargs="+", type=int, default=None, metavar="N",
+                   help="flexible_water at these numbers of molecules (as gpu_benchmark.py)")
+    p.add_argument("--drude-sizes", nargs="+", type=int, default=None, metavar="N",
+                   help="drude_water at these numbers of molecules (as gpu_benchmark.py)")
     args = p.parse_args()
     platform = mm.Platform.getPlatformByName("OpenCL")
     builders = {"flexible_water": gpu_benchmark.flexible_scene, "drude_water": gpu_benchmark.drude_scene}
     data = {"command": " ".join(sys.argv), "openmm_version": mm.Platform.getOpenMMVersion(), "steps": args.steps,
             "precision": "mixed", "scenes": {}}
-    for name in args.scenes:
-        description, start, peers = builders[name](args.quick, None)
+    sizes = {"flexible_water": args.flexible_sizes, "drude_water": args.drude_sizes}
+    runs = [(f"{name}_{n}" if sizes[name] else name, name, n) for name in args.scenes for n in (sizes[name] or [None])]
+    for key, name, molecules in runs:
+        description, start, peers = builders[name](args.quick, None, molecules)
         records = {}
         for peer, step_fs, system, factory, _ in peers:
             gpu_benchmark.log(f"  {name}: counting {peer}")
@@ -97,13 +103,13 @@ def main():
                 continue
             records[peer] = {"available": True, "step_fs": step_fs, "per_step": per_step,
                              "per_ps": {key: value * 1000.0 / step_fs for key, value in per_step.items()}}
-        data["scenes"][name] = {"system": description, "peers": records}
+        data["scenes"][key] = {"system": description, "peers": records}
         rows = [[peer, r["step_fs"], r["per_step"]["launches"], r["per_step"]["blockingReads"],
                  r["per_step"]["blockingWrites"], r["per_step"]["reads"], r["per_step"]["writes"],
                  r["per_step"]["waits"], r["per_ps"]["launches"],
                  r["per_ps"]["blockingReads"] + r["per_ps"]["blockingWrites"]]
                 for peer, r in records.items() if r["available"]]
-        reporting.table(f"{name}: {description}, OpenCL mixed, per step after warm-up ({args.steps} steps)",
+        reporting.table(f"{key}: {description}, OpenCL mixed, per step after warm-up ({args.steps} steps)",
                         [("peer", max(len(peer) for peer in records), "s"), ("step fs", 8, ".3g"),
                          ("launches", 9, ".4g"), ("blk reads", 9, ".3g"), ("blk writes", 10, ".3g"),
                          ("reads", 6, ".3g"), ("writes", 6, ".3g"), ("waits", 6, ".3g"),

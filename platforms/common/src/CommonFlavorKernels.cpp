@@ -398,6 +398,8 @@ ComputeKernel CommonFlowStepper::createFusedPassKernel(const FlowPass& pass, siz
         kernel->addArg(slotForces[s]);
     kernel->addArg(thermalSpeed);
     kernel->addArg(thermostated);
+    kernel->addArg(cc.getLongForceBuffer());
+    kernel->addArg(-1);
     kernel->addArg((std::uint64_t)0);
     addRandomArgs(kernel);
     return kernel;
@@ -485,7 +487,17 @@ void CommonFlowStepper::findAtoms() {
     atomsFound = true;
 }
 
+void CommonFlowStepper::copyPendingForces() {
+    if (slotInBuffer < 0)
+        return;
+    copyForcesKernel->setArg(1, slotForces[slotInBuffer]);
+    copyForcesKernel->execute(cc.getNumAtoms());
+    slotInBuffer = -1;
+}
+
 void CommonFlowStepper::invalidateForces() {
+    // Forces at positions left behind are not needed: nothing to copy.
+    slotInBuffer = -1;
     std::fill(slotValid.begin(), slotValid.end(), false);
     virtualSitesPlaced = false;
 }
@@ -504,17 +516,22 @@ void CommonFlowStepper::ensureForces(ContextImpl& context, int slot, bool clocke
     if (clocked)
         context.setParameter(stiffClock.getParameter(), clock);
     slotClock[slot] = SlotClock{clocked, clock};
+    // The buffer is about to be overwritten: forces still waiting there go into their slot first.
+    copyPendingForces();
     context.calcForcesAndEnergy(true, false, plan.slotGroups[slot]);
-    copyForcesKernel->setArg(1, slotForces[slot]);
-    copyForcesKernel->execute(cc.getNumAtoms());
+    // Copied into the slot when a kernel that reads only slots needs them (copyPendingForces); kernels that read the
+    // buffer too (particlePass, a device frozen pass's pre-kick) take them from there.
+    slotInBuffer = slot;
     slotValid[slot] = true;
 }
 
 void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance) {
     if (fusedPassKernels[passIndex]) {
         ComputeKernel& fused = fusedPassKernels[passIndex];
-        // Its stream argument comes after the force slots, the thermal speeds and the thermostated flags.
-        fused->setArg(9 + MaxForceSlots, (std::uint64_t)nextStream);
+        // After the force slots: the thermal speeds, the thermostated flags, the force buffer, the slot it holds and
+        // the stream.
+        fused->setArg(10 + MaxForceSlots, slotInBuffer);
+        fused->setArg(11 + MaxForceSlots, (std::uint64_t)nextStream);
         fused->execute(cc.getNumAtoms());
         for (const SubFlow& flow : pass.flows)
             if (flow.kind == SubFlow::Drift) {
@@ -523,6 +540,7 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
             }
         return;
     }
+    copyPendingForces();
     bool drifts = false;
     vector<ComputeKernel>& kernels = passKernels[passIndex];
     for (size_t k = 0; k < pass.flows.size(); ++k) {
@@ -597,6 +615,7 @@ void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
     if (!modes)
         throw OpenMMException(owner + ": a stiff flow needs the stiff modes");
     ComputeKernel& kernel = passKernels[passIndex][0];
+    copyPendingForces();
     findAtoms();
     kernel->setArg(15, slotForces[fusedSlot >= 0 ? fusedSlot : 0]);
     setMixedArg(cc, kernel, 16, fusedSlot >= 0 ? fusedStep : 0.0);
@@ -606,6 +625,17 @@ void CommonFlowStepper::runStiffFlow(const FlowPass& pass, size_t passIndex) {
     invalidateForces();
 }
 
+bool CommonFlowStepper::kickFusesIntoFrozenPass(size_t p) const {
+    // A lone kick before a frozen pass on the device runs in that pass's kernel (no constraint projects it).
+    if (hasConstraints || !deviceFrozen->isActive() || p + 1 >= plan.passes.size())
+        return false;
+    const FlowPass& pass = plan.passes[p];
+    const SubFlow& next = plan.passes[p + 1].flows[0];
+    return pass.flows.size() == 1 && pass.flows[0].kind == SubFlow::Kick &&
+           (next.kind == SubFlow::FrozenDrift || next.kind == SubFlow::FrozenKick) &&
+           next.frozen == SubFlow::FrozenSet::Distances;
+}
+
 void CommonFlowStepper::runFrozenPass(const FlowPass& pass, double constraintTolerance) {
     // Frozen passes hold one sub-flow each (analyzeStep).
     const SubFlow& flow = pass.flows[0];
@@ -613,9 +643,16 @@ void CommonFlowStepper::runFrozenPass(const FlowPass& pass, double constraintTol
     const bool kick = flow.kind == SubFlow::FrozenKick;
     if (flow.frozen == SubFlow::FrozenSet::Distances && deviceFrozen->isActive()) {
         findAtoms();
-        deviceFrozen->run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance);
-    } else
+        if (kick)
+            copyPendingForces();
+        deviceFrozen->run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance,
+                          fusedSlot >= 0 ? &slotForces[fusedSlot] : nullptr, fusedStep,
+                          fusedSlot >= 0 && fusedSlot == slotInBuffer);
+        fusedSlot = -1;
+    } else {
+        copyPendingForces();
         frozenStage.run(flow, kick ? &slotForces[pass.slots[0]] : nullptr, constraintTolerance, !pass.othersFixedLater);
+    }
     if (!kick)
         invalidateForces();
 }
@@ -623,6 +660,7 @@ void CommonFlowStepper::runFrozenPass(const FlowPass& pass, double constraintTol
 void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
     if (!modes)
         throw OpenMMException(owner + ": a Filtered step needs the stiff modes");
+    copyPendingForces();
     findAtoms();
     passKernels[passIndex][kernelIndex]->execute(modes->getNumComponents());
 }
@@ -665,7 +703,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         for (size_t k = 0; k < pass.flows.size(); ++k)
             if (pass.slots[k] >= 0)
                 ensureForces(context, pass.slots[k], pass.flows[k].clocked, clockAtStart + pass.flows[k].clock);
-        if (pass.fusedIntoNext) {
+        if (pass.fusedIntoNext || kickFusesIntoFrozenPass(p)) {
             fusedSlot = pass.slots[0];
             fusedStep = pass.flows[0].h;
             continue;
@@ -708,6 +746,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     cc.setTime(cc.getTime() + stepSize);
     cc.setStepCount(cc.getStepCount() + 1);
     stiffClock.endStep(cc.getTime());
+    // Forces valid at the step's end serve the next step's opening: into their slot before the step returns (a
+    // getState() may evaluate forces into the buffer in between).
+    copyPendingForces();
     deviceFrozen->finishStep();
     cc.reorderAtoms();
     atomsFound = false;

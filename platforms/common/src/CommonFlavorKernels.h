@@ -108,6 +108,8 @@ private:
     /** Makes slotOf current (once per step). */
     void findAtoms();
     void invalidateForces();
+    /** Copies the forces last evaluated into their slot if they still wait in the platform's buffer. */
+    void copyPendingForces();
     void runParticlePass(const FlowPass& pass, size_t passIndex, double constraintTolerance);
     void runStiffFlow(const FlowPass& pass, size_t passIndex);
     /** With host constraints: remembers the positions where a stiff flow starts. */
@@ -121,6 +123,8 @@ private:
     void constrainVelocitiesOnHost(double constraintTolerance,
                                    const ConstraintProjector::StiffFlowCarrying* carrying = nullptr);
     void runFrozenPass(const FlowPass& pass, double constraintTolerance);
+    /** Whether pass p is a lone kick that the device frozen pass after it applies first (fusedSlot, fusedStep). */
+    bool kickFusesIntoFrozenPass(size_t p) const;
     /** The hard wall (HardWall, HardWallSpeed) on host copies of the positions or velocities, written back where it
      * moved any. */
     void runHardWall(const SubFlow& flow);
@@ -204,6 +208,8 @@ private:
     // The host side of the history's transfers (scratch, so also for a const checkpoint).
     mutable Mixed4Staging staging;
     int fusedSlot = -1;
+    // The slot whose forces were last evaluated and are still only in the platform's force buffer (-1: none).
+    int slotInBuffer = -1;
     double fusedStep = 0.0;
 };
 

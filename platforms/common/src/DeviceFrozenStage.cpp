@@ -104,19 +104,29 @@ bool DeviceFrozenStage::setDistances(const FrozenDistances* distances) {
     for (ComputeKernel* kernel : {&driftKernel, &kickKernel}) {
         addMixed(cc, *kernel, 0.0);
         addMixed(cc, *kernel, 0.0);
+        (*kernel)->addArg(slotOf); // a pre-kick's forces, set per pass
+        (*kernel)->addArg(cc.getLongForceBuffer());
+        (*kernel)->addArg(0);
+        addMixed(cc, *kernel, 0.0);
     }
     return true;
 }
 
-void DeviceFrozenStage::run(const SubFlow& flow, ComputeArray* forces, double tolerance) {
+void DeviceFrozenStage::run(const SubFlow& flow, ComputeArray* forces, double tolerance, ComputeArray* preKickForces,
+                            double preKick, bool preKickFromBuffer) {
     const bool drift = flow.kind == SubFlow::FrozenDrift;
     ComputeKernel& kernel = drift ? driftKernel : kickKernel;
-    // Arguments: 14 in common, a kick's forces, then h and the tolerance.
+    // Arguments: 14 in common, a kick's forces, then h, the tolerance, the pre-kick's forces (its slot and the
+    // platform's buffer, and which holds them) and its step.
     const int first = drift ? 14 : 15;
     if (!drift)
         kernel->setArg(14, *forces);
     setMixed(cc, kernel, first, flow.h);
     setMixed(cc, kernel, first + 1, tolerance);
+    if (preKickForces != nullptr)
+        kernel->setArg(first + 2, *preKickForces);
+    kernel->setArg(first + 4, preKickFromBuffer ? 1 : 0);
+    setMixed(cc, kernel, first + 5, preKickForces != nullptr ? preKick : 0.0);
     lastTolerance = tolerance;
     kernel->execute(numClusters + numFree);
     ranThisStep = true;

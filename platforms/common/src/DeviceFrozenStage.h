@@ -36,8 +36,13 @@ public:
     bool setDistances(const FrozenDistances* distances);
     /** Whether run() serves frozen flows on distances. */
     bool isActive() const { return active; }
-    /** One frozen drift (flow.h) or kick with the forces of a slot (mixed4, System order). */
-    void run(const SubFlow& flow, OpenMM::ComputeArray* forces, double tolerance);
+    /**
+     * One frozen drift (flow.h) or kick with the forces of a slot (mixed4, System order); first, if preKickForces is
+     * not null, the plain kick v += preKick M^-1 F of a pass that runs just before, its forces read from the
+     * platform's force buffer where preKickFromBuffer (not yet copied into their slot).
+     */
+    void run(const SubFlow& flow, OpenMM::ComputeArray* forces, double tolerance,
+             OpenMM::ComputeArray* preKickForces = nullptr, double preKick = 0.0, bool preKickFromBuffer = false);
     /** Forgets every cluster's factorization (FrozenDistances::forgetFactorizations). */
     void forgetFactorizations();
     /** After a step that ran a frozen flow: starts the download of the failure flag, without waiting for it. */

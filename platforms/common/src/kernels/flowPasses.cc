@@ -120,6 +120,18 @@ DEVICE void storePosition(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT po
 #endif
 }
 
+/**
+ * A particle's forces: from the platform's fixed-point force buffer (atom order) where fromBuffer (forces evaluated and
+ * not yet copied into their slot), else from a force slot (system order); the same values either way.
+ */
+DEVICE mixed4 slotForce(GLOBAL const mixed4* RESTRICT slot, GLOBAL const mm_long* RESTRICT buffer, int fromBuffer,
+                        int particle, int atom) {
+    if (fromBuffer)
+        return make_mixed4(FORCE_SCALE * (mixed)buffer[atom], FORCE_SCALE * (mixed)buffer[atom + PADDED_NUM_ATOMS],
+                           FORCE_SCALE * (mixed)buffer[atom + 2 * PADDED_NUM_ATOMS], 0);
+    return slot[particle];
+}
+
 /** Copies the platform's fixed-point forces into a force slot, in system order. */
 KERNEL void copyForces(GLOBAL const mm_long* RESTRICT force, GLOBAL mixed4* RESTRICT slot,
                        GLOBAL const int* RESTRICT atomIndex) {
@@ -532,7 +544,8 @@ KERNEL void snapshotState(GLOBAL const real4* RESTRICT posq, GLOBAL const real4*
 /**
  * A pass of kicks, drifts and thermostats without constraints as one kernel: each particle runs the pass's flows in
  * order (ops: per flow its kind, 0 kick, 1 drift, 2 thermostat, its force slot and its stream offset; opReals: per flow
- * its step, or its decay and noise), with the arithmetic of kick, drift and thermostat above.
+ * its step, or its decay and noise), with the arithmetic of kick, drift and thermostat above.  The forces of slot
+ * bufferSlot (-1: none) are read from the platform's force buffer, not yet copied into their slot.
  */
 KERNEL void particlePass(int numOps, GLOBAL const int4* RESTRICT ops, GLOBAL const mixed* RESTRICT opReals,
                          GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
@@ -540,8 +553,9 @@ KERNEL void particlePass(int numOps, GLOBAL const int4* RESTRICT ops, GLOBAL con
                          GLOBAL const mixed4* RESTRICT slot0, GLOBAL const mixed4* RESTRICT slot1,
                          GLOBAL const mixed4* RESTRICT slot2, GLOBAL const mixed4* RESTRICT slot3,
                          GLOBAL const mixed* RESTRICT thermalSpeed, GLOBAL const int* RESTRICT thermostated,
-                         mm_ulong stream, unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
-                         GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+                         GLOBAL const mm_long* RESTRICT forceBuffer, int bufferSlot, mm_ulong stream, unsigned int k0,
+                         unsigned int k1, GLOBAL const unsigned int* RESTRICT kn, GLOBAL const mixed* RESTRICT wn,
+                         GLOBAL const mixed* RESTRICT fn) {
     for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
         mixed4 v = velm[atom];
         if (v.w == 0)
@@ -553,7 +567,7 @@ KERNEL void particlePass(int numOps, GLOBAL const int4* RESTRICT ops, GLOBAL con
             const int4 op = ops[k];
             if (op.x == 0) {
                 GLOBAL const mixed4* slot = op.y == 0 ? slot0 : op.y == 1 ? slot1 : op.y == 2 ? slot2 : slot3;
-                const mixed4 f = slot[particle];
+                const mixed4 f = slotForce(slot, forceBuffer, op.y == bufferSlot, particle, atom);
                 const mixed scale = opReals[2 * k] * v.w;
                 v.x += scale * f.x;
                 v.y += scale * f.y;

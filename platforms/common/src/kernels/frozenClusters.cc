@@ -3,7 +3,8 @@
  * FrozenDistances for clusters of at most MAX_CLUSTER_CONSTRAINTS frozen distances and no System constraint (a flexible
  * water molecule's triangle), one cluster per work-item, with the host's iterations, tests and dense elimination in
  * the same order, so that a double-precision trajectory follows the Reference one to rounding.  The work-items past the
- * clusters move the free particles.
+ * clusters move the free particles.  A plain kick that runs just before (preKick, with the forces of its slot) is
+ * applied first, in the same kernel.
  *
  * Each cluster keeps between calls what the host keeps: whether and where (relative to its first particle) B was last
  * factorized, B's pseudo-inverse G,
@@ -332,6 +333,27 @@ DEVICE bool driftInSubsteps(FrozenCluster* k, mixed h, int substeps) {
     return true;
 }
 
+/** v += h M^-1 F: a plain kick that ran as a pass of its own just before (the kick kernel's arithmetic). */
+DEVICE void applyPreKick(mixed4* v, mixed4 f, mixed h) {
+    const mixed scale = h * v->w;
+    v->x += scale * f.x;
+    v->y += scale * f.y;
+    v->z += scale * f.z;
+}
+
+DEVICE void preKickCluster(FrozenCluster* k, int index, GLOBAL const int* RESTRICT particles,
+                           GLOBAL const mixed4* RESTRICT forces, GLOBAL const mm_long* RESTRICT forceBuffer,
+                           int fromBuffer, mixed h) {
+    for (int i = 0; i < k->numParticles; ++i) {
+        mixed4 v = make_mixed4(k->v[i][0], k->v[i][1], k->v[i][2], k->w[i]);
+        const int particle = particles[index * MAX_CLUSTER_PARTICLES + i];
+        applyPreKick(&v, slotForce(forces, forceBuffer, fromBuffer, particle, k->atom[i]), h);
+        k->v[i][0] = v.x;
+        k->v[i][1] = v.y;
+        k->v[i][2] = v.z;
+    }
+}
+
 /** Reads cluster index's particles and the state it kept. */
 DEVICE void loadCluster(FrozenCluster* k, int index, GLOBAL const int* RESTRICT particles,
                         GLOBAL const int* RESTRICT ends, GLOBAL const int* RESTRICT order,
@@ -423,11 +445,18 @@ KERNEL void frozenDrift(int numClusters, int numFree, GLOBAL const int* RESTRICT
                         GLOBAL const int4* RESTRICT counts, GLOBAL int4* RESTRICT flags, GLOBAL mixed* RESTRICT reals,
                         GLOBAL const int* RESTRICT freeParticles, GLOBAL const int* RESTRICT slotOf,
                         GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
-                        GLOBAL mixed4* RESTRICT velm, GLOBAL int* RESTRICT failure, mixed h, mixed tolerance) {
+                        GLOBAL mixed4* RESTRICT velm, GLOBAL int* RESTRICT failure, mixed h, mixed tolerance,
+                        GLOBAL const mixed4* RESTRICT preKickForces, GLOBAL const mm_long* RESTRICT forceBuffer,
+                        int preKickFromBuffer, mixed preKick) {
     for (int item = GLOBAL_ID; item < numClusters + numFree; item += GLOBAL_SIZE) {
         if (item >= numClusters) {
-            const int atom = slotOf[freeParticles[item - numClusters]];
-            const mixed4 v = velm[atom];
+            const int particle = freeParticles[item - numClusters];
+            const int atom = slotOf[particle];
+            mixed4 v = velm[atom];
+            if (preKick != 0) {
+                applyPreKick(&v, slotForce(preKickForces, forceBuffer, preKickFromBuffer, particle, atom), preKick);
+                velm[atom] = v;
+            }
             mixed4 pos = loadPosition(posq, posqCorrection, atom);
             pos.x += v.x * h;
             pos.y += v.y * h;
@@ -438,6 +467,8 @@ KERNEL void frozenDrift(int numClusters, int numFree, GLOBAL const int* RESTRICT
         FrozenCluster k;
         loadCluster(&k, item, particles, ends, order, counts, flags, reals, slotOf, posq, posqCorrection, velm,
                     tolerance);
+        if (preKick != 0)
+            preKickCluster(&k, item, particles, preKickForces, forceBuffer, preKickFromBuffer, preKick);
         mixed startQ[MAX_CLUSTER_PARTICLES][3], startV[MAX_CLUSTER_PARTICLES][3];
         for (int c = 0; c < k.numConstraints; ++c) {
             mixed r[3], relative[3];
@@ -478,12 +509,16 @@ KERNEL void frozenKick(int numClusters, int numFree, GLOBAL const int* RESTRICT 
                        GLOBAL const int4* RESTRICT counts, GLOBAL int4* RESTRICT flags, GLOBAL mixed* RESTRICT reals,
                        GLOBAL const int* RESTRICT freeParticles, GLOBAL const int* RESTRICT slotOf,
                        GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection, GLOBAL mixed4* RESTRICT velm,
-                       GLOBAL int* RESTRICT failure, GLOBAL const mixed4* RESTRICT forces, mixed h, mixed tolerance) {
+                       GLOBAL int* RESTRICT failure, GLOBAL const mixed4* RESTRICT forces, mixed h, mixed tolerance,
+                       GLOBAL const mixed4* RESTRICT preKickForces, GLOBAL const mm_long* RESTRICT forceBuffer,
+                       int preKickFromBuffer, mixed preKick) {
     for (int item = GLOBAL_ID; item < numClusters + numFree; item += GLOBAL_SIZE) {
         if (item >= numClusters) {
             const int particle = freeParticles[item - numClusters];
             const int atom = slotOf[particle];
             mixed4 v = velm[atom];
+            if (preKick != 0)
+                applyPreKick(&v, slotForce(preKickForces, forceBuffer, preKickFromBuffer, particle, atom), preKick);
             const mixed4 f = forces[particle];
             const mixed scale = h * v.w;
             v.x += f.x * scale;
@@ -495,6 +530,8 @@ KERNEL void frozenKick(int numClusters, int numFree, GLOBAL const int* RESTRICT 
         FrozenCluster k;
         loadCluster(&k, item, particles, ends, order, counts, flags, reals, slotOf, posq, posqCorrection, velm,
                     tolerance);
+        if (preKick != 0)
+            preKickCluster(&k, item, particles, preKickForces, forceBuffer, preKickFromBuffer, preKick);
         mixed impulse[MAX_CLUSTER_PARTICLES][3];
         for (int i = 0; i < k.numParticles; ++i) {
             const mixed4 f = forces[particles[item * MAX_CLUSTER_PARTICLES + i]];

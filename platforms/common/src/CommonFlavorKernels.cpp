@@ -1,6 +1,7 @@
 #include "CommonFlavorKernels.h"
 #include "CommonFlavorKernelSources.h"
 #include "FlowCheckpoint.h"
+#include "MixedArguments.h"
 #include "internal/CounterRandom.h"
 #include "internal/ExactModeFlow.h"
 #include "internal/StiffGroupChecks.h"
@@ -18,11 +19,6 @@ using std::string;
 using std::vector;
 
 namespace {
-
-/** Whether the kernels' `mixed` type is double (double and mixed precision) or float (single). */
-bool mixedIsDouble(const ComputeContext& cc) {
-    return cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
-}
 
 /** Uploads values into a mixed-precision array, created with at least one element. */
 void uploadMixed(ComputeContext& cc, ComputeArray& array, vector<double> values, const string& name) {
@@ -47,24 +43,6 @@ void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, con
     else if ((size_t)array.getSize() != values.size())
         array.resize((int)values.size());
     array.upload(values);
-}
-
-/**
- * A `mixed` scalar argument, in the size the kernel declares: OpenCL drivers that check argument sizes (NVIDIA's)
- * reject a double where a single-precision Context compiled a float.
- */
-void addMixedArg(const ComputeContext& cc, ComputeKernel& kernel, double value) {
-    if (mixedIsDouble(cc))
-        kernel->addArg(value);
-    else
-        kernel->addArg((float)value);
-}
-
-void setMixedArg(const ComputeContext& cc, ComputeKernel& kernel, int index, double value) {
-    if (mixedIsDouble(cc))
-        kernel->setArg(index, value);
-    else
-        kernel->setArg(index, (float)value);
 }
 
 /** A per-particle array of mixed4 on the device (system order), zero. */

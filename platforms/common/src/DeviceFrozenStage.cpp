@@ -1,4 +1,5 @@
 #include "DeviceFrozenStage.h"
+#include "MixedArguments.h"
 #include "openmm/OpenMMException.h"
 #include <algorithm>
 #include <string>
@@ -10,10 +11,6 @@ using std::vector;
 
 namespace {
 
-bool mixedIsDouble(const ComputeContext& cc) {
-    return cc.getUseDoublePrecision() || cc.getUseMixedPrecision();
-}
-
 /** Uploads values into array, created with at least one element (filler where values is empty). */
 template <class T>
 void uploadList(ComputeContext& cc, ComputeArray& array, vector<T> values, const T& filler, const char* name) {
@@ -24,20 +21,6 @@ void uploadList(ComputeContext& cc, ComputeArray& array, vector<T> values, const
     else
         array.initialize<T>(cc, (int)values.size(), name);
     array.upload(values);
-}
-
-void addMixed(const ComputeContext& cc, ComputeKernel& kernel, double value) {
-    if (mixedIsDouble(cc))
-        kernel->addArg(value);
-    else
-        kernel->addArg((float)value);
-}
-
-void setMixed(const ComputeContext& cc, ComputeKernel& kernel, int index, double value) {
-    if (mixedIsDouble(cc))
-        kernel->setArg(index, value);
-    else
-        kernel->setArg(index, (float)value);
 }
 
 } // namespace
@@ -102,12 +85,12 @@ bool DeviceFrozenStage::setDistances(const FrozenDistances* distances) {
     }
     kickKernel->addArg(slotOf); // the forces, set per kick
     for (ComputeKernel* kernel : {&driftKernel, &kickKernel}) {
-        addMixed(cc, *kernel, 0.0);
-        addMixed(cc, *kernel, 0.0);
+        addMixedArg(cc, *kernel, 0.0);
+        addMixedArg(cc, *kernel, 0.0);
         (*kernel)->addArg(slotOf); // a pre-kick's forces, set per pass
         (*kernel)->addArg(cc.getLongForceBuffer());
         (*kernel)->addArg(0);
-        addMixed(cc, *kernel, 0.0);
+        addMixedArg(cc, *kernel, 0.0);
     }
     return true;
 }
@@ -121,12 +104,12 @@ void DeviceFrozenStage::run(const SubFlow& flow, ComputeArray* forces, double to
     const int first = drift ? 14 : 15;
     if (!drift)
         kernel->setArg(14, *forces);
-    setMixed(cc, kernel, first, flow.h);
-    setMixed(cc, kernel, first + 1, tolerance);
+    setMixedArg(cc, kernel, first, flow.h);
+    setMixedArg(cc, kernel, first + 1, tolerance);
     if (preKickForces != nullptr)
         kernel->setArg(first + 2, *preKickForces);
     kernel->setArg(first + 4, preKickFromBuffer ? 1 : 0);
-    setMixed(cc, kernel, first + 5, preKickForces != nullptr ? preKick : 0.0);
+    setMixedArg(cc, kernel, first + 5, preKickForces != nullptr ? preKick : 0.0);
     lastTolerance = tolerance;
     kernel->execute(numClusters + numFree);
     ranThisStep = true;

@@ -120,6 +120,28 @@ DEVICE void storePosition(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT po
 #endif
 }
 
+/** v += h M^-1 F, v.w being the inverse mass: the arithmetic of every kick on the device. */
+DEVICE void applyKick(mixed4* v, mixed4 f, mixed h) {
+    const mixed scale = h * v->w;
+    v->x += scale * f.x;
+    v->y += scale * f.y;
+    v->z += scale * f.z;
+}
+
+/** q += h v. */
+DEVICE void applyDrift(mixed4* pos, mixed4 v, mixed h) {
+    pos->x += h * v.x;
+    pos->y += h * v.y;
+    pos->z += h * v.z;
+}
+
+/** The exact Ornstein-Uhlenbeck flow v = decay v + scale xi (scale: noise sqrt(kT/m)). */
+DEVICE void applyThermostat(mixed4* v, const mixed* xi, mixed decay, mixed scale) {
+    v->x = v->x * decay + xi[0] * scale;
+    v->y = v->y * decay + xi[1] * scale;
+    v->z = v->z * decay + xi[2] * scale;
+}
+
 /**
  * A particle's forces: from the platform's fixed-point force buffer (atom order) where fromBuffer (forces evaluated and
  * not yet copied into their slot), else from a force slot (system order); the same values either way.
@@ -154,11 +176,7 @@ KERNEL void kick(GLOBAL mixed4* RESTRICT velm, GLOBAL const mixed4* RESTRICT slo
         mixed4 v = velm[atom];
         if (v.w == 0)
             continue;
-        const mixed4 f = slot[atomIndex[atom]];
-        const mixed scale = h * v.w;
-        v.x += scale * f.x;
-        v.y += scale * f.y;
-        v.z += scale * f.z;
+        applyKick(&v, slot[atomIndex[atom]], h);
         velm[atom] = v;
     }
 }
@@ -171,9 +189,7 @@ KERNEL void drift(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrec
         if (v.w == 0)
             continue;
         mixed4 pos = loadPosition(posq, posqCorrection, atom);
-        pos.x += h * v.x;
-        pos.y += h * v.y;
-        pos.z += h * v.z;
+        applyDrift(&pos, v, h);
         storePosition(posq, posqCorrection, atom, pos);
     }
 }
@@ -223,10 +239,7 @@ KERNEL void thermostat(GLOBAL mixed4* RESTRICT velm, GLOBAL const int* RESTRICT 
             continue;
         mixed xi[3];
         counterNormals(stream, (unsigned int)particle, k0, k1, kn, wn, fn, xi);
-        const mixed scale = noise * thermalSpeed[particle];
-        v.x = v.x * decay + xi[0] * scale;
-        v.y = v.y * decay + xi[1] * scale;
-        v.z = v.z * decay + xi[2] * scale;
+        applyThermostat(&v, xi, decay, noise * thermalSpeed[particle]);
         velm[atom] = v;
     }
 }
@@ -567,24 +580,14 @@ KERNEL void particlePass(int numOps, GLOBAL const int4* RESTRICT ops, GLOBAL con
             const int4 op = ops[k];
             if (op.x == 0) {
                 GLOBAL const mixed4* slot = op.y == 0 ? slot0 : op.y == 1 ? slot1 : op.y == 2 ? slot2 : slot3;
-                const mixed4 f = slotForce(slot, forceBuffer, op.y == bufferSlot, particle, atom);
-                const mixed scale = opReals[2 * k] * v.w;
-                v.x += scale * f.x;
-                v.y += scale * f.y;
-                v.z += scale * f.z;
+                applyKick(&v, slotForce(slot, forceBuffer, op.y == bufferSlot, particle, atom), opReals[2 * k]);
             } else if (op.x == 1) {
-                const mixed h = opReals[2 * k];
-                pos.x += h * v.x;
-                pos.y += h * v.y;
-                pos.z += h * v.z;
+                applyDrift(&pos, v, opReals[2 * k]);
                 moved = true;
             } else if (thermostated[particle] != 0) {
                 mixed xi[3];
                 counterNormals(stream + (mm_ulong)op.z, (unsigned int)particle, k0, k1, kn, wn, fn, xi);
-                const mixed decay = opReals[2 * k], scale = opReals[2 * k + 1] * thermalSpeed[particle];
-                v.x = v.x * decay + xi[0] * scale;
-                v.y = v.y * decay + xi[1] * scale;
-                v.z = v.z * decay + xi[2] * scale;
+                applyThermostat(&v, xi, opReals[2 * k], opReals[2 * k + 1] * thermalSpeed[particle]);
             }
         }
         if (moved)

@@ -11,7 +11,7 @@
  * the unit directions last stored, the rows found dependent and whether the cluster was rigid there.  A cluster whose
  * drift does not converge in MAX_SUBSTEPS substeps sets failure[0] (the host reads it without waiting).
  *
- * Appended to flowPasses.cc (loadPosition, storePosition).
+ * Appended to flowPasses.cc (loadPosition, storePosition, applyKick, applyDrift, slotForce).
  */
 
 #define MAX_CLUSTER_PARTICLES 5
@@ -333,21 +333,13 @@ DEVICE bool driftInSubsteps(FrozenCluster* k, mixed h, int substeps) {
     return true;
 }
 
-/** v += h M^-1 F: a plain kick that ran as a pass of its own just before (the kick kernel's arithmetic). */
-DEVICE void applyPreKick(mixed4* v, mixed4 f, mixed h) {
-    const mixed scale = h * v->w;
-    v->x += scale * f.x;
-    v->y += scale * f.y;
-    v->z += scale * f.z;
-}
-
 DEVICE void preKickCluster(FrozenCluster* k, int index, GLOBAL const int* RESTRICT particles,
                            GLOBAL const mixed4* RESTRICT forces, GLOBAL const mm_long* RESTRICT forceBuffer,
                            int fromBuffer, mixed h) {
     for (int i = 0; i < k->numParticles; ++i) {
         mixed4 v = make_mixed4(k->v[i][0], k->v[i][1], k->v[i][2], k->w[i]);
         const int particle = particles[index * MAX_CLUSTER_PARTICLES + i];
-        applyPreKick(&v, slotForce(forces, forceBuffer, fromBuffer, particle, k->atom[i]), h);
+        applyKick(&v, slotForce(forces, forceBuffer, fromBuffer, particle, k->atom[i]), h);
         k->v[i][0] = v.x;
         k->v[i][1] = v.y;
         k->v[i][2] = v.z;
@@ -454,13 +446,11 @@ KERNEL void frozenDrift(int numClusters, int numFree, GLOBAL const int* RESTRICT
             const int atom = slotOf[particle];
             mixed4 v = velm[atom];
             if (preKick != 0) {
-                applyPreKick(&v, slotForce(preKickForces, forceBuffer, preKickFromBuffer, particle, atom), preKick);
+                applyKick(&v, slotForce(preKickForces, forceBuffer, preKickFromBuffer, particle, atom), preKick);
                 velm[atom] = v;
             }
             mixed4 pos = loadPosition(posq, posqCorrection, atom);
-            pos.x += v.x * h;
-            pos.y += v.y * h;
-            pos.z += v.z * h;
+            applyDrift(&pos, v, h);
             storePosition(posq, posqCorrection, atom, pos);
             continue;
         }
@@ -518,12 +508,8 @@ KERNEL void frozenKick(int numClusters, int numFree, GLOBAL const int* RESTRICT 
             const int atom = slotOf[particle];
             mixed4 v = velm[atom];
             if (preKick != 0)
-                applyPreKick(&v, slotForce(preKickForces, forceBuffer, preKickFromBuffer, particle, atom), preKick);
-            const mixed4 f = forces[particle];
-            const mixed scale = h * v.w;
-            v.x += f.x * scale;
-            v.y += f.y * scale;
-            v.z += f.z * scale;
+                applyKick(&v, slotForce(preKickForces, forceBuffer, preKickFromBuffer, particle, atom), preKick);
+            applyKick(&v, forces[particle], h);
             velm[atom] = v;
             continue;
         }

@@ -115,3 +115,65 @@ def test_scene_results_names_files_that_exist():
             name = scene[part]["file"].replace("seedS", "seed1")
             assert (ROOT / name).exists(), name
         assert (ROOT / scene["scene_readme"]).exists()
+
+
+HEADERS = {"FlavorIntegrator": "FlavorIntegrator.h", "StochasticImpulseIntegrator": "StochasticImpulseIntegrator.h",
+           "FirstOrderFlavor": "FirstOrderFlavor.h"}
+
+
+def without_bodies(text):
+    """text with its comments, brace blocks (function bodies, enums) and constructor initializer lists removed."""
+    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
+    text = re.sub(r"//[^\n]*", " ", text)
+    while True:
+        shorter = re.sub(r"\{[^{}]*\}", ";", text)
+        if shorter == text:
+            break
+        text = shorter
+    return re.sub(r"\)\s*:[^;]*;", ");", text)
+
+
+def public_methods(header, name):
+    """The names of the public methods (constructors included) that the class name of a header declares."""
+    text = (ROOT / "openmmapi" / "include" / header).read_text(encoding="utf-8")
+    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
+    start = re.search(r"class\s+(?:\w+\s+)?" + name + r"\b[^;{]*\{", text).end()
+    depth, end = 1, start
+    while depth:
+        depth += {"{": 1, "}": -1}.get(text[end], 0)
+        end += 1
+    body = text[start:end - 1]
+    public = "".join(re.split(r"\b(?:private|protected)\s*:", part)[0]
+                     for part in re.split(r"\bpublic\s*:", body)[1:])
+    names = set()
+    for statement in without_bodies(public).split(";"):
+        if re.match(r"\s*(?:using|enum|typedef|static\s+constexpr)\b", statement):
+            continue
+        match = re.search(r"\b(~?\w+)\s*\(", statement)
+        if match:
+            names.add(match.group(1))
+    return names
+
+
+def reference_section():
+    text = (ROOT / "docs" / "USER_GUIDE.md").read_text(encoding="utf-8")
+    start = text.index("\n## Reference: constructors, getters and setters\n")
+    end = text.find("\n## ", start + 1)
+    return text[start:end]
+
+
+@pytest.mark.parametrize("name", sorted(HEADERS))
+def test_the_user_guide_reference_lists_every_public_method_of_the_headers(name):
+    methods = public_methods(HEADERS[name], name)
+    assert name in methods and len(methods) > 5, methods
+    section = reference_section()
+    start = section.index(f"\n### {name}")
+    end = section.find("\n### ", start + 1)
+    listed = set(re.findall(r"`(\w+)\(", section[start:end if end >= 0 else None]))
+    missing = sorted(methods - listed)
+    assert not missing, f"docs/USER_GUIDE.md's reference section lists no row for {name}::{missing}"
+
+
+def test_the_public_headers_are_the_ones_the_reference_covers():
+    covered = set(HEADERS.values()) | {"FlavorKernels.h"}  # the kernel interfaces: for platforms, not users
+    assert {path.name for path in (ROOT / "openmmapi" / "include").glob("*.h")} == covered

@@ -1,5 +1,6 @@
 #include "CommonFlavorKernels.h"
 #include "CommonFlavorKernelSources.h"
+#include "DeviceUploads.h"
 #include "FlowCheckpoint.h"
 #include "MixedArguments.h"
 #include "internal/CounterRandom.h"
@@ -18,42 +19,6 @@ using namespace OpenMM;
 using std::string;
 using std::vector;
 
-namespace {
-
-/** Uploads values into a mixed-precision array, created with at least one element. */
-void uploadMixed(ComputeContext& cc, ComputeArray& array, vector<double> values, const string& name) {
-    const bool doubles = mixedIsDouble(cc);
-    if (values.empty())
-        values.push_back(0.0);
-    if (!array.isInitialized() || (size_t)array.getSize() != values.size()) {
-        if (array.isInitialized())
-            array.resize((int)values.size());
-        else
-            array.initialize(cc, (int)values.size(), doubles ? sizeof(double) : sizeof(float), name);
-    }
-    array.upload(values, true);
-}
-
-/** Uploads ints into an array, created with at least one element. */
-void uploadInts(ComputeContext& cc, ComputeArray& array, vector<int> values, const string& name) {
-    if (values.empty())
-        values.push_back(0);
-    if (!array.isInitialized())
-        array.initialize<int>(cc, (int)values.size(), name);
-    else if ((size_t)array.getSize() != values.size())
-        array.resize((int)values.size());
-    array.upload(values);
-}
-
-/** A per-particle array of mixed4 on the device (system order), zero. */
-void initializeMixed4(ComputeContext& cc, ComputeArray& array, int size, const string& name) {
-    const bool doubles = mixedIsDouble(cc);
-    array.initialize(cc, size, doubles ? 4 * sizeof(double) : 4 * sizeof(float), name);
-    cc.clearBuffer(array);
-}
-
-} // namespace
-
 CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, string owner, string platformName,
                                      bool hostConstraints)
     : cc(cc), system(system), owner(std::move(owner)), platformName(std::move(platformName)),
@@ -66,8 +31,10 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     std::map<string, string> defines;
     defines["NUM_ATOMS"] = cc.intToString(cc.getNumAtoms());
     defines["PADDED_NUM_ATOMS"] = cc.intToString(cc.getPaddedNumAtoms());
-    program = cc.compileProgram(
-        string(CommonFlavorKernelSources::flowPasses) + CommonFlavorKernelSources::frozenClusters, defines);
+    program =
+        cc.compileProgram(string(CommonFlavorKernelSources::flowPasses) + CommonFlavorKernelSources::frozenClusters +
+                              CommonFlavorKernelSources::carriedConstraints,
+                          defines);
     copyForcesKernel = program->createKernel("copyForces");
     findAtomsKernel = program->createKernel("findAtoms");
     driftDisplacementKernel = program->createKernel("driftDisplacement");
@@ -80,6 +47,7 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     uploadMixed(cc, fn, vector<double>(tables.fn, tables.fn + 128), "flavorZigguratFn");
     slotOf.initialize<int>(cc, numParticles, "flavorSlotOf");
     deviceFrozen = std::make_unique<DeviceFrozenStage>(cc, program, slotOf);
+    deviceCarried = std::make_unique<DeviceCarriedConstraints>(cc, program, slotOf, system);
     uploadInts(cc, thermostated, vector<int>(numParticles, 1), "flavorThermostated");
     uploadMixed(cc, thermalSpeed, vector<double>(numParticles, 0.0), "flavorThermalSpeed");
     const bool doubles = mixedIsDouble(cc);
@@ -188,7 +156,10 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     if (projector)
         projector->setStiffModes(modes.get());
     hardWall.setStiffModes(modes.get(), particles);
+    // The history from where it was kept, to where it is kept now (the device where it solves the constraints).
     downloadHistory(history);
+    if (projector)
+        deviceCarried->setCarriers(projector->getCarriers(*modes), projector->getCarriedMembers());
     history.keepOnly(modes.get());
     uploadHistory();
     prepare();
@@ -250,16 +221,21 @@ void CommonFlowStepper::prepare() {
     fusedOps.resize(plan.passes.size());
     fusedOpReals.clear();
     fusedOpReals.resize(plan.passes.size());
-    bool haveBath = false;
+    bool haveBath = false, carryingStarted = false;
     Bath bath;
+    deviceCarried->setNumPasses(plan.passes.size());
     for (size_t p = 0; p < plan.passes.size(); ++p) {
         const FlowPass& pass = plan.passes[p];
         for (size_t k = 0; k < pass.flows.size(); ++k) {
             const SubFlow& flow = pass.flows[k];
             ComputeKernel kernel;
             // As in the CPU engine: how constraint corrections around a stiff flow move its components.
-            if (ConstraintProjector::hasCarrying(flow) && modes && projector)
+            if (ConstraintProjector::hasCarrying(flow) && modes && projector) {
                 carrying[p] = projector->carryingThrough(*modes, flow);
+                if (constraintsOnDevice())
+                    deviceCarried->setCarrying(p, carrying[p], !carryingStarted);
+                carryingStarted = true;
+            }
             switch (flow.kind) {
             case SubFlow::Kick:
                 kernel = program->createKernel("kick");
@@ -416,6 +392,8 @@ ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size
     kernel->addArg(propagatorNoisy[p]);
     kernel->addArg((std::uint64_t)0);
     addRandomArgs(kernel);
+    // Where the constraints are solved on the device the flow leaves its displacement for their solve.
+    deviceCarried->addFlowArgs(kernel, p, constraintsOnDevice(), true);
     return kernel;
 }
 
@@ -449,6 +427,8 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
     kernel->addArg(cc.getPosq());
     kernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
     kernel->addArg(cc.getVelm());
+    // A FilteredStiffFlow's response joins the displacement of its flow (a FilteredKick's moves no position).
+    deviceCarried->addFlowArgs(kernel, p, constraintsOnDevice() && !closing, false);
     return kernel;
 }
 
@@ -550,6 +530,8 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
     }
     if (drifts)
         invalidateForces();
+    else if (constraintsOnDevice())
+        cc.getIntegrationUtilities().applyVelocityConstraints(constraintTolerance);
     else if (projector)
         constrainVelocitiesOnHost(constraintTolerance);
     else if (hasConstraints)
@@ -557,7 +539,7 @@ void CommonFlowStepper::runParticlePass(const FlowPass& pass, size_t passIndex, 
 }
 
 void CommonFlowStepper::rememberFlowStart() {
-    if (!projector)
+    if (!projector || constraintsOnDevice())
         return;
     mirror.download(true, false);
     projector->rememberPositions(mirror.positions);
@@ -566,6 +548,10 @@ void CommonFlowStepper::rememberFlowStart() {
 void CommonFlowStepper::constrainAfterFlow(const FlowPass& pass, size_t passIndex, double constraintTolerance) {
     if (!projector)
         return;
+    if (constraintsOnDevice()) {
+        deviceCarried->constrainAfterFlow(passIndex, constraintTolerance, !pass.nextProjectsVelocities);
+        return;
+    }
     // As StiffFlowExecutor::runFlow: the correction of the positions is an impulse at the start of the flow, so it
     // also changes the velocities, and the projection after it removes what is left along the constraints.
     mirror.download(true, true);
@@ -665,7 +651,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     if (!forcesValid)
         invalidateForces();
     history.stepStarted();
-    if (projector) {
+    if (constraintsOnDevice()) {
+        deviceCarried->takeOffProcessing();
+    } else if (projector) {
         projector->startStep();
         // The copies only where the last step processed its velocities (the Middle placement's constraint impulses).
         if (projector->hasProcessing(history.constraintProcessing)) {
@@ -711,7 +699,9 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         case SubFlow::FilteredKick:
             // Its position response is zero: the forces stay valid for the next step's opening.
             runForceResponse(p, 0);
-            if (projector)
+            if (constraintsOnDevice())
+                deviceCarried->constrainVelocities(p, constraintTolerance);
+            else if (projector)
                 constrainVelocitiesOnHost(constraintTolerance, &carrying[p]);
             break;
         default:
@@ -759,11 +749,15 @@ void CommonFlowStepper::forgetStepHistory() {
 void CommonFlowStepper::downloadHistory(StepHistory& target) const {
     forceDifferences.download(staging.data());
     staging.toVec3(target.forceDifferences);
+    if (constraintsOnDevice())
+        deviceCarried->downloadProcessing(target.constraintProcessing);
 }
 
 void CommonFlowStepper::uploadHistory() {
     staging.fromVec3(history.forceDifferences);
     forceDifferences.upload(staging.data());
+    if (constraintsOnDevice())
+        deviceCarried->uploadProcessing(history.constraintProcessing);
 }
 
 void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& stream) {

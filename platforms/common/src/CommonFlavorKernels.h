@@ -3,6 +3,7 @@
 
 #include "ConstraintProjector.h"
 #include "ContextRollback.h"
+#include "DeviceCarriedConstraints.h"
 #include "DeviceFrozenStage.h"
 #include "FlavorKernels.h"
 #include "FrozenCoordinates.h"
@@ -42,13 +43,13 @@ namespace FlavorPlugin {
  * StepHistory for checkpoints, in the CPU engine's format.  Steps whose sub-flows it does not have yet are rejected by
  * setSchedule(), naming the setting that asks for them.
  *
- * With hostConstraints (the SIM) the System's constraints around the stiff flows and kicks are solved on the host by
- * the CPU engine's ConstraintProjector, the one implementation of their math: around a stiff flow the constraint
- * impulses on a constrained particle of a stiff component reach the component's other particles through its flow,
- * and with the Middle placement the step's velocities are processed for them (StepHistory's constraint processing,
- * kept on the host).  Each such pass copies the positions and velocities from the device and the corrected ones back
- * (HostStateMirror): a device constraint solve for constrained stiff components is future work.  Without it,
- * constraints are applied on the device by IntegrationUtilities.
+ * With hostConstraints (the SIM) the System's constraints around the stiff flows and kicks follow the CPU engine's
+ * ConstraintProjector, the one implementation of their math: around a stiff flow the constraint impulses on a
+ * constrained particle of a stiff component reach the component's other particles through its flow, and a Filtered
+ * step's velocities are processed for them (StepHistory's constraint processing).  Where SETTLE holds every such
+ * particle (rigid Drude water) the solves run on the device (DeviceCarriedConstraints, with the projector's carrying
+ * of each pass); elsewhere each such pass copies the positions and velocities to the host and back (HostStateMirror)
+ * for the projector's solves.  Without hostConstraints, constraints are applied on the device by IntegrationUtilities.
  *
  * The artificial FLAVOR's frozen stage (FrozenDrift, FrozenKick) runs on the device where its clusters are small and
  * free of System constraints (DeviceFrozenStage: flexible water, one work-item per molecule); elsewhere (proteins,
@@ -105,6 +106,8 @@ private:
     /** The forces of a slot at the current positions; a clocked kick's at the stiff clock value clock. */
     void ensureForces(OpenMM::ContextImpl& context, int slot, bool clocked = false, double clock = 0.0);
     void placeVirtualSites();
+    /** Whether the System's constraints are solved on the device (deviceCarried) rather than by projector. */
+    bool constraintsOnDevice() const { return projector && deviceCarried->isActive(); }
     /** Makes slotOf current (once per step). */
     void findAtoms();
     void invalidateForces();
@@ -198,6 +201,9 @@ private:
     HostFrozenStage frozenStage;
     // The frozen stage of small clusters (flexible water) on the device; the others run on the host (frozenStage).
     std::unique_ptr<DeviceFrozenStage> deviceFrozen;
+    // The SIM's constraint solves around its stiff flows on the device where SETTLE holds every carrier; else on the
+    // host (projector, mirror).
+    std::unique_ptr<DeviceCarriedConstraints> deviceCarried;
     bool atomsFound = false;
     // The atom order slotOf was made for (the platform's host copy of it).
     std::vector<int> slotOfOrder;

@@ -85,6 +85,10 @@ public:
     static void rejectUncarriedConstraints(const OpenMM::ContextImpl& context, const StiffModes& modes);
     /** Finds the constrained particle of each stiff component of modes (none without modes). */
     void setStiffModes(const StiffModes* modes);
+    /** The constrained particle of each constrained stiff component of modes (the last set), in carrying order. */
+    std::vector<int> getCarriers(const StiffModes& modes) const;
+    /** Every particle of the constrained stiff components. */
+    const std::vector<int>& getCarriedMembers() const { return carriedMembers; }
     /** Whether a pass of this sub-flow has a carrying: a StiffFlow, HarmonicFlow, FilteredStiffFlow or FilteredKick. */
     static bool hasCarrying(const SubFlow& flow);
     /**

@@ -108,6 +108,13 @@ void ConstraintProjector::setStiffModes(const StiffModes* modes) {
             carriedMembers.push_back(modes->getComponentParticles(carried.first)[k]);
 }
 
+vector<int> ConstraintProjector::getCarriers(const StiffModes& modes) const {
+    vector<int> carriers;
+    for (const auto& carried : carriedComponents)
+        carriers.push_back(modes.getComponentParticles(carried.first)[carried.second]);
+    return carriers;
+}
+
 namespace {
 
 double trace(const double m[3][3]) {

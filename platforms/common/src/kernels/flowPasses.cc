@@ -283,14 +283,30 @@ DEVICE void readStiffParticle(GLOBAL const real4* RESTRICT posq, GLOBAL const re
     }
 }
 
+/**
+ * Where a stiff flow leaves a particle.  displaced (constraints follow, carriedConstraints.cc): the positions stay, the
+ * displacement goes into posDelta and uncorrected, and a carrier (carrierOf[particle] = k >= 0) takes its position
+ * solve's inverse mass carrierReals[21 k].
+ */
 DEVICE void writeStiffParticle(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
-                               GLOBAL mixed4* RESTRICT velm, int atom, const mixed* q, const mixed* v) {
+                               GLOBAL mixed4* RESTRICT velm, int atom, int particle, const mixed* q, const mixed* v,
+                               int displaced, GLOBAL mixed4* RESTRICT posDelta, GLOBAL mixed4* RESTRICT uncorrected,
+                               GLOBAL const int* RESTRICT carrierOf, GLOBAL const mixed* RESTRICT carrierReals) {
     mixed4 pos = loadPosition(posq, posqCorrection, atom);
-    pos.x = q[0];
-    pos.y = q[1];
-    pos.z = q[2];
-    storePosition(posq, posqCorrection, atom, pos);
     mixed4 vel = velm[atom];
+    if (displaced) {
+        const mixed4 delta = make_mixed4(q[0] - pos.x, q[1] - pos.y, q[2] - pos.z, 0);
+        posDelta[atom] = delta;
+        uncorrected[atom] = delta;
+        const int k = carrierOf[particle];
+        if (k >= 0)
+            vel.w = carrierReals[21 * k];
+    } else {
+        pos.x = q[0];
+        pos.y = q[1];
+        pos.z = q[2];
+        storePosition(posq, posqCorrection, atom, pos);
+    }
     vel.x = v[0];
     vel.y = v[1];
     vel.z = v[2];
@@ -313,7 +329,9 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
                       GLOBAL real4* RESTRICT posqCorrection, GLOBAL mixed4* RESTRICT velm,
                       GLOBAL const mixed4* RESTRICT kickForces, mixed kickStep, int noisy, mm_ulong stream,
                       unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
-                      GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn) {
+                      GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn, int displaced,
+                      GLOBAL mixed4* RESTRICT posDelta, GLOBAL mixed4* RESTRICT uncorrected,
+                      GLOBAL const int* RESTRICT carrierOf, GLOBAL const mixed* RESTRICT carrierReals) {
     for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
         const int4 comp = components[c];
         const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w;
@@ -345,9 +363,11 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
                 addProduct(newV, noiseMatrices + DD, xi1, D, C);
                 addProduct(newV, noiseMatrices + 2 * DD, xi2, D, C);
             }
-            for (int p = 0; p < numParticles; ++p)
-                writeStiffParticle(posq, posqCorrection, velm, slotOf[particles[first + p]], newQ + 3 * p,
-                                   newV + 3 * p);
+            for (int p = 0; p < numParticles; ++p) {
+                const int particle = particles[first + p];
+                writeStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, newQ + 3 * p, newV + 3 * p,
+                                   displaced, posDelta, uncorrected, carrierOf, carrierReals);
+            }
             continue;
         }
         // Large: mass-weighted coordinates into mode space, each mode's 2 x 2 flow and noise, and back.
@@ -432,7 +452,8 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
                 q[d] = inverse * row[0];
                 v[d] = inverse * row[C];
             }
-            writeStiffParticle(posq, posqCorrection, velm, slotOf[particle], q, v);
+            writeStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, q, v, displaced, posDelta,
+                               uncorrected, carrierOf, carrierReals);
         }
     }
 }
@@ -478,7 +499,8 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
                           GLOBAL mixed* RESTRICT scratch, GLOBAL const mixed4* RESTRICT forces,
                           GLOBAL mixed4* RESTRICT openingForces, GLOBAL mixed4* RESTRICT forceChanges, int closing,
                           GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
-                          GLOBAL mixed4* RESTRICT velm) {
+                          GLOBAL mixed4* RESTRICT velm, int displaced, GLOBAL mixed4* RESTRICT posDelta,
+                          GLOBAL mixed4* RESTRICT uncorrected) {
     for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
         const int4 comp = components[c];
         const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w, size = D * C;
@@ -529,11 +551,21 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
             for (int d = 0; d < 3; ++d)
                 responseOfElement((3 * p + d) / C, (3 * p + d) % C, D, C, u, r, q, processed, modeForce, modeChange,
                                   &dx[d], &dv[d]);
-            mixed4 pos = loadPosition(posq, posqCorrection, atom);
-            pos.x += scale * dx[0];
-            pos.y += scale * dx[1];
-            pos.z += scale * dx[2];
-            storePosition(posq, posqCorrection, atom, pos);
+            if (displaced) {
+                // After a displaced stiff flow (writeStiffParticle): the response joins its displacement.
+                mixed4 delta = posDelta[atom];
+                delta.x += scale * dx[0];
+                delta.y += scale * dx[1];
+                delta.z += scale * dx[2];
+                posDelta[atom] = delta;
+                uncorrected[atom] = delta;
+            } else {
+                mixed4 pos = loadPosition(posq, posqCorrection, atom);
+                pos.x += scale * dx[0];
+                pos.y += scale * dx[1];
+                pos.z += scale * dx[2];
+                storePosition(posq, posqCorrection, atom, pos);
+            }
             mixed4 vel = velm[atom];
             vel.x += scale * dv[0];
             vel.y += scale * dv[1];

@@ -477,13 +477,13 @@ def plot_errors(cases, measure, path, dpi, small=False):
     fig.suptitle(textwrap.fill("FPU toy chain (m = 3, Reference platform): the fewest force-group evaluations to a "
                                f"relative error ≤ {TOL:g} — " + "; ".join(verdicts), int(width * 9.5)), fontsize=12.5)
     fig.tight_layout(rect=(0, 0.2, 1, 0.93))
-    reporting.save_figure(fig, path, dpi, small)
+    reporting.save_figure(fig, path, max(dpi, 85), small)  # at least 85 dpi: the docs' copies stay readable
 
 
 def plot_cost(cases, rows, path, dpi, small=False):
     """Cost at fixed accuracy against omega, per unit simulated time, at each omega's primary checkpoint."""
     plt = reporting.pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
+    fig, axes = plt.subplots(1, 2, figsize=(14, 6.2))
     for ax, (field, name) in zip(axes, (("group_evals", "force-group evaluations per ps of simulated time"),
                                         ("wall_s", "wall time per ps of simulated time (s)"))):
         for method, (label, color, marker) in METHODS.items():
@@ -503,13 +503,16 @@ def plot_cost(cases, rows, path, dpi, small=False):
                  if r["omega"] == c["omega"] and r["run"] is not None and r["T"] == T]
         if costs:
             cheapest.append(f"ω = {c['omega']:g}: {METHODS[min(costs)[1]][0]}")
-    fig.suptitle(f"Fewest force evaluations at slow error ≤ {TOL:g}: " + ("; ".join(cheapest) or "none reached it") +
-                 f"\nFPU chain (m = {M}), OpenMM Reference platform, each method's cheapest run at the first "
-                 f"checkpoint of each ω ({primary});\na method missing at an ω reached the tolerance with none of its "
-                 "runs", fontsize=10)
-    fig.legend(handles=method_handles(), loc="center right", fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0, 0.84, 0.86))
-    reporting.save_figure(fig, path, dpi, small)
+    fig.suptitle(textwrap.fill(f"FPU toy chain (6 particles, m = {M}, Reference platform): fewest force evaluations "
+                               f"at slow error ≤ {TOL:g}: " + ("; ".join(cheapest) or "none reached it"), 110),
+                 fontsize=12.5)
+    fig.legend(handles=method_handles(), loc="lower center", ncol=4, fontsize=11, frameon=False,
+               bbox_to_anchor=(0.5, 0.07))
+    fig.text(0.5, 0.01, textwrap.fill(f"Each method's cheapest run at the first checkpoint of each ω ({primary}); a "
+                                      "method missing at an ω reached the tolerance with none of its runs.", 140),
+             ha="center", va="bottom", fontsize=10)
+    fig.tight_layout(rect=(0, 0.2, 1, 0.9))
+    reporting.save_figure(fig, path, max(dpi, 85), small)
 
 
 def main():

@@ -6,8 +6,9 @@ import os
 import subprocess
 import sys
 
-import openmmflavors
 import pytest
+
+import openmmflavors
 
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 

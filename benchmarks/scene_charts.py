@@ -93,8 +93,8 @@ def drude_water(out):
             median = np.median(ratio)
             bx.plot(ratio, np.full(len(ratio), row + offset), "|", color=colour, ms=10, alpha=0.6)
             bx.plot(median, row + offset, "o" if threads == "2" else "s", color=colour, ms=9)
-            bx.annotate("%.2f× (%s thread%s)" % (median, threads, "s" if threads == "2" else ""), (median, row + offset),
-                        xytext=(0, 8), textcoords="offset points", ha="center", fontsize=10)
+            bx.annotate("%.2f× (%s thread%s)" % (median, threads, "s" if threads == "2" else ""),
+                        (median, row + offset), xytext=(0, 8), textcoords="offset points", ha="center", fontsize=10)
     bx.axvline(1, color="black", lw=1)
     bx.set_yticks(range(len(speed_peers)), [p[1] for p in speed_peers])
     bx.set_ylim(len(speed_peers) - 0.4, -0.6)
@@ -121,7 +121,8 @@ def drude_water(out):
 
 
 # examples/villin/README.md, "The angles of the planar centres soft, and the Middle placement": paired differences
-# against LangevinMiddle 2 fs of the same run, mean ± standard error over 7 runs (T and T protein in K, the others in %).
+# against LangevinMiddle 2 fs of the same run, mean ± standard error over 7 runs (T and T protein in K, the others
+# in %).
 SEVEN_RUNS = {
     "FLAVOR δ = 2.5 fs, τ = 1 fs\n(the recipe; 7 runs)": {"T": (0.6, 0.5), "T_protein": (1.4, 1.3),
                                                           "bond_rms all": (-0.4, 0.3), "angle_rms with H": (-0.1, 0.3),

@@ -697,8 +697,8 @@ def plot(data, path):
     fig.text(0.5, 0.01, textwrap.fill(
         f"Accuracy target: x₀,₁(T) within {X0_TOL:g} relative and every stiff energy I_j within {I_TOL:g}, relative to "
         f"Σ_j I_j at {SAMPLES} times in (0, T] (energy scale) or to itself at T (strict). Reference: DOP853, rtol "
-        f"{data['parameters']['rtol']:g}. Dimensionless units (1 amu, 1 nm, 1 ps). The set-up and step costs of parts (b) and (c) are in the "
-        "JSON and the tables.", 190), ha="center", va="bottom", fontsize=10)
+        f"{data['parameters']['rtol']:g}. Dimensionless units (1 amu, 1 nm, 1 ps). The set-up and step costs of parts "
+        "(b) and (c) are in the JSON and the tables.", 190), ha="center", va="bottom", fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 0.88))
     reporting.save_figure(fig, path, 80)
 

@@ -468,12 +468,12 @@ def plot_errors(cases, measure, path, dpi, small=False):
     width = fig.get_figwidth()
     fig.legend(handles, labels, loc="lower center", ncol=4, frameon=False, fontsize=11, bbox_to_anchor=(0.5, 0.085))
     what = ("slow variable: |x₀,₁ − x₀,₁(ref)| / max_t |x₀,₁(ref)|, the largest over [T − 1 ps, T]" if measure == "slow"
-            else "stiff energies: max_j |⟨I_j⟩ − ⟨I_j(ref)⟩| / Σ_j ⟨I_j(ref)⟩, means over [T − 1 ps, T] (the ★ also has "
-                 f"the slow error ≤ {TOL:g})")
+            else "stiff energies: max_j |⟨I_j⟩ − ⟨I_j(ref)⟩| / Σ_j ⟨I_j(ref)⟩, means over [T − 1 ps, T] "
+                 f"(the ★ also has the slow error ≤ {TOL:g})")
     fig.text(0.5, 0.01, textwrap.fill(f"Error: {what}. Each line: a method's lowest error for its cost over its step "
                                       "sweeps; reference DOP853 (rtol 1e-12); each ω's later checkpoints (chaotic "
-                                      "at T = 200 ps: every error O(1)) are in the JSON and the tables.", int(width * 12)), ha="center", va="bottom",
-             fontsize=10)
+                                      "at T = 200 ps: every error O(1)) are in the JSON and the tables.",
+                                      int(width * 12)), ha="center", va="bottom", fontsize=10)
     fig.suptitle(textwrap.fill("FPU toy chain (m = 3, Reference platform): the fewest force-group evaluations to a "
                                f"relative error ≤ {TOL:g} — " + "; ".join(verdicts), int(width * 9.5)), fontsize=12.5)
     fig.tight_layout(rect=(0, 0.2, 1, 0.93))

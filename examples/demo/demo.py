@@ -171,8 +171,8 @@ def main():
     if args.only in (None, "water"):
         flexible_water(production, args.quick)
     if args.only is None:
-        print("\n== 3. Not run here: the Drude peptide (a win; examples/scripts/drude_peptide.py) and villin (not a win; "
-              "examples/scripts/protein.py) ==")
+        print("\n== 3. Not run here: the Drude peptide (a win; examples/scripts/drude_peptide.py) and villin (not a "
+              "win; examples/scripts/protein.py) ==")
         print(full_runs("drude_peptide"))
         print(full_runs("villin"))
 

@@ -247,7 +247,8 @@ def plot(data, path):
     coarse = np.abs(t / p["sample"] - np.rint(t / p["sample"])) < 1e-6
     keys = [k for k in series if k not in ("t", "reference_check")]
     styles = {"reference": ("black", "-", 2.2), "verlet": ("tab:blue", "-", 1.8)}
-    flavor_styles = [("tab:red", "--", 1.8), ("tab:purple", "-.", 1.8), ("tab:orange", ":", 2.2), ("tab:brown", "--", 1)]
+    flavor_styles = [("tab:red", "--", 1.8), ("tab:purple", "-.", 1.8), ("tab:orange", ":", 2.2),
+                     ("tab:brown", "--", 1)]
     styles.update({k: flavor_styles[i % len(flavor_styles)] for i, k in enumerate(k for k in keys if k not in styles)})
 
     def label(key):

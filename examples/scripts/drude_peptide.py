@@ -1,9 +1,10 @@
-"""A polarizable peptide with StochasticImpulseIntegrator: alanine dipeptide in CHARMM Drude-2019 (charmm_polar_2019.xml:
-anisotropic and Thole-screened Drude particles, lone pairs) in 250 SWM4-NDP waters, PME, X-H bonds constrained.
+"""A polarizable peptide with StochasticImpulseIntegrator: alanine dipeptide in CHARMM Drude-2019
+(charmm_polar_2019.xml: anisotropic and Thole-screened Drude particles, lone pairs) in 250 SWM4-NDP waters, PME, X-H
+bonds constrained.
 separateDrudeSprings puts the isotropic Drude springs in a stiff group of their own (integrated exactly, cold); the
-rest is soft. 2-fs steps (Warped splitting, Middle placement) behind CHARMM's 0.02-nm hard wall: 2.0x the ns/day of
-DrudeLangevinIntegrator at 1 fs with the same wall, the observables within its error bars but the Drude temperature
-(examples/drude_protein/README.md).
+rest is soft. 2-fs steps (Warped splitting, Middle placement) behind CHARMM's 0.02-nm hard wall: faster than
+DrudeLangevinIntegrator at 1 fs with the same wall, its observables within the error bars but the Drude temperature
+(README.md's table; examples/drude_protein measures both).
 
     PYTHONPATH=build/python .venv/bin/python examples/scripts/drude_peptide.py [--steps N] [--seed N] [--quick]
 """

@@ -1,7 +1,7 @@
 """Flexible TIP3P water with FlavorIntegrator: 216 molecules (PME), the O-H bonds and H-O-H angles frozen between
-0.5-fs microsteps, 6-fs mesosteps: 2.6x the ns/day of LangevinMiddleIntegrator at 2 fs on the same flexible water,
-structure, energy and temperatures within its error bars (examples/flexible_water measures both). The O-H
-vibration runs delta/tau = 12x slow in time: use it for structure and thermodynamics, not for O-H spectra.
+0.5-fs microsteps, 6-fs mesosteps: faster than LangevinMiddleIntegrator at 2 fs on the same flexible water, with
+structure, energy and temperatures within its error bars (README.md's table; examples/flexible_water measures both).
+The O-H vibration runs delta/tau = 12 times slow in time: use it for structure and thermodynamics, not O-H spectra.
 
     PYTHONPATH=build/python .venv/bin/python examples/scripts/flexible_water.py [--steps N] [--quick]
 """

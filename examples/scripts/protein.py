@@ -3,10 +3,9 @@
 NOT A WIN: for a protein in water, use OpenMM's LangevinMiddleIntegrator at 4 fs with hydrogen mass repartitioning
 (createSystem(..., hydrogenMass=1.5*amu)); --openmm runs it here. FlavorIntegrator's best recipe for proteins (run by
 default): the heavy-atom bonds and the angles of the non-planar centres frozen between 1-fs microsteps, 2.5-fs
-mesosteps: within the error bars of LangevinMiddle at 2 fs over seven runs, at about half the speed of that 4-fs run.
-With repartitioned hydrogens too it runs at 5 fs (a tie with the 4-fs run in one measurement, heavy-atom bonds 2.6 %
-narrow) and 8 fs (1.4-2.2x it, heavy-atom angles 1.4 % wide, 3-6 K warm): faster only where it is wrong
-(examples/villin/README.md).
+mesosteps, within the error bars of LangevinMiddle at 2 fs but slower than that 4-fs run (README.md's table). With
+repartitioned hydrogens too it takes longer mesosteps, and is faster than the 4-fs run only where its heavy-atom
+angles come out wide (examples/villin/README.md).
 
     PYTHONPATH=build/python .venv/bin/python examples/scripts/protein.py [--steps N] [--openmm] [--quick]
 """

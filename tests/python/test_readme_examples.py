@@ -1,6 +1,6 @@
-"""The README's examples run as written: the four scripts of examples/scripts (any the README shows, shown as they are), and
-the C++ program of docs/USER_GUIDE.md compiled against `make install`'s prefix.  The installed Python package holds no
-copy of the libraries and finds them, and the kernel plugins, in PREFIX/lib and PREFIX/lib/plugins."""
+"""The README's examples run as written: the four scripts of examples/scripts (any the README shows, shown as they
+are), and the C++ program of docs/USER_GUIDE.md compiled against `make install`'s prefix.  The installed Python
+package holds no copy of the libraries and finds them, and the kernel plugins, in PREFIX/lib and PREFIX/lib/plugins."""
 import os
 import re
 import shutil

@@ -7,10 +7,10 @@ drained before the clock stops.
 
 Scenes (each in every precision of --precision: mixed and double by default; OpenMM 7.7's own default there is single):
   drude_water     SWM4-NDP polarizable water (rigid, PME; examples/drude_water): DrudeLangevin 1 fs against the
-                  scene's SIM (Warped splitting, Middle placement, 2.5 fs).  The SIM's constraint solves run on the
-                  host (each oxygen core's constraint impulses reach its Drude particle through the pair's flow),
-                  with a copy of the positions and velocities from and to the device around each: expect that to
-                  cost on a GPU.
+                  scene's SIM (Warped splitting, Middle placement, 2.5 fs), then both with the 0.02-nm hard wall
+                  (ratios against the first peer: divide the two wall rows for SIM against DrudeLangevin with the
+                  wall).  The SIM's constraint solves (SETTLE, each oxygen core's constraint impulses reaching its
+                  Drude particle through the pair's flow) and its wall run on the device.
   flexible_water  flexible TIP3P water (PME; examples/flexible_water): LangevinMiddle flexible 0.5, 1 and 2 fs against
                   the nonintrusive FLAVOR with the O-H bonds and the H-O-H angles stiff (Verlet scheme, delta = 2 fs,
                   tau = 0.5 fs), and the scene's artificial FLAVOR (ArtificialProjected, bonds and angles frozen,
@@ -179,9 +179,18 @@ def drude_scene(quick, states, molecules=None):
     steps = 50 if quick else 1000
     state = stored_start(states, f"drude_water_{molecules}_{steps}",
                          lambda: drude_water.equilibrated_state(system, positions, 1.0, steps, 1))
+    def sim_with_wall():
+        integrator = drude_water.make_integrator("WarpedMiddle", 2.5, 7)
+        integrator.setMaxDrudeDistance(drude_water.WALL_NM * unit.nanometer)
+        return integrator
+
+    wall = f"{drude_water.WALL_NM:g}-nm wall"
     peers = [("DrudeLangevin 1 fs", 1.0, system, lambda: drude_water.make_integrator("DrudeLangevin", 1.0, 7), ""),
              ("SIM Warped Middle 2.5 fs", 2.5, system, lambda: drude_water.make_integrator("WarpedMiddle", 2.5, 7),
-              "the scene's SIM peer")]
+              "the scene's SIM peer"),
+             (f"DrudeLangevin 1 fs, {wall}", 1.0, system,
+              lambda: drude_water.make_integrator("DrudeLangevinWall", 1.0, 7), ""),
+             (f"SIM Warped Middle 2.5 fs, {wall}", 2.5, system, sim_with_wall, "against DrudeLangevin with the wall")]
     description = f"{molecules} SWM4-NDP molecules ({system.getNumParticles()} particles), rigid, PME"
     return description, lambda context: context.setState(state), peers
 

@@ -1,7 +1,8 @@
 /*
  * The part of the preloaded OpenCL test layer that counts what a step asks of the device: kernel launches, buffer
  * reads and writes (blocking ones apart) and host waits.  Tests read the counts through flavorsOpenCLCallCounts()
- * (OpenCLCallCounts.h) before and after some steps.
+ * (OpenCLCallCounts.h) before and after some steps.  With FLAVORS_OPENCL_TRACE set, each launch's kernel name goes to
+ * stderr (which kernels a step launches, for the benchmarks' breakdowns).
  */
 #define CL_TARGET_OPENCL_VERSION 120
 #include "OpenCLCallCounts.h"
@@ -9,6 +10,8 @@
 #include <dlfcn.h>
 
 #include <atomic>
+#include <cstdio>
+#include <cstdlib>
 
 namespace {
 
@@ -34,7 +37,13 @@ __attribute__((visibility("default"))) cl_int clEnqueueNDRangeKernel(cl_command_
     using Launch = cl_int (*)(cl_command_queue, cl_kernel, cl_uint, const size_t*, const size_t*, const size_t*,
                               cl_uint, const cl_event*, cl_event*);
     static const Launch launch = next<Launch>("clEnqueueNDRangeKernel");
+    static const bool trace = std::getenv("FLAVORS_OPENCL_TRACE") != nullptr;
     ++launches;
+    if (trace) {
+        char name[256] = {0};
+        clGetKernelInfo(kernel, CL_KERNEL_FUNCTION_NAME, sizeof(name) - 1, name, nullptr);
+        std::fprintf(stderr, "launch %s\n", name);
+    }
     return launch(queue, kernel, dimensions, offset, globalSize, localSize, numEvents, waitList, event);
 }
 

@@ -33,7 +33,7 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     defines["PADDED_NUM_ATOMS"] = cc.intToString(cc.getPaddedNumAtoms());
     program =
         cc.compileProgram(string(CommonFlavorKernelSources::flowPasses) + CommonFlavorKernelSources::frozenClusters +
-                              CommonFlavorKernelSources::carriedConstraints,
+                              CommonFlavorKernelSources::carriedConstraints + CommonFlavorKernelSources::hardWall,
                           defines);
     copyForcesKernel = program->createKernel("copyForces");
     findAtomsKernel = program->createKernel("findAtoms");
@@ -46,7 +46,9 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     uploadMixed(cc, wn, vector<double>(tables.wn, tables.wn + 128), "flavorZigguratWn");
     uploadMixed(cc, fn, vector<double>(tables.fn, tables.fn + 128), "flavorZigguratFn");
     slotOf.initialize<int>(cc, numParticles, "flavorSlotOf");
-    deviceFrozen = std::make_unique<DeviceFrozenStage>(cc, program, slotOf);
+    failureFlag = std::make_unique<DeviceFailureFlag>(cc);
+    deviceFrozen = std::make_unique<DeviceFrozenStage>(cc, program, slotOf, *failureFlag);
+    deviceWall = std::make_unique<DeviceHardWall>(cc, program, slotOf, *failureFlag);
     deviceCarried = std::make_unique<DeviceCarriedConstraints>(cc, program, slotOf, system);
     uploadInts(cc, thermostated, vector<int>(numParticles, 1), "flavorThermostated");
     uploadMixed(cc, thermalSpeed, vector<double>(numParticles, 0.0), "flavorThermalSpeed");
@@ -156,6 +158,7 @@ void CommonFlowStepper::setStiffModes(std::shared_ptr<const StiffModes> newModes
     if (projector)
         projector->setStiffModes(modes.get());
     hardWall.setStiffModes(modes.get(), particles);
+    deviceWall->setPairs(hardWall, particles);
     // The history from where it was kept, to where it is kept now (the device where it solves the constraints).
     downloadHistory(history);
     if (projector)
@@ -307,6 +310,15 @@ void CommonFlowStepper::prepare() {
         }
         fusedPassKernels[p] = createFusedPassKernel(pass, p);
     }
+    // The step's first kernel that reads velocities, where that is a stiff flow, takes the last step's constraint
+    // processing off them.
+    size_t first = 0;
+    while (first < plan.passes.size() && plan.passes[first].fusedIntoNext)
+        ++first;
+    if (constraintsOnDevice() && first < plan.passes.size() && !passKernels[first].empty() && passKernels[first][0] &&
+        (plan.passes[first].flows[0].kind == SubFlow::StiffFlow ||
+         plan.passes[first].flows[0].kind == SubFlow::FilteredStiffFlow))
+        deviceCarried->fuseTakeOff(passKernels[first][0]);
     vector<double> speeds(numParticles, 0.0);
     for (int i = 0; i < numParticles; ++i) {
         const double mass = system.getParticleMass(i);
@@ -393,7 +405,7 @@ ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size
     kernel->addArg((std::uint64_t)0);
     addRandomArgs(kernel);
     // Where the constraints are solved on the device the flow leaves its displacement for their solve.
-    deviceCarried->addFlowArgs(kernel, p, constraintsOnDevice(), true);
+    deviceCarried->addFlowArgs(kernel, p, constraintsOnDevice(), DeviceCarriedConstraints::FlowKernel::StiffFlow);
     return kernel;
 }
 
@@ -428,7 +440,9 @@ ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, 
     kernel->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
     kernel->addArg(cc.getVelm());
     // A FilteredStiffFlow's response joins the displacement of its flow (a FilteredKick's moves no position).
-    deviceCarried->addFlowArgs(kernel, p, constraintsOnDevice() && !closing, false);
+    deviceCarried->addFlowArgs(kernel, p, constraintsOnDevice(),
+                               closing ? DeviceCarriedConstraints::FlowKernel::ClosingResponse
+                                       : DeviceCarriedConstraints::FlowKernel::Response);
     return kernel;
 }
 
@@ -630,24 +644,27 @@ void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
 }
 
 void CommonFlowStepper::runHardWall(const SubFlow& flow) {
+    findAtoms();
     if (flow.kind == SubFlow::HardWallSpeed) {
-        if (!hardWall.movedAny())
-            return;
-        mirror.download(false, true);
-        hardWall.setSpeeds(mirror.velocities, particles.masses, flow.stiffBath.kT);
-        mirror.upload(false, true);
+        deviceWall->setSpeeds(flow.stiffBath.kT);
         return;
     }
-    mirror.download(true, false);
-    if (!hardWall.movePositions(mirror.positions, particles.masses, flow.distance, flow.h, flow.stiffBath.kT))
-        return;
-    mirror.upload(true, false);
+    deviceWall->movePositions(flow.distance, flow.h, flow.stiffBath.kT);
     invalidateForces();
+}
+
+void CommonFlowStepper::checkDeviceFailure() {
+    // A failure the last step left on the device, read where this one starts (DeviceFailureFlag).
+    const int code = failureFlag->take();
+    if (code == DeviceFrozenStage::FailureCode)
+        throw OpenMMException(deviceFrozen->failureMessage());
+    if (code >= DeviceHardWall::FirstFailureCode)
+        throw OpenMMException(deviceWall->failureMessage(code));
 }
 
 void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ContextSelector selector(cc);
-    deviceFrozen->checkFailure();
+    checkDeviceFailure();
     if (!forcesValid)
         invalidateForces();
     history.stepStarted();
@@ -717,7 +734,7 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
     // Forces valid at the step's end serve the next step's opening: into their slot before the step returns (a
     // getState() may evaluate forces into the buffer in between).
     copyPendingForces();
-    deviceFrozen->finishStep();
+    failureFlag->finishStep();
     cc.reorderAtoms();
     atomsFound = false;
     forcesValid = true;

@@ -4,7 +4,9 @@
 #include "ConstraintProjector.h"
 #include "ContextRollback.h"
 #include "DeviceCarriedConstraints.h"
+#include "DeviceFailureFlag.h"
 #include "DeviceFrozenStage.h"
+#include "DeviceHardWall.h"
 #include "FlavorKernels.h"
 #include "FrozenCoordinates.h"
 #include "HardWall.h"
@@ -53,9 +55,10 @@ namespace FlavorPlugin {
  *
  * The artificial FLAVOR's frozen stage (FrozenDrift, FrozenKick) runs on the device where its clusters are small and
  * free of System constraints (DeviceFrozenStage: flexible water, one work-item per molecule); elsewhere (proteins,
- * frozen stiff modes) it runs the engine's host code on such copies (HostFrozenStage), as does the SIM's hard wall
- * (HardWall).  The particles' state for a failed checkpoint to put back is kept on the device.  The Metropolis
- * proposals are not here yet.
+ * frozen stiff modes) it runs the engine's host code on such copies (HostFrozenStage).  The SIM's hard wall runs on
+ * the device (DeviceHardWall).  A kernel that finds a step cannot go on sets one flag on the device
+ * (DeviceFailureFlag), read without waiting where the next step starts.  The particles' state for a failed checkpoint
+ * to put back is kept on the device.  The Metropolis proposals are not here yet.
  */
 class CommonFlowStepper {
 public:
@@ -128,9 +131,10 @@ private:
     void runFrozenPass(const FlowPass& pass, double constraintTolerance);
     /** Whether pass p is a lone kick that the device frozen pass after it applies first (fusedSlot, fusedStep). */
     bool kickFusesIntoFrozenPass(size_t p) const;
-    /** The hard wall (HardWall, HardWallSpeed) on host copies of the positions or velocities, written back where it
-     * moved any. */
+    /** The hard wall (HardWall, HardWallSpeed) on the device (DeviceHardWall). */
     void runHardWall(const SubFlow& flow);
+    /** Throws what a kernel of the last step left in the failure flag. */
+    void checkDeviceFailure();
     /** Runs the force-response kernel of a pass (the second kernel of a FilteredStiffFlow, the only of a FilteredKick).
      */
     void runForceResponse(size_t passIndex, size_t kernelIndex);
@@ -195,12 +199,16 @@ private:
     // current Filtered step began.  history's forceDifferences is a copy for checkpoints and forget().
     OpenMM::ComputeArray forceDifferences, openingForces;
     // The particles' constants and the host copies of their state, shared by every pass that runs on the host: the
-    // frozen stage, the hard wall and the constraint solves.
+    // frozen stage and the constraint solves.
     ParticleTable particles;
     HostStateMirror mirror;
     HostFrozenStage frozenStage;
     // The frozen stage of small clusters (flexible water) on the device; the others run on the host (frozenStage).
     std::unique_ptr<DeviceFrozenStage> deviceFrozen;
+    // The SIM's hard wall on the device, over the pairs hardWall finds; its failures and the frozen stage's in one
+    // flag.
+    std::unique_ptr<DeviceHardWall> deviceWall;
+    std::unique_ptr<DeviceFailureFlag> failureFlag;
     // The SIM's constraint solves around its stiff flows on the device where SETTLE holds every carrier; else on the
     // host (projector, mirror).
     std::unique_ptr<DeviceCarriedConstraints> deviceCarried;

@@ -98,6 +98,7 @@ void DeviceCarriedConstraints::setNumPasses(size_t numPasses) {
     passes.clear();
     passes.resize(numPasses);
     processing = false;
+    takeOffFused = false;
 }
 
 void DeviceCarriedConstraints::setCarrying(size_t p, const ConstraintProjector::StiffFlowCarrying& carrying,
@@ -157,6 +158,7 @@ void DeviceCarriedConstraints::setCarrying(size_t p, const ConstraintProjector::
     uploadMixed(cc, pass.carrierReals, carrierReals, "flavorCarrierReals");
     uploadMixed(cc, pass.motionReals, motionReals, "flavorMotionReals");
     pass.set = true;
+    pass.numPositionMotions = numPositionMotions;
 
     IntegrationUtilities& integration = cc.getIntegrationUtilities();
     ArrayInterface& correction = cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq();
@@ -182,21 +184,6 @@ void DeviceCarriedConstraints::setCarrying(size_t p, const ConstraintProjector::
     finish->addArg(carrierVelocity);
     finish->addArg(firstOfStep ? 1 : 0);
     finish->addArg(0);
-    pass.prepareVelocities = program->createKernel("prepareCarriedVelocities");
-    ComputeKernel& prepare = pass.prepareVelocities;
-    prepare->addArg(numCarried);
-    prepare->addArg(cc.getVelm());
-    prepare->addArg(slotOf);
-    prepare->addArg(pass.carriers);
-    prepare->addArg(pass.motionStart);
-    prepare->addArg(pass.motionParticle);
-    prepare->addArg(pass.carrierReals);
-    prepare->addArg(pass.motionReals);
-    prepare->addArg(numPositionMotions);
-    prepare->addArg(stepImpulses);
-    prepare->addArg(carrierVelocity);
-    prepare->addArg(applied);
-    prepare->addArg(pass.process ? 1 : 0);
     pass.finishVelocities = program->createKernel("finishCarriedVelocities");
     ComputeKernel& end = pass.finishVelocities;
     end->addArg(numCarried);
@@ -215,15 +202,40 @@ void DeviceCarriedConstraints::setCarrying(size_t p, const ConstraintProjector::
     pass.velocitiesFirstOfStep = firstOfStep;
 }
 
-void DeviceCarriedConstraints::addFlowArgs(ComputeKernel& kernel, size_t p, bool displaced, bool stiffFlow) {
-    kernel->addArg(displaced ? 1 : 0);
+void DeviceCarriedConstraints::addFlowArgs(ComputeKernel& kernel, size_t p, bool displaced, FlowKernel kind) {
+    // Any array of the type where the pass has no carrying: read only where it has.
+    const bool carried = displaced && passes[p].set;
+    PassArrays& pass = passes[p];
+    kernel->addArg(kind == FlowKernel::StiffFlow || kind == FlowKernel::Response ? (displaced ? 1 : 0) : 0);
     kernel->addArg(cc.getIntegrationUtilities().getPosDelta());
     kernel->addArg(uncorrected);
-    if (!stiffFlow)
+    if (kind == FlowKernel::StiffFlow) {
+        kernel->addArg(carrierOf);
+        kernel->addArg(carried ? pass.carrierReals : uncorrected);
+        kernel->addArg(applied);
+        kernel->addArg(0); // takeOff: set by fuseTakeOff()
         return;
+    }
+    const bool preparing = kind == FlowKernel::ClosingResponse && carried && !carriers.empty();
+    kernel->addArg(preparing ? 1 : 0);
     kernel->addArg(carrierOf);
-    // Any array of mixed where the pass has no carrying: read only when displaced.
-    kernel->addArg(displaced && passes[p].set ? passes[p].carrierReals : uncorrected);
+    kernel->addArg(preparing ? pass.carrierReals : uncorrected);
+    kernel->addArg(preparing ? pass.motionStart : carrierOf);
+    kernel->addArg(preparing ? pass.motionParticle : carrierOf);
+    kernel->addArg(preparing ? pass.motionReals : uncorrected);
+    kernel->addArg(preparing ? pass.numPositionMotions : 0);
+    kernel->addArg((int)carriers.size());
+    kernel->addArg(stepImpulses);
+    kernel->addArg(carrierVelocity);
+    kernel->addArg(applied);
+    kernel->addArg(preparing && pass.process ? 1 : 0);
+}
+
+void DeviceCarriedConstraints::fuseTakeOff(ComputeKernel& firstStiffFlow) {
+    if (!processing)
+        return;
+    firstStiffFlow->setArg(StiffFlowTakeOffArg, 1);
+    takeOffFused = true;
 }
 
 void DeviceCarriedConstraints::constrainAfterFlow(size_t p, double tolerance, bool projectVelocities) {
@@ -240,18 +252,17 @@ void DeviceCarriedConstraints::constrainAfterFlow(size_t p, double tolerance, bo
 }
 
 void DeviceCarriedConstraints::constrainVelocities(size_t p, double tolerance) {
+    // The closing force response readied the carriers (addFlowArgs, FlowKernel::ClosingResponse).
     PassArrays& pass = passes[p];
-    if (!carriers.empty()) {
-        pass.prepareVelocities->execute((int)carriers.size());
-        pass.finishVelocities->setArg(11, pass.velocitiesFirstOfStep ? 1 : 0);
-    }
     cc.getIntegrationUtilities().applyVelocityConstraints(tolerance);
-    if (!carriers.empty())
+    if (!carriers.empty()) {
+        pass.finishVelocities->setArg(11, pass.velocitiesFirstOfStep ? 1 : 0);
         pass.finishVelocities->execute((int)carriers.size());
+    }
 }
 
 void DeviceCarriedConstraints::takeOffProcessing() {
-    if (processing)
+    if (processing && !takeOffFused)
         takeOffKernel->execute(cc.getNumAtoms());
 }
 

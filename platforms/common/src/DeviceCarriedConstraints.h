@@ -39,15 +39,25 @@ public:
      * pass of the step that adds to the carriers' impulses.
      */
     void setCarrying(size_t p, const ConstraintProjector::StiffFlowCarrying& carrying, bool firstOfStep);
+    /** The kernels of flowPasses.cc that take arguments from here. */
+    enum class FlowKernel { StiffFlow, Response, ClosingResponse };
     /**
-     * Adds the arguments of a stiff flow (displaced: for pass p's constraint solve) or of a force response after it
-     * (stiffFlow false) to a kernel of flowPasses.cc.
+     * Adds the arguments of a stiff flow, a force response after it, or the closing response of a step's Filtered
+     * kick (which readies the carriers for the velocity solve after it) to a kernel of flowPasses.cc: displaced where
+     * pass p's constraints are solved here.
      */
-    void addFlowArgs(OpenMM::ComputeKernel& kernel, size_t p, bool displaced, bool stiffFlow);
+    void addFlowArgs(OpenMM::ComputeKernel& kernel, size_t p, bool displaced, FlowKernel kind);
+    /** The stiffFlow kernel's argument that takes the last step's processing off (set by fuseTakeOff()). */
+    static const int StiffFlowTakeOffArg = 30;
+    /**
+     * The step's first flow is this stiff flow: it takes the last step's processing off the velocities it reads,
+     * where the plan processes any (then takeOffProcessing() launches nothing).  Called after every setCarrying().
+     */
+    void fuseTakeOff(OpenMM::ComputeKernel& firstStiffFlow);
     /** After pass p's displaced stiff flow: the position solve, and the velocity solve unless projectVelocities is
      * false. */
     void constrainAfterFlow(size_t p, double tolerance, bool projectVelocities);
-    /** The velocity solve at the end of pass p (a Filtered kick), with the step's velocity processing first. */
+    /** The velocity solve at the end of pass p (a Filtered kick), after its closing response readied the carriers. */
     void constrainVelocities(size_t p, double tolerance);
     /** Whether a step of this plan processes velocities (the next step starts by taking that off). */
     bool processesVelocities() const { return processing; }
@@ -60,7 +70,8 @@ public:
 private:
     struct PassArrays {
         OpenMM::ComputeArray carriers, motionStart, motionParticle, carrierReals, motionReals;
-        OpenMM::ComputeKernel finishPositions, prepareVelocities, finishVelocities;
+        OpenMM::ComputeKernel finishPositions, finishVelocities;
+        int numPositionMotions = 0;
         bool set = false, process = false, velocitiesFirstOfStep = false;
     };
     OpenMM::ComputeContext& cc;
@@ -74,7 +85,7 @@ private:
     // and its velocity before a velocity solve; per atom: the uncorrected displacement; per particle: the processing.
     OpenMM::ComputeArray carrierOf, carriedMember, stepImpulses, carrierVelocity, uncorrected, applied;
     OpenMM::ComputeKernel takeOffKernel;
-    bool active = false, processing = false;
+    bool active = false, processing = false, takeOffFused = false;
 };
 
 } // namespace FlavorPlugin

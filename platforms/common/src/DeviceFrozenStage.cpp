@@ -25,17 +25,9 @@ void uploadList(ComputeContext& cc, ComputeArray& array, vector<T> values, const
 
 } // namespace
 
-DeviceFrozenStage::DeviceFrozenStage(ComputeContext& cc, ComputeProgram& program, ComputeArray& slotOf)
-    : cc(cc), program(program), slotOf(slotOf) {
-    failure.initialize<int>(cc, 1, "flavorFrozenFailure");
-    cc.clearBuffer(failure);
-    failureRead = cc.createEvent();
-}
-
-DeviceFrozenStage::~DeviceFrozenStage() {
-    if (readPending)
-        failureRead->wait();
-}
+DeviceFrozenStage::DeviceFrozenStage(ComputeContext& cc, ComputeProgram& program, ComputeArray& slotOf,
+                                     DeviceFailureFlag& failure)
+    : cc(cc), program(program), slotOf(slotOf), failure(failure) {}
 
 bool DeviceFrozenStage::setDistances(const FrozenDistances* distances) {
     using Table = SmallClusterTable;
@@ -81,7 +73,7 @@ bool DeviceFrozenStage::setDistances(const FrozenDistances* distances) {
         k->addArg(cc.getPosq());
         k->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
         k->addArg(cc.getVelm());
-        k->addArg(failure);
+        k->addArg(failure.getArray());
     }
     kickKernel->addArg(slotOf); // the forces, set per kick
     for (ComputeKernel* kernel : {&driftKernel, &kickKernel}) {
@@ -112,31 +104,10 @@ void DeviceFrozenStage::run(const SubFlow& flow, ComputeArray* forces, double to
     setMixedArg(cc, kernel, first + 5, preKickForces != nullptr ? preKick : 0.0);
     lastTolerance = tolerance;
     kernel->execute(numClusters + numFree);
-    ranThisStep = true;
+    failure.markUsed();
 }
 
 void DeviceFrozenStage::forgetFactorizations() {
     if (active)
         cc.clearBuffer(flags);
-}
-
-void DeviceFrozenStage::finishStep() {
-    if (!ranThisStep)
-        return;
-    ranThisStep = false;
-    failure.download(&failureFlag, false);
-    failureRead->enqueue();
-    readPending = true;
-}
-
-void DeviceFrozenStage::checkFailure() {
-    if (!readPending)
-        return;
-    failureRead->wait();
-    readPending = false;
-    if (failureFlag == 0)
-        return;
-    failureFlag = 0;
-    cc.clearBuffer(failure);
-    throw OpenMMException(FrozenDistances::unstableMessage(lastTolerance));
 }

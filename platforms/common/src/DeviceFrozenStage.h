@@ -1,13 +1,14 @@
 #ifndef OPENMM_FLAVORS_DEVICE_FROZEN_STAGE_H_
 #define OPENMM_FLAVORS_DEVICE_FROZEN_STAGE_H_
 
+#include "DeviceFailureFlag.h"
 #include "FrozenDistances.h"
 #include "internal/FlowSchedule.h"
 #include "openmm/common/ComputeArray.h"
 #include "openmm/common/ComputeContext.h"
-#include "openmm/common/ComputeEvent.h"
 #include "openmm/common/ComputeKernel.h"
 #include "openmm/common/ComputeProgram.h"
+#include <string>
 
 namespace FlavorPlugin {
 
@@ -17,8 +18,7 @@ namespace FlavorPlugin {
  * constraint (flexible water: one triangle per molecule).  One work-item per cluster runs the host's iterations
  * (kernels/frozenClusters.cc); the host's FrozenDistances, which HostFrozenStage runs for every other System, is the
  * oracle its tests compare with.  Nothing is copied to or from the host per pass: a drift that cannot be held sets a
- * flag on the device, which finishStep() downloads without waiting and checkFailure() reads where the next step
- * starts.
+ * flag on the device (code 1 of the step's DeviceFailureFlag), which the stepper reads where the next step starts.
  */
 class DeviceFrozenStage {
 public:
@@ -26,9 +26,8 @@ public:
      * program: compiled from flowPasses.cc and frozenClusters.cc; slotOf: each particle's atom (current whenever run()
      * is called).
      */
-    DeviceFrozenStage(OpenMM::ComputeContext& cc, OpenMM::ComputeProgram& program, OpenMM::ComputeArray& slotOf);
-    /** Waits for a download still on its way into failureFlag. */
-    ~DeviceFrozenStage();
+    DeviceFrozenStage(OpenMM::ComputeContext& cc, OpenMM::ComputeProgram& program, OpenMM::ComputeArray& slotOf,
+                      DeviceFailureFlag& failure);
     /**
      * Takes the clusters of distances onto the device if they fit; returns whether they did (false and inactive for
      * null or clusters that do not fit: the host stage runs them).
@@ -45,23 +44,21 @@ public:
              OpenMM::ComputeArray* preKickForces = nullptr, double preKick = 0.0, bool preKickFromBuffer = false);
     /** Forgets every cluster's factorization (FrozenDistances::forgetFactorizations). */
     void forgetFactorizations();
-    /** After a step that ran a frozen flow: starts the download of the failure flag, without waiting for it. */
-    void finishStep();
-    /** Throws the host's exception if a drift of the last step could not be held (waits for finishStep()'s copy). */
-    void checkFailure();
+    /** The host's exception for a drift that could not be held (failure code 1). */
+    std::string failureMessage() const { return FrozenDistances::unstableMessage(lastTolerance); }
+    /** The failure code its kernels set. */
+    static const int FailureCode = 1;
 
 private:
     OpenMM::ComputeContext& cc;
     OpenMM::ComputeProgram& program;
     OpenMM::ComputeArray& slotOf;
     OpenMM::ComputeKernel driftKernel, kickKernel;
-    OpenMM::ComputeArray particles, ends, order, counts, flags, reals, freeParticles, failure;
-    OpenMM::ComputeEvent failureRead;
+    DeviceFailureFlag& failure;
+    OpenMM::ComputeArray particles, ends, order, counts, flags, reals, freeParticles;
     int numClusters = 0, numFree = 0;
-    bool active = false, ranThisStep = false, readPending = false;
+    bool active = false;
     double lastTolerance = 0.0;
-    // Where the failure flag is downloaded to; read only after failureRead has completed.
-    int failureFlag = 0;
 };
 
 } // namespace FlavorPlugin

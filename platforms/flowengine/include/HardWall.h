@@ -5,6 +5,7 @@
 #include "StiffModes.h"
 #include "internal/windowsExportFlavors.h"
 #include "openmm/Vec3.h"
+#include <string>
 #include <vector>
 
 namespace FlavorPlugin {
@@ -38,12 +39,17 @@ public:
     /** Whether the last movePositions() put any pair back. */
     bool movedAny() const { return !moved.empty(); }
 
-private:
     struct Pair {
         int drude, parent;
         /** Whether the parent stays where it is (constrained or massless). */
         bool parentFixed;
     };
+    /** The stiff pairs of the modes last set. */
+    const std::vector<Pair>& getPairs() const { return pairs; }
+    /** Why a step fails whose pair drude-parent is distance nm apart (or more: distance negative) after its flow. */
+    static std::string tooFarMessage(int drude, int parent, double distance, double wall);
+
+private:
     std::vector<Pair> pairs;
     /** The pairs the last movePositions() put back (indices into pairs) and their axes, parent to Drude. */
     std::vector<int> moved;

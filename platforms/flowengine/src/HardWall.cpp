@@ -26,6 +26,13 @@ void HardWall::setStiffModes(const StiffModes* modes, const ParticleTable& table
     axes.reserve(pairs.size());
 }
 
+std::string HardWall::tooFarMessage(int drude, int parent, double distance, double wall) {
+    const std::string apart = distance >= 0 ? " is " + std::to_string(distance) + " nm apart" : " is farther apart";
+    return "StochasticImpulseIntegrator: the stiff pair of particles " + std::to_string(drude) + " and " +
+           std::to_string(parent) + apart + " after the step, more than twice the hard wall (setMaxDrudeDistance, " +
+           formatNumber(wall) + " nm): the step is too large for this System";
+}
+
 bool HardWall::movePositions(std::vector<Vec3>& positions, const std::vector<double>& masses, double wall, double dt,
                              double kT) {
     // Checked before anything moves: a pair past twice the wall leaves the positions as the step's flow left them.
@@ -33,12 +40,7 @@ bool HardWall::movePositions(std::vector<Vec3>& positions, const std::vector<dou
         const Vec3 delta = positions[pair.drude] - positions[pair.parent];
         const double r = std::sqrt(delta.dot(delta));
         if (!(r <= 2 * wall))
-            throw OpenMMException("StochasticImpulseIntegrator: the stiff pair of particles " +
-                                  std::to_string(pair.drude) + " and " + std::to_string(pair.parent) + " is " +
-                                  std::to_string(r) +
-                                  " nm apart after the step, more than twice the hard wall "
-                                  "(setMaxDrudeDistance, " +
-                                  formatNumber(wall) + " nm): the step is too large for this System");
+            throw OpenMMException(tooFarMessage(pair.drude, pair.parent, r, wall));
     }
     moved.clear();
     axes.clear();

@@ -119,44 +119,40 @@ KERNEL void finishCarriedPositions(int numAtoms, GLOBAL real4* RESTRICT posq, GL
 }
 
 /**
- * Before a velocity solve that ends a step with a Filtered kick: the velocity processing of the step's impulses
- * (process), recorded in applied; each carrier's velocity remembered and its inverse mass that of the solve.
+ * Before a velocity solve that ends a step with a Filtered kick (run by forceResponse for the carrier's component):
+ * the velocity processing of the step's impulses (process), recorded in applied; carrier k (at carrierAtom) has its
+ * velocity remembered and its inverse mass that of the solve.
  */
-KERNEL void prepareCarriedVelocities(int numCarried, GLOBAL mixed4* RESTRICT velm, GLOBAL const int* RESTRICT slotOf,
-                                     GLOBAL const int* RESTRICT carriers, GLOBAL const int* RESTRICT motionStart,
-                                     GLOBAL const int* RESTRICT motionParticle,
-                                     GLOBAL const mixed* RESTRICT carrierReals,
-                                     GLOBAL const mixed* RESTRICT motionReals, int numPositionMotions,
-                                     GLOBAL const mixed4* RESTRICT stepImpulses,
-                                     GLOBAL mixed4* RESTRICT carrierVelocity, GLOBAL mixed4* RESTRICT applied,
-                                     int process) {
+DEVICE void prepareCarrier(int k, int carrierAtom, int numCarried, GLOBAL mixed4* RESTRICT velm,
+                           GLOBAL const int* RESTRICT slotOf, GLOBAL const int* RESTRICT motionStart,
+                           GLOBAL const int* RESTRICT motionParticle, GLOBAL const mixed* RESTRICT carrierReals,
+                           GLOBAL const mixed* RESTRICT motionReals, int numPositionMotions,
+                           GLOBAL const mixed4* RESTRICT stepImpulses, GLOBAL mixed4* RESTRICT carrierVelocity,
+                           GLOBAL mixed4* RESTRICT applied, int process) {
     GLOBAL const int* processingStart = motionStart + 2 * (numCarried + 1);
-    for (int k = GLOBAL_ID; k < numCarried; k += GLOBAL_SIZE) {
-        if (process) {
-            const mixed4 impulse = stepImpulses[k];
-            for (int j = processingStart[k]; j < processingStart[k + 1]; ++j) {
-                const int particle = motionParticle[j];
-                const int atom = slotOf[particle];
-                const mixed4 change =
-                    carriedProduct(motionReals + 18 * numPositionMotions + 9 * (j - numPositionMotions), impulse);
-                mixed4 vel = velm[atom];
-                vel.x += change.x;
-                vel.y += change.y;
-                vel.z += change.z;
-                velm[atom] = vel;
-                mixed4 sum = applied[particle];
-                sum.x += change.x;
-                sum.y += change.y;
-                sum.z += change.z;
-                applied[particle] = sum;
-            }
+    if (process) {
+        const mixed4 impulse = stepImpulses[k];
+        for (int j = processingStart[k]; j < processingStart[k + 1]; ++j) {
+            const int particle = motionParticle[j];
+            const int atom = slotOf[particle];
+            const mixed4 change =
+                carriedProduct(motionReals + 18 * numPositionMotions + 9 * (j - numPositionMotions), impulse);
+            mixed4 vel = velm[atom];
+            vel.x += change.x;
+            vel.y += change.y;
+            vel.z += change.z;
+            velm[atom] = vel;
+            mixed4 sum = applied[particle];
+            sum.x += change.x;
+            sum.y += change.y;
+            sum.z += change.z;
+            applied[particle] = sum;
         }
-        const int carrierAtom = slotOf[carriers[k]];
-        mixed4 vel = velm[carrierAtom];
-        vel.w = carrierReals[21 * k + 1];
-        velm[carrierAtom] = vel;
-        carrierVelocity[k] = vel;
     }
+    mixed4 vel = velm[carrierAtom];
+    vel.w = carrierReals[21 * k + 1];
+    velm[carrierAtom] = vel;
+    carrierVelocity[k] = vel;
 }
 
 /**
@@ -192,7 +188,10 @@ KERNEL void finishCarriedVelocities(int numCarried, GLOBAL mixed4* RESTRICT velm
     }
 }
 
-/** Where a step starts: the last step's velocity processing (applied, zeroed) taken off the velocities. */
+/**
+ * Where a step starts: the last step's velocity processing (applied, zeroed) taken off the velocities (where the
+ * step's first pass is not a stiff flow, which does it itself).
+ */
 KERNEL void takeOffCarriedProcessing(int numAtoms, GLOBAL mixed4* RESTRICT velm, GLOBAL const int* RESTRICT atomIndex,
                                      GLOBAL mixed4* RESTRICT applied) {
     for (int atom = GLOBAL_ID; atom < numAtoms; atom += GLOBAL_SIZE) {

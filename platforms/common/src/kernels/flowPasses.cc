@@ -261,9 +261,17 @@ DEVICE void readStiffParticle(GLOBAL const real4* RESTRICT posq, GLOBAL const re
                               GLOBAL const mixed4* RESTRICT kickForces, mixed kickStep, int noisy, mm_ulong stream,
                               unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
                               GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn, mixed* q, mixed* v,
-                              mixed* xi1, mixed* xi2) {
+                              mixed* xi1, mixed* xi2, GLOBAL mixed4* RESTRICT applied, int takeOff) {
     const mixed4 pos = loadPosition(posq, posqCorrection, atom);
     mixed4 vel = velm[atom];
+    if (takeOff) {
+        // The last step's constraint processing comes off first (the step's first flow; carriedConstraints.cc).
+        const mixed4 a = applied[particle];
+        vel.x -= a.x;
+        vel.y -= a.y;
+        vel.z -= a.z;
+        applied[particle] = make_mixed4(0, 0, 0, 0);
+    }
     q[0] = pos.x;
     q[1] = pos.y;
     q[2] = pos.z;
@@ -331,7 +339,8 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
                       unsigned int k0, unsigned int k1, GLOBAL const unsigned int* RESTRICT kn,
                       GLOBAL const mixed* RESTRICT wn, GLOBAL const mixed* RESTRICT fn, int displaced,
                       GLOBAL mixed4* RESTRICT posDelta, GLOBAL mixed4* RESTRICT uncorrected,
-                      GLOBAL const int* RESTRICT carrierOf, GLOBAL const mixed* RESTRICT carrierReals) {
+                      GLOBAL const int* RESTRICT carrierOf, GLOBAL const mixed* RESTRICT carrierReals,
+                      GLOBAL mixed4* RESTRICT applied, int takeOff) {
     for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
         const int4 comp = components[c];
         const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w;
@@ -343,7 +352,8 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
             for (int p = 0; p < numParticles; ++p) {
                 const int particle = particles[first + p];
                 readStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, kickForces, kickStep, noisy,
-                                  stream, k0, k1, kn, wn, fn, q + 3 * p, v + 3 * p, xi1 + 3 * p, xi2 + 3 * p);
+                                  stream, k0, k1, kn, wn, fn, q + 3 * p, v + 3 * p, xi1 + 3 * p, xi2 + 3 * p, applied,
+                                  takeOff);
             }
             const int DD = D * D, DC = D * C;
             GLOBAL const mixed* gx = m + 4 * DD;
@@ -379,7 +389,7 @@ KERNEL void stiffFlow(int numComponents, GLOBAL const int4* RESTRICT components,
             const int particle = particles[first + p];
             mixed q[3], v[3], xi1[3], xi2[3];
             readStiffParticle(posq, posqCorrection, velm, slotOf[particle], particle, kickForces, kickStep, noisy,
-                              stream, k0, k1, kn, wn, fn, q, v, xi1, xi2);
+                              stream, k0, k1, kn, wn, fn, q, v, xi1, xi2, applied, takeOff);
             const mixed s = sqrtMass[particle];
             for (int d = 0; d < 3; ++d) {
                 GLOBAL mixed* row = particleSpace + (C == 3 ? p * width + d : (3 * p + d) * width);
@@ -481,6 +491,14 @@ DEVICE void responseOfElement(int i, int col, int D, int C, GLOBAL const mixed* 
     *dv = sv;
 }
 
+/** carriedConstraints.cc: carrier k readied for a velocity solve (the step's constraint processing first). */
+DEVICE void prepareCarrier(int k, int carrierAtom, int numCarried, GLOBAL mixed4* RESTRICT velm,
+                           GLOBAL const int* RESTRICT slotOf, GLOBAL const int* RESTRICT motionStart,
+                           GLOBAL const int* RESTRICT motionParticle, GLOBAL const mixed* RESTRICT carrierReals,
+                           GLOBAL const mixed* RESTRICT motionReals, int numPositionMotions,
+                           GLOBAL const mixed4* RESTRICT stepImpulses, GLOBAL mixed4* RESTRICT carrierVelocity,
+                           GLOBAL mixed4* RESTRICT applied, int process);
+
 /**
  * A force response of the Filtered and Warped splittings (StiffModes::ForceResponse), one component per work-item,
  * as the CPU engine's ForceResponseTask: x += M^-1/2 U diag(rx) U^T M^-1/2 F and likewise v with rv, for the forces
@@ -500,7 +518,11 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
                           GLOBAL mixed4* RESTRICT openingForces, GLOBAL mixed4* RESTRICT forceChanges, int closing,
                           GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
                           GLOBAL mixed4* RESTRICT velm, int displaced, GLOBAL mixed4* RESTRICT posDelta,
-                          GLOBAL mixed4* RESTRICT uncorrected) {
+                          GLOBAL mixed4* RESTRICT uncorrected, int preparing, GLOBAL const int* RESTRICT carrierOf,
+                          GLOBAL const mixed* RESTRICT carrierReals, GLOBAL const int* RESTRICT motionStart,
+                          GLOBAL const int* RESTRICT motionParticle, GLOBAL const mixed* RESTRICT motionReals,
+                          int numPositionMotions, int numCarried, GLOBAL const mixed4* RESTRICT stepImpulses,
+                          GLOBAL mixed4* RESTRICT carrierVelocity, GLOBAL mixed4* RESTRICT applied, int process) {
     for (int c = GLOBAL_ID; c < numComponents; c += GLOBAL_SIZE) {
         const int4 comp = components[c];
         const int first = comp.x, numParticles = comp.y, D = comp.z, C = comp.w, size = D * C;
@@ -572,6 +594,16 @@ KERNEL void forceResponse(int numComponents, GLOBAL const int4* RESTRICT compone
             vel.z += scale * dv[2];
             velm[atom] = vel;
         }
+        // A closing response before a device velocity solve: its component's carrier readied for the solve.
+        if (preparing)
+            for (int p = 0; p < numParticles; ++p) {
+                const int particle = particles[first + p];
+                const int k = carrierOf[particle];
+                if (k >= 0)
+                    prepareCarrier(k, slotOf[particle], numCarried, velm, slotOf, motionStart, motionParticle,
+                                   carrierReals, motionReals, numPositionMotions, stepImpulses, carrierVelocity,
+                                   applied, process);
+            }
     }
 }
 

@@ -21,7 +21,6 @@ inline const std::vector<std::string>& suitesNotOnGpu() {
         "FlavorAccuracy",     // blow-up past 1e50 (the GPU platforms' fixed-point forces saturate); a 20 s run on PoCL
         "ImpulseExact",       // stiffness to 1e-10 relative (fixed-point forces give 3e-10)
         "ImpulseFiltered",    // fixed points to 1e-10; the GPU platforms' force constants are single (k off by 3e-8)
-        "MetropolisAdjusted", // the Metropolis adjustment (setMetropolis)
         "StepAllocations",    // counts the CPU engine's allocations
         "StoredTrajectories", // trajectories stored bit for bit on Reference and CPU
         "ThreadedPaths",      // the CPU platform's thread pool

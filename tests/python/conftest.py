@@ -29,8 +29,6 @@ def _has_platform(name):
 # OpenMM's CUDA add-on), in double precision.
 GPU_PLATFORMS = [name for name in ("OpenCL", "CUDA") if _has_platform(name)]
 PLATFORMS = ["Reference", "CPU"] + GPU_PLATFORMS
-# For what the GPU backend rejects by name (the Metropolis adjustment, the hard wall): Reference and CPU.
-HOST_ENGINE_PLATFORMS = ["Reference", "CPU"]
 # The GPU platforms' stiff forces are about 1e-6 relative off Reference's even in double precision (their force
 # constants and bonded terms; measured on PoCL, where CUDA runs the same kernels in IEEE double arithmetic): a
 # trajectory that follows an independent double-precision composition to 1e-10 on Reference and CPU follows it to about

@@ -10,7 +10,7 @@ import openmm
 import pytest
 
 import openmmflavors  # noqa: F401
-from conftest import HOST_ENGINE_PLATFORMS, build_fpu_system, fpu_positions, fpu_velocities
+from conftest import PLATFORMS, build_fpu_system, fpu_positions, fpu_velocities
 from openmmflavors import FlavorIntegrator, StochasticImpulseIntegrator
 
 
@@ -46,7 +46,7 @@ def test_setting_survives_serialization_copy_and_pickle(make):
     assert not openmm.XmlSerializer.deserialize(openmm.XmlSerializer.serialize(integrator)).getMetropolis()
 
 
-@pytest.mark.parametrize("platform_name", HOST_ENGINE_PLATFORMS)
+@pytest.mark.parametrize("platform_name", PLATFORMS)
 @pytest.mark.parametrize("make", [adjusted_flavor, adjusted_sim])
 def test_acceptance_rate_counts_proposals(make, platform_name):
     integrator = make()
@@ -65,7 +65,7 @@ def test_acceptance_rate_needs_a_context():
         adjusted_sim().getAcceptanceRate()
 
 
-@pytest.mark.parametrize("platform_name", HOST_ENGINE_PLATFORMS)
+@pytest.mark.parametrize("platform_name", PLATFORMS)
 def test_irreversible_scheme_raises_and_context_stays_usable(platform_name):
     integrator = adjusted_flavor()
     context = make_context(integrator, platform_name)

@@ -40,6 +40,8 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     driftDisplacementKernel = program->createKernel("driftDisplacement");
     applyDisplacementKernel = program->createKernel("applyDisplacement");
     snapshotKernel = program->createKernel("snapshotState");
+    saveProposalKernel = program->createKernel("saveProposalStart");
+    rejectProposalKernel = program->createKernel("rejectProposal");
     const ZigguratTables& tables = ZigguratTables::get();
     kn.initialize<unsigned int>(cc, 128, "flavorZigguratKn");
     kn.upload(vector<unsigned int>(tables.kn, tables.kn + 128));
@@ -69,6 +71,15 @@ CommonFlowStepper::CommonFlowStepper(ComputeContext& cc, const System& system, s
     snapshotKernel->addArg(cc.getAtomIndexArray());
     snapshotKernel->addArg(savedPositions);
     snapshotKernel->addArg(savedVelocities);
+    initializeMixed4(cc, proposalPositions, cc.getPaddedNumAtoms(), "flavorProposalPositions");
+    initializeMixed4(cc, proposalVelocities, cc.getPaddedNumAtoms(), "flavorProposalVelocities");
+    for (ComputeKernel* kernel : {&saveProposalKernel, &rejectProposalKernel}) {
+        (*kernel)->addArg(cc.getPosq());
+        (*kernel)->addArg(cc.getUseMixedPrecision() ? cc.getPosqCorrection() : cc.getPosq());
+        (*kernel)->addArg(cc.getVelm());
+        (*kernel)->addArg(proposalPositions);
+        (*kernel)->addArg(proposalVelocities);
+    }
     if (hostConstraints && hasConstraints)
         projector = std::make_unique<ConstraintProjector>(system, particles, true);
     slotClock.assign(MaxForceSlots, SlotClock());
@@ -98,9 +109,7 @@ void CommonFlowStepper::addRandomArgs(ComputeKernel& kernel) {
     kernel->addArg(fn);
 }
 
-void CommonFlowStepper::setSchedule(const Schedule& newSchedule,
-                                    const std::function<string(SubFlow::Kind)>& unsupportedSetting) {
-    unsupported = unsupportedSetting;
+void CommonFlowStepper::setSchedule(const Schedule& newSchedule) {
     if (newSchedule == schedule && !plan.passes.empty())
         return;
     schedule = newSchedule;
@@ -194,6 +203,7 @@ void CommonFlowStepper::setFrictionParticles(const vector<int>& particles) {
 
 void CommonFlowStepper::setRandomSeed(std::uint64_t newSeed) {
     seed = newSeed;
+    random = CounterRandom(seed);
     nextStream = 0;
     if (!plan.passes.empty())
         prepare();
@@ -201,6 +211,10 @@ void CommonFlowStepper::setRandomSeed(std::uint64_t newSeed) {
 
 void CommonFlowStepper::prepare() {
     plan = analyzeStep(schedule, hasConstraints);
+    energySlots = MetropolisTest::energySlots(plan);
+    slotEnergy.assign(plan.slotGroups.size(), 0.0);
+    groupsWithoutEnergySlot = MetropolisTest::groupsWithoutEnergySlot(plan);
+    metropolis.forgetEnergy();
     if (plan.slotGroups.size() > (size_t)MaxForceSlots)
         throw OpenMMException(owner + ": a step may kick with at most " + std::to_string(MaxForceSlots) +
                               " distinct force-group sets");
@@ -300,11 +314,10 @@ void CommonFlowStepper::prepare() {
                 break; // runs on the host (HostFrozenStage)
             case SubFlow::HardWall:
             case SubFlow::HardWallSpeed:
-                break; // runs on the host (HardWall) on copies of the particle data
+                break; // DeviceHardWall, set up with the stiff modes
             case SubFlow::ProposalStart:
             case SubFlow::ProposalTest:
-                throw OpenMMException(owner + " on the " + platformName + " platform: " + unsupported(flow.kind) +
-                                      " is not supported there yet; use the Reference or CPU platform");
+                break; // runProposal(): the state kept by saveProposalKernel, put back by rejectProposalKernel
             }
             passKernels[p].push_back(kernel);
         }
@@ -372,13 +385,8 @@ ComputeKernel CommonFlowStepper::createFusedPassKernel(const FlowPass& pass, siz
 }
 
 ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size_t p) {
-    // HarmonicFlow (the exact fast flow): exact frequencies and no Middle zero-mode flow, as the CPU engine has it.
-    const bool harmonic = flow.kind == SubFlow::HarmonicFlow;
     StiffModes::Propagator propagator;
-    const bool middleFlow = !harmonic && flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
-    modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
-                             propagator, !harmonic && flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow,
-                             flow.warp);
+    modes->computeFlowPropagator(flow, propagator);
     uploadMixed(cc, propagators[p], propagator.data, "flavorPropagator");
     vector<int> offsets(propagator.offset.begin(), propagator.offset.end());
     uploadInts(cc, propagatorOffsets[p], offsets, "flavorPropagatorOffset");
@@ -410,13 +418,9 @@ ComputeKernel CommonFlowStepper::createStiffFlowKernel(const SubFlow& flow, size
 }
 
 ComputeKernel CommonFlowStepper::createForceResponseKernel(const SubFlow& flow, int slot, size_t p) {
-    // The same responses as the CPU engine's StiffFlowExecutor::prepare.
     const bool closing = flow.kind == SubFlow::FilteredKick;
-    const bool middle = flow.zeroModes == SubFlow::ZeroModeFlow::Middle;
     StiffModes::ForceResponse response, processing;
-    modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response, flow.warp,
-                                middle, response);
-    modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.warp, processing);
+    modes->computeFlowResponses(flow, response, processing);
     uploadMixed(cc, responses[p], response.data, "flavorResponse");
     uploadMixed(cc, processings[p], processing.data, "flavorProcessing");
     ComputeKernel kernel = program->createKernel("forceResponse");
@@ -490,7 +494,10 @@ void CommonFlowStepper::ensureForces(ContextImpl& context, int slot, bool clocke
     slotClock[slot] = SlotClock{clocked, clock};
     // The buffer is about to be overwritten: forces still waiting there go into their slot first.
     copyPendingForces();
-    context.calcForcesAndEnergy(true, false, plan.slotGroups[slot]);
+    const bool withEnergy = energySlots[slot];
+    const double energy = context.calcForcesAndEnergy(true, withEnergy, plan.slotGroups[slot]);
+    if (withEnergy)
+        slotEnergy[slot] = energy;
     // Copied into the slot when a kernel that reads only slots needs them (copyPendingForces); kernels that read the
     // buffer too (particlePass, a device frozen pass's pre-kick) take them from there.
     slotInBuffer = slot;
@@ -643,6 +650,38 @@ void CommonFlowStepper::runForceResponse(size_t passIndex, size_t kernelIndex) {
     passKernels[passIndex][kernelIndex]->execute(modes->getNumComponents());
 }
 
+double CommonFlowStepper::proposalEnergy(ContextImpl& context) {
+    double energy = 0.0;
+    for (size_t s = 0; s < energySlots.size(); ++s)
+        if (energySlots[s]) {
+            ensureForces(context, (int)s);
+            energy += slotEnergy[s];
+        }
+    if (groupsWithoutEnergySlot != 0) {
+        placeVirtualSites();
+        copyPendingForces();
+        energy += context.calcForcesAndEnergy(false, true, groupsWithoutEnergySlot);
+    }
+    return energy;
+}
+
+void CommonFlowStepper::runProposal(ContextImpl& context, const FlowPass& pass) {
+    // The energies come to the host for the test (OpenMM returns a potential energy to it); the states stay on the
+    // device.
+    const SubFlow& flow = pass.flows[0];
+    if (flow.kind == SubFlow::ProposalStart) {
+        metropolis.start(metropolis.needsStartPotential() ? proposalEnergy(context) : 0.0, kineticEnergy());
+        saveProposalKernel->execute(cc.getNumAtoms());
+        return;
+    }
+    const double potential = proposalEnergy(context);
+    const double uniform = random.uniform(nextStream + (std::uint64_t)pass.streams[0]);
+    if (!metropolis.test(potential, kineticEnergy(), uniform, flow.bath.kT)) {
+        rejectProposalKernel->execute(cc.getNumAtoms());
+        invalidateForces();
+    }
+}
+
 void CommonFlowStepper::runHardWall(const SubFlow& flow) {
     findAtoms();
     if (flow.kind == SubFlow::HardWallSpeed) {
@@ -665,8 +704,10 @@ void CommonFlowStepper::checkDeviceFailure() {
 void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) {
     ContextSelector selector(cc);
     checkDeviceFailure();
-    if (!forcesValid)
+    if (!forcesValid) {
         invalidateForces();
+        metropolis.forgetEnergy();
+    }
     history.stepStarted();
     if (constraintsOnDevice()) {
         deviceCarried->takeOffProcessing();
@@ -705,6 +746,10 @@ void CommonFlowStepper::step(ContextImpl& context, double constraintTolerance, d
         case SubFlow::HardWall:
         case SubFlow::HardWallSpeed:
             runHardWall(pass.flows[0]);
+            break;
+        case SubFlow::ProposalStart:
+        case SubFlow::ProposalTest:
+            runProposal(context, pass);
             break;
         case SubFlow::FilteredStiffFlow:
             // The response reads the slot's forces from where the flow began: invalidated, not overwritten.
@@ -751,7 +796,7 @@ void CommonFlowStepper::createCheckpoint(std::ostream& stream) const {
     ContextSelector selector(cc);
     StepHistory current = history;
     downloadHistory(current);
-    writeFlowCheckpoint(stream, owner, seed, nextStream, current, stiffClock.getState());
+    writeFlowCheckpoint(stream, owner, seed, nextStream, current, stiffClock.getState(), metropolis.getCounts());
 }
 
 void CommonFlowStepper::forgetStepHistory() {
@@ -781,8 +826,9 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     std::uint64_t storedSeed = 0, storedStream = 0;
     StepHistory::Stored storedHistory;
     StiffClockState storedClock;
-    const string problem =
-        readFlowCheckpoint(stream, owner, history, storedSeed, storedStream, storedHistory, &storedClock);
+    ProposalCounts storedCounts;
+    const string problem = readFlowCheckpoint(stream, owner, history, storedSeed, storedStream, storedHistory,
+                                              &storedClock, &storedCounts);
     if (!problem.empty()) {
         restoreSavedState(context);
         invalidateForces();
@@ -791,6 +837,8 @@ void CommonFlowStepper::loadCheckpoint(ContextImpl& context, std::istream& strea
     setRandomSeed(storedSeed);
     nextStream = storedStream;
     stiffClock.setState(storedClock);
+    metropolis.setCounts(storedCounts);
+    metropolis.forgetEnergy();
     history.load(storedHistory);
     uploadHistory();
     frozenStage.forgetFactorizations();
@@ -834,22 +882,6 @@ namespace {
 const char* const FlavorName = "FlavorIntegrator";
 const char* const ImpulseName = "StochasticImpulseIntegrator";
 
-string splittingName(StochasticImpulseIntegrator::Splitting splitting) {
-    switch (splitting) {
-    case StochasticImpulseIntegrator::LieTrotter:
-        return "LieTrotter";
-    case StochasticImpulseIntegrator::Strang:
-        return "Strang";
-    case StochasticImpulseIntegrator::Yoshida4:
-        return "Yoshida4";
-    case StochasticImpulseIntegrator::Filtered:
-        return "Filtered";
-    case StochasticImpulseIntegrator::Warped:
-        return "Warped";
-    }
-    return std::to_string((int)splitting);
-}
-
 } // namespace
 
 void CommonFlavorStepKernel::initialize(const System& system, const FlavorIntegrator& integrator) {
@@ -868,41 +900,13 @@ void CommonFlavorStepKernel::initialize(const System& system, const FlavorIntegr
     ContextSelector selector(cc);
     stepper = std::make_unique<CommonFlowStepper>(cc, system, FlavorName, getPlatform().getName());
     stepper->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
-    frozen = std::make_unique<FrozenCoordinates>(system);
+    control = std::make_unique<FlavorStepControl>(system, *stepper, getPlatform().getName());
 }
 
 void CommonFlavorStepKernel::execute(ContextImpl& context, const FlavorIntegrator& integrator, bool& forcesValid,
                                      bool& stiffModesValid) {
     ContextSelector selector(cc);
-    FlavorParameters current = flavorParameters(integrator);
-    current.frozen = frozen->getScheduledSet();
-    validateFlavorStep(current);
-    if (current.metropolis)
-        throw OpenMMException(string(FlavorName) + " on the " + getPlatform().getName() +
-                              " platform: the Metropolis adjustment (FlavorIntegrator::setMetropolis(true)) is not "
-                              "supported there yet; set it to false, or use the Reference or CPU platform");
-    // What the artificial averagings freeze is decided where the first step starts and after anything that may
-    // change it, as on the other platforms (FrozenCoordinates).
-    if (current.averaging != FlavorIntegrator::Nonintrusive &&
-        (!stiffModesValid || frozen->getFrozenSet() == SubFlow::FrozenSet::None)) {
-        if (frozen->determine(context, integrator, current))
-            stepper->setFrozenCoordinates(frozen->getDistances() ? nullptr : frozen->getModes(),
-                                          frozen->getDistances());
-        stiffModesValid = true;
-        current.frozen = frozen->getScheduledSet();
-        validateFlavorStep(current);
-    }
-    if (!configured || !(current == parameters)) {
-        // Rebuilt only when a parameter changed, so the step loop does not allocate.
-        parameters = current;
-        stepper->setSchedule(flavorSchedule(parameters), [](SubFlow::Kind) {
-            return string("the Metropolis adjustment (FlavorIntegrator::setMetropolis)");
-        });
-        configured = true;
-    }
-    stepper->setStiffClock(integrator.getStiffClockParameter(), current.microStep, current.mesoStep);
-    stepper->setFrictionParticles(integrator.getFrictionParticles());
-    stepper->step(context, integrator.getConstraintTolerance(), integrator.getMesoStep(), forcesValid);
+    control->step(context, integrator, forcesValid, stiffModesValid);
 }
 
 double CommonFlavorStepKernel::computeKineticEnergy(ContextImpl& /*context*/, const FlavorIntegrator& /*integrator*/) {
@@ -934,59 +938,23 @@ void CommonImpulseStepKernel::initialize(const System& system, const StochasticI
     // The platform sets up its buffers (forces, atom order) before the kernels use them, as OpenMM's own do.
     cc.initializeContexts();
     ContextSelector selector(cc);
-    // The System's constraints are solved on the host, carrying stiff components (ConstraintProjector).
+    // The System's constraints carry stiff components (ConstraintProjector; on the device where SETTLE holds them).
     stepper = std::make_unique<CommonFlowStepper>(cc, system, ImpulseName, getPlatform().getName(), true);
     stepper->setRandomSeed(effectiveRandomSeed(integrator.getRandomNumberSeed()));
-    measurement =
-        std::make_unique<StiffModesMeasurement>(system, ImpulseName, "use FlavorIntegrator for nonlinear stiff forces");
-}
-
-void CommonImpulseStepKernel::measureStiffModes(ContextImpl& context, int stiffGroups) {
-    // Constraints may join a stiff component to particles outside it; the constrained particle carries its component
-    // through the host's constraint solve, as on the CPU platforms.
-    auto checkConstraints = [&context](const StiffModes& modes) {
-        ConstraintProjector::rejectUncarriedConstraints(context, modes);
-    };
-    if (measurement->measure(context, stiffGroups, checkConstraints))
-        stepper->setStiffModes(measurement->getModes());
+    control = std::make_unique<ImpulseStepControl>(system, *stepper, getPlatform().getName());
 }
 
 void CommonImpulseStepKernel::execute(ContextImpl& context, const StochasticImpulseIntegrator& integrator,
                                       bool& forcesValid, bool& stiffModesValid) {
     ContextSelector selector(cc);
-    const ImpulseParameters current = impulseParameters(integrator);
-    validateImpulseStep(current);
-    // What no platform allows is named first, as on the others; then what this one does not have yet.
-    validateMetropolis(current, context.getSystem().getNumConstraints() > 0);
-    if (current.metropolis)
-        throw OpenMMException(string(ImpulseName) + " on the " + getPlatform().getName() +
-                              " platform: the Metropolis adjustment (StochasticImpulseIntegrator::setMetropolis(true)) "
-                              "is not supported there yet; set it to false, or use the Reference or CPU platform");
-    if (!configured || !(current == parameters)) {
-        // Rebuilt only when a parameter changed, so the step loop does not allocate.
-        const string splitting = splittingName(current.splitting);
-        stepper->setSchedule(impulseSchedule(current), [splitting](SubFlow::Kind) {
-            return "the splitting " + splitting + " (StochasticImpulseIntegrator::setSplitting)";
-        });
-        parameters = current;
-        configured = true;
-    }
-    if (!stiffModesValid || !measurement->getModes()) {
-        measureStiffModes(context, parameters.stiffGroups);
-        stiffModesValid = true;
-    }
-    stepper->step(context, integrator.getConstraintTolerance(), parameters.stepSize, forcesValid);
+    control->step(context, integrator, forcesValid, stiffModesValid);
 }
 
 vector<double> CommonImpulseStepKernel::getStiffModeFrequencies(ContextImpl& context,
                                                                 const StochasticImpulseIntegrator& integrator,
                                                                 bool& stiffModesValid) {
     ContextSelector selector(cc);
-    if (!stiffModesValid || !measurement->getModes()) {
-        measureStiffModes(context, integrator.getStiffGroups());
-        stiffModesValid = true;
-    }
-    return measurement->getModes()->getStiffFrequencies();
+    return control->getStiffModeFrequencies(context, integrator.getStiffGroups(), stiffModesValid);
 }
 
 double CommonImpulseStepKernel::computeKineticEnergy(ContextImpl& /*context*/,

@@ -12,13 +12,16 @@
 #include "HardWall.h"
 #include "HostFrozenStage.h"
 #include "HostStateMirror.h"
+#include "MetropolisTest.h"
 #include "Mixed4Staging.h"
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
+#include "StepControl.h"
 #include "StepHistory.h"
 #include "StiffClock.h"
 #include "StiffModes.h"
 #include "StiffProbe.h"
+#include "internal/CounterRandom.h"
 #include "internal/FlowSchedule.h"
 #include "openmm/System.h"
 #include "openmm/common/ComputeArray.h"
@@ -60,38 +63,37 @@ namespace FlavorPlugin {
  * (DeviceFailureFlag), read without waiting where the next step starts.  The particles' state for a failed checkpoint
  * to put back is kept on the device.  The Metropolis proposals are not here yet.
  */
-class CommonFlowStepper {
+class CommonFlowStepper : public StepBackend {
 public:
     /** owner and platformName name the integrator and the platform in messages. */
     CommonFlowStepper(OpenMM::ComputeContext& cc, const OpenMM::System& system, std::string owner,
                       std::string platformName, bool hostConstraints = false);
-    ~CommonFlowStepper();
-    /**
-     * Sets the schedule of one step; cheap when nothing changed.  unsupported(kind) names the setting that asks for a
-     * sub-flow kind this backend does not have yet (the exception says so).
-     */
-    void setSchedule(const Schedule& schedule, const std::function<std::string(SubFlow::Kind)>& unsupported);
+    ~CommonFlowStepper() override;
+    /** Every kind of sub-flow has kernels here. */
+    bool supports(SubFlow::Kind) const override { return true; }
+    /** Sets the schedule of one step; cheap when nothing changed. */
+    void setSchedule(const Schedule& schedule) override;
     /** Sets the decomposed stiff potential that StiffFlow applies and uploads its constant parts. */
-    void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    void setStiffModes(std::shared_ptr<const StiffModes> modes) override;
     /**
      * Sets what FrozenDrift and FrozenKick hold: the nonzero modes of modes, or the distances (one of them null).
      * Those passes run on the host (HostFrozenStage).
      */
     void setFrozenCoordinates(std::shared_ptr<const StiffModes> frozenModes,
-                              std::shared_ptr<FrozenDistances> distances);
+                              std::shared_ptr<FrozenDistances> distances) override;
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
-    void setFrictionParticles(const std::vector<int>& particles);
+    void setFrictionParticles(const std::vector<int>& particles) override;
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
     /**
      * Runs the clocked kicks on the stiff clock: the Context global parameter parameter is set before their forces
      * are evaluated ("" for none; FlavorIntegrator::setStiffClockParameter).
      */
-    void setStiffClock(const std::string& parameter, double microStep, double mesoStep) {
+    void setStiffClock(const std::string& parameter, double microStep, double mesoStep) override {
         stiffClock.configure(parameter, microStep, mesoStep);
     }
     /** Takes one step and advances the Context's time by stepSize and its step count by one. */
-    void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
+    void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) override;
     double kineticEnergy();
     void createCheckpoint(std::ostream& stream) const;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream);
@@ -99,6 +101,8 @@ public:
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters);
     /** Forgets the step history as the CPU engine does (StepHistory::forget), on the device too. */
     void forgetStepHistory();
+    /** The Metropolis-adjusted steps' proposals so far, and how many were accepted. */
+    const ProposalCounts& getProposalCounts() const { return metropolis.getCounts(); }
 
 private:
     /** Puts back the state saveContextState() remembered. */
@@ -131,6 +135,13 @@ private:
     void runFrozenPass(const FlowPass& pass, double constraintTolerance);
     /** Whether pass p is a lone kick that the device frozen pass after it applies first (fusedSlot, fusedStep). */
     bool kickFusesIntoFrozenPass(size_t p) const;
+    /**
+     * A Metropolis proposal's start (the state kept on the device) or its test (the energies read, the start put
+     * back with reversed velocities where it is rejected).
+     */
+    void runProposal(OpenMM::ContextImpl& context, const FlowPass& pass);
+    /** The potential energy of the proposal's groups: its energy slots' and the rest evaluated on its own. */
+    double proposalEnergy(OpenMM::ContextImpl& context);
     /** The hard wall (HardWall, HardWallSpeed) on the device (DeviceHardWall). */
     void runHardWall(const SubFlow& flow);
     /** Throws what a kernel of the last step left in the failure flag. */
@@ -158,7 +169,6 @@ private:
     std::string owner, platformName;
     int numParticles;
     bool hasConstraints, hasVirtualSites, virtualSitesPlaced = false;
-    std::function<std::string(SubFlow::Kind)> unsupported;
     Schedule schedule;
     StepPlan plan;
     std::shared_ptr<const StiffModes> modes;
@@ -209,6 +219,15 @@ private:
     // flag.
     std::unique_ptr<DeviceHardWall> deviceWall;
     std::unique_ptr<DeviceFailureFlag> failureFlag;
+    // The Metropolis adjustment: the accept test, the slots evaluated with their energy and the groups outside them,
+    // the start state on the device, and the uniform numbers of the step's streams.
+    MetropolisTest metropolis;
+    std::vector<bool> energySlots;
+    std::vector<double> slotEnergy;
+    int groupsWithoutEnergySlot = 0;
+    OpenMM::ComputeArray proposalPositions, proposalVelocities;
+    OpenMM::ComputeKernel saveProposalKernel, rejectProposalKernel;
+    CounterRandom random{0};
     // The SIM's constraint solves around its stiff flows on the device where SETTLE holds every carrier; else on the
     // host (projector, mirror).
     std::unique_ptr<DeviceCarriedConstraints> deviceCarried;
@@ -244,17 +263,17 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
     void forgetStepHistory() override;
-    /** This platform has no Metropolis-adjusted step (execute() rejects it): no proposals. */
-    void getProposalCounts(long long& proposed, long long& accepted) const override { proposed = accepted = 0; }
-    int getFrozenSet() const override { return frozen ? (int)frozen->getFrozenSet() : 0; }
-    int getNumFrozen() const override { return frozen ? frozen->getNumFrozen() : 0; }
+    void getProposalCounts(long long& proposed, long long& accepted) const override {
+        proposed = (long long)stepper->getProposalCounts().proposed;
+        accepted = (long long)stepper->getProposalCounts().accepted;
+    }
+    int getFrozenSet() const override { return control ? (int)control->getFrozenCoordinates().getFrozenSet() : 0; }
+    int getNumFrozen() const override { return control ? control->getFrozenCoordinates().getNumFrozen() : 0; }
 
 private:
     OpenMM::ComputeContext& cc;
     std::unique_ptr<CommonFlowStepper> stepper;
-    std::unique_ptr<FrozenCoordinates> frozen;
-    bool configured = false;
-    FlavorParameters parameters;
+    std::unique_ptr<FlavorStepControl> control;
 };
 
 /**
@@ -276,16 +295,15 @@ public:
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;
     void saveContextState(OpenMM::ContextImpl& context, bool withParameters) override;
     void forgetStepHistory() override;
-    /** This platform has no Metropolis-adjusted step (execute() rejects it): no proposals. */
-    void getProposalCounts(long long& proposed, long long& accepted) const override { proposed = accepted = 0; }
+    void getProposalCounts(long long& proposed, long long& accepted) const override {
+        proposed = (long long)stepper->getProposalCounts().proposed;
+        accepted = (long long)stepper->getProposalCounts().accepted;
+    }
 
 private:
-    void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);
     OpenMM::ComputeContext& cc;
     std::unique_ptr<CommonFlowStepper> stepper;
-    std::unique_ptr<StiffModesMeasurement> measurement;
-    bool configured = false;
-    ImpulseParameters parameters;
+    std::unique_ptr<ImpulseStepControl> control;
 };
 
 } // namespace FlavorPlugin

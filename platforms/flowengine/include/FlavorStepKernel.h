@@ -5,6 +5,7 @@
 #include "FlowStepRunner.h"
 #include "FrozenCoordinates.h"
 #include "RunnerKernel.h"
+#include "StepControl.h"
 #include "internal/windowsExportFlavors.h"
 #include <memory>
 
@@ -26,11 +27,7 @@ public:
 
 private:
     std::unique_ptr<ParallelLoop> loop;
-    std::unique_ptr<FrozenCoordinates> frozen;
-    bool configured;
-    FlavorParameters parameters;
-    // The stiff clock parameter the runner was given (FlavorIntegrator::setStiffClockParameter).
-    std::string clockParameter;
+    std::unique_ptr<FlavorStepControl> control;
 };
 
 } // namespace FlavorPlugin

@@ -7,6 +7,7 @@
 #include "FrozenDistances.h"
 #include "FrozenFlowTask.h"
 #include "HardWall.h"
+#include "MetropolisTest.h"
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
 #include "StepHistory.h"
@@ -134,23 +135,19 @@ private:
 class ProposalExecutor : public FlowExecutor {
 public:
     explicit ProposalExecutor(EngineParts& parts) : FlowExecutor(parts) {}
-    /** Which of the plan's force slots are evaluated with their energy (none without a proposal). */
-    static std::vector<bool> energySlots(const StepPlan& plan);
     void prepare(const StepPlan& plan) override;
     void run(const FlowPass& pass, size_t passIndex, StepState& state) override;
     /** The state changed from outside (positions, parameters, a checkpoint): the next start evaluates its energy. */
-    void forgetEnergy() { energyKnown = false; }
-    const ProposalCounts& getCounts() const { return counts; }
-    void setCounts(const ProposalCounts& stored) { counts = stored; }
+    void forgetEnergy() { metropolis.forgetEnergy(); }
+    const ProposalCounts& getCounts() const { return metropolis.getCounts(); }
+    void setCounts(const ProposalCounts& stored) { metropolis.setCounts(stored); }
 
 private:
     double totalEnergy(OpenMM::ContextImpl& context);
     std::vector<int> slotsWithEnergy;
     int groupsWithoutSlot = 0;
     std::vector<OpenMM::Vec3> startPositions, startVelocities;
-    double startPotential = 0.0, startKinetic = 0.0;
-    bool energyKnown = false;
-    ProposalCounts counts;
+    MetropolisTest metropolis;
 };
 
 /**

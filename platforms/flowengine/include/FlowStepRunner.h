@@ -9,6 +9,7 @@
 #include "FrozenDistances.h"
 #include "ParticleFlows.h"
 #include "ParticleTable.h"
+#include "StepBackend.h"
 #include "StepHistory.h"
 #include "StiffClock.h"
 #include "StiffModes.h"
@@ -34,34 +35,39 @@ namespace FlavorPlugin {
  * constraints (carried stiff components included), the step history and the random streams.  docs/ARCHITECTURE.md
  * follows one step through it.
  */
-class OPENMM_EXPORT_FLAVORS FlowStepRunner {
+class OPENMM_EXPORT_FLAVORS FlowStepRunner : public StepBackend {
 public:
     FlowStepRunner(const OpenMM::System& system, std::unique_ptr<ParallelLoop> loop);
-    ~FlowStepRunner();
+    ~FlowStepRunner() override;
+    /** Every kind of sub-flow has an executor here. */
+    bool supports(SubFlow::Kind) const override { return true; }
     /** Sets the schedule of one step (each sub-flow with all of its settings).  Cheap when nothing changed. */
-    void setSchedule(const Schedule& schedule);
+    void setSchedule(const Schedule& schedule) override;
     /**
      * Sets the decomposed stiff potential whose exact flow StiffFlow, HarmonicFlow and the Filtered sub-flows apply,
      * and whose zero modes FrozenDrift and FrozenKick on the stiff modes move along.
      */
-    void setStiffModes(std::shared_ptr<const StiffModes> modes);
+    void setStiffModes(std::shared_ptr<const StiffModes> modes) override;
     /** Sets the frozen distances that FrozenDrift and FrozenKick on distances hold. */
     void setFrozenDistances(std::shared_ptr<FrozenDistances> distances);
+    /** The nonzero modes of frozenModes (as setStiffModes()) or the distances (setFrozenDistances()) frozen. */
+    void setFrozenCoordinates(std::shared_ptr<const StiffModes> frozenModes,
+                              std::shared_ptr<FrozenDistances> distances) override;
     /** Restricts the thermostats to the given particles; an empty list means every particle. */
-    void setFrictionParticles(const std::vector<int>& particles);
+    void setFrictionParticles(const std::vector<int>& particles) override;
     /**
      * Runs the clocked kicks of the schedule on the stiff clock: the Context global parameter parameter is set before
      * their forces are evaluated; the clock advances microStep per step and starts (first step, time set from
      * outside) at the Context's time times microStep / mesoStep.  Cheap when nothing changed.
      */
-    void setStiffClock(const std::string& parameter, double microStep, double mesoStep);
+    void setStiffClock(const std::string& parameter, double microStep, double mesoStep) override;
     /** Sets the seed of the random streams and restarts them. */
     void setRandomSeed(std::uint64_t seed);
     /**
      * Takes one step and advances the Context's time by stepSize and its step count by one.  forcesValid says
      * whether forces cached in an earlier step may be reused; it is true on return.
      */
-    void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid);
+    void step(OpenMM::ContextImpl& context, double constraintTolerance, double stepSize, bool& forcesValid) override;
     /** The Metropolis-adjusted steps' proposals so far, and how many were accepted. */
     const ProposalCounts& getProposalCounts() const { return proposals.getCounts(); }
     /** The kinetic energy of the current velocities (synchronous with positions). */

@@ -4,6 +4,7 @@
 #include "FlavorKernels.h"
 #include "FlowStepRunner.h"
 #include "RunnerKernel.h"
+#include "StepControl.h"
 #include "StiffModes.h"
 #include "StiffProbe.h"
 #include "internal/windowsExportFlavors.h"
@@ -27,11 +28,8 @@ public:
     double computeKineticEnergy(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator) override;
 
 private:
-    void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);
     std::unique_ptr<ParallelLoop> loop;
-    std::unique_ptr<StiffModesMeasurement> measurement;
-    bool configured;
-    ImpulseParameters parameters;
+    std::unique_ptr<ImpulseStepControl> control;
 };
 
 } // namespace FlavorPlugin

@@ -182,6 +182,14 @@ public:
      */
     void computeVelocityProcessing(double h, double stiffGamma, bool closing, SubFlow::KickResponse kickResponse,
                                    const WarpedFlowSettings& warp, ForceResponse& response) const;
+    /**
+     * The propagator of a sub-flow over these modes, as every backend applies it: a StiffFlow or FilteredStiffFlow
+     * with its frequencies (Warped or exact) and zero-mode flow (Middle's with friction where h > 0), a HarmonicFlow
+     * (the exact fast flow) with exact frequencies and the exact zero-mode flow.
+     */
+    void computeFlowPropagator(const SubFlow& flow, Propagator& propagator) const;
+    /** The force response and velocity processing of a FilteredStiffFlow or FilteredKick (closing). */
+    void computeFlowResponses(const SubFlow& flow, ForceResponse& response, ForceResponse& processing) const;
 
 private:
     /** Lays out response per mode (two values each) and fills each mode's pair with modeResponse(omega, pair). */

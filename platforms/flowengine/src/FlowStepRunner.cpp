@@ -66,6 +66,13 @@ void FlowStepRunner::setStiffModes(std::shared_ptr<const StiffModes> modes) {
     prepare();
 }
 
+void FlowStepRunner::setFrozenCoordinates(std::shared_ptr<const StiffModes> frozenModes,
+                                          std::shared_ptr<FrozenDistances> distances) {
+    if (frozenModes)
+        setStiffModes(std::move(frozenModes));
+    setFrozenDistances(std::move(distances));
+}
+
 void FlowStepRunner::setFrozenDistances(std::shared_ptr<FrozenDistances> distances) {
     parts.distances = distances;
 }
@@ -75,7 +82,7 @@ void FlowStepRunner::prepare() {
     if (plan.slotGroups.size() > (size_t)MaxForceSlots)
         throw OpenMMException("FlowStepRunner: a step may kick with at most " + std::to_string(MaxForceSlots) +
                               " distinct force-group sets");
-    forces.setSlots(plan.slotGroups, particles.numParticles, ProposalExecutor::energySlots(plan));
+    forces.setSlots(plan.slotGroups, particles.numParticles, MetropolisTest::energySlots(plan));
     for (FlowExecutor* executor : {(FlowExecutor*)&particlePasses, (FlowExecutor*)&stiffFlows,
                                    (FlowExecutor*)&frozenFlows, (FlowExecutor*)&proposals, (FlowExecutor*)&hardWall})
         executor->prepare(plan);

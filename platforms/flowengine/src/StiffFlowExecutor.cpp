@@ -26,25 +26,12 @@ void StiffFlowExecutor::prepare(const StepPlan& plan) {
     for (size_t p = 0; p < n; ++p) {
         const SubFlow& flow = plan.passes[p].flows[0];
         const bool filtered = flow.kind == SubFlow::FilteredStiffFlow || flow.kind == SubFlow::FilteredKick;
-        const bool middle = flow.zeroModes == SubFlow::ZeroModeFlow::Middle;
-        if (flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow) {
-            const bool middleFlow = middle && flow.h > 0;
-            const double friction = flow.bath.friction;
-            if (modes)
-                modes->computePropagator(flow.h, friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
-                                         propagators[p], flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow,
-                                         flow.warp);
-        }
-        if (modes && filtered) {
-            const bool closing = flow.kind == SubFlow::FilteredKick;
-            modes->computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response,
-                                        flow.warp, middle, responses[p]);
-            modes->computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.warp,
-                                             processing[p]);
-        }
-        if (flow.kind == SubFlow::HarmonicFlow && modes)
-            modes->computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction,
-                                     flow.stiffBath.kT, propagators[p]);
+        const bool flows = flow.kind == SubFlow::StiffFlow || flow.kind == SubFlow::FilteredStiffFlow ||
+                           flow.kind == SubFlow::HarmonicFlow;
+        if (modes && flows)
+            modes->computeFlowPropagator(flow, propagators[p]);
+        if (modes && filtered)
+            modes->computeFlowResponses(flow, responses[p], processing[p]);
         if (ConstraintProjector::hasCarrying(flow) && modes && parts.constraints)
             carrying[p] = parts.constraints->carryingThrough(*modes, flow);
     }

@@ -279,3 +279,21 @@ void StiffModes::getImpulseBlocks(const ImpulseResponse& response, int c, int ta
             }
         }
 }
+
+void StiffModes::computeFlowPropagator(const SubFlow& flow, Propagator& propagator) const {
+    if (flow.kind == SubFlow::HarmonicFlow) {
+        computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT,
+                          propagator);
+        return;
+    }
+    const bool middleFlow = flow.zeroModes == SubFlow::ZeroModeFlow::Middle && flow.h > 0;
+    computePropagator(flow.h, flow.bath.friction, flow.bath.kT, flow.stiffBath.friction, flow.stiffBath.kT, propagator,
+                      flow.frequency == SubFlow::StiffFrequency::Warped, middleFlow, flow.warp);
+}
+
+void StiffModes::computeFlowResponses(const SubFlow& flow, ForceResponse& response, ForceResponse& processing) const {
+    const bool closing = flow.kind == SubFlow::FilteredKick;
+    computeForceResponse(flow.h, flow.bath.friction, flow.stiffBath.friction, closing, flow.response, flow.warp,
+                         flow.zeroModes == SubFlow::ZeroModeFlow::Middle, response);
+    computeVelocityProcessing(flow.h, flow.stiffBath.friction, closing, flow.response, flow.warp, processing);
+}

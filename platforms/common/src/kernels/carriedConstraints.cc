@@ -21,6 +21,11 @@ DEVICE mixed4 carriedProduct(GLOBAL const mixed* RESTRICT m, mixed4 v) {
                        m[6] * v.x + m[7] * v.y + m[8] * v.z, 0);
 }
 
+/** a + b in x, y and z; a's w kept. */
+DEVICE mixed4 plus3(mixed4 a, mixed4 b) {
+    return make_mixed4(a.x + b.x, a.y + b.y, a.z + b.z, a.w);
+}
+
 /** stepImpulses[k] += m correction, or = where the step's impulses start. */
 DEVICE void addCarrierImpulse(GLOBAL mixed4* RESTRICT stepImpulses, int k, GLOBAL const mixed* RESTRICT m,
                               mixed4 correction, int firstOfStep) {
@@ -29,9 +34,7 @@ DEVICE void addCarrierImpulse(GLOBAL mixed4* RESTRICT stepImpulses, int k, GLOBA
         stepImpulses[k] = impulse;
     } else {
         mixed4 sum = stepImpulses[k];
-        sum.x += impulse.x;
-        sum.y += impulse.y;
-        sum.z += impulse.z;
+        sum = plus3(sum, impulse);
         stepImpulses[k] = sum;
     }
 }
@@ -100,14 +103,10 @@ KERNEL void finishCarriedPositions(int numAtoms, GLOBAL real4* RESTRICT posq, GL
                                         &correction);
             if (particle != carrier) {
                 const mixed4 move = carriedProduct(m, carrierCorrection);
-                pos.x += move.x;
-                pos.y += move.y;
-                pos.z += move.z;
+                pos = plus3(pos, move);
             }
             const mixed4 change = carriedProduct(m + 9, carrierCorrection);
-            vel.x += change.x;
-            vel.y += change.y;
-            vel.z += change.z;
+            vel = plus3(vel, change);
             storePosition(posq, posqCorrection, atom, pos);
             velm[atom] = vel;
         }
@@ -138,14 +137,10 @@ DEVICE void prepareCarrier(int k, int carrierAtom, int numCarried, GLOBAL mixed4
             const mixed4 change =
                 carriedProduct(motionReals + 18 * numPositionMotions + 9 * (j - numPositionMotions), impulse);
             mixed4 vel = velm[atom];
-            vel.x += change.x;
-            vel.y += change.y;
-            vel.z += change.z;
+            vel = plus3(vel, change);
             velm[atom] = vel;
             mixed4 sum = applied[particle];
-            sum.x += change.x;
-            sum.y += change.y;
-            sum.z += change.z;
+            sum = plus3(sum, change);
             applied[particle] = sum;
         }
     }
@@ -178,9 +173,7 @@ KERNEL void finishCarriedVelocities(int numCarried, GLOBAL mixed4* RESTRICT velm
             const mixed4 change =
                 carriedProduct(motionReals + 18 * numPositionMotions + 9 * (j - numPositionMotions), correction);
             mixed4 moved = velm[atom];
-            moved.x += change.x;
-            moved.y += change.y;
-            moved.z += change.z;
+            moved = plus3(moved, change);
             velm[atom] = moved;
         }
         vel.w = own[2];

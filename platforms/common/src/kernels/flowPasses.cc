@@ -659,3 +659,24 @@ KERNEL void particlePass(int numOps, GLOBAL const int4* RESTRICT ops, GLOBAL con
         velm[atom] = v;
     }
 }
+
+/** A Metropolis proposal starts: the positions and velocities kept (atom order, within the step). */
+KERNEL void saveProposalStart(GLOBAL const real4* RESTRICT posq, GLOBAL const real4* RESTRICT posqCorrection,
+                              GLOBAL const mixed4* RESTRICT velm, GLOBAL mixed4* RESTRICT startPositions,
+                              GLOBAL mixed4* RESTRICT startVelocities) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        startPositions[atom] = loadPosition(posq, posqCorrection, atom);
+        startVelocities[atom] = velm[atom];
+    }
+}
+
+/** A rejected proposal: the start's positions back, its velocities reversed. */
+KERNEL void rejectProposal(GLOBAL real4* RESTRICT posq, GLOBAL real4* RESTRICT posqCorrection,
+                           GLOBAL mixed4* RESTRICT velm, GLOBAL const mixed4* RESTRICT startPositions,
+                           GLOBAL const mixed4* RESTRICT startVelocities) {
+    for (int atom = GLOBAL_ID; atom < NUM_ATOMS; atom += GLOBAL_SIZE) {
+        storePosition(posq, posqCorrection, atom, startPositions[atom]);
+        const mixed4 v = startVelocities[atom];
+        velm[atom] = make_mixed4(-v.x, -v.y, -v.z, v.w);
+    }
+}

@@ -1,4 +1,6 @@
 #include "internal/FlowSchedule.h"
+#include "internal/PhysicalConstants.h"
+#include "openmm/reference/SimTKOpenMMRealType.h"
 #include <gtest/gtest.h>
 #include <utility>
 #include <vector>
@@ -367,4 +369,9 @@ TEST(FlowSchedule, HardWallMovesTheFinalPositionsBeforeTheClosingKickAndSetsSpee
                     true);
     ASSERT_EQ(4u, plan.passes.size());
     EXPECT_TRUE(plan.passes[0].nextProjectsVelocities);
+}
+
+TEST(FlowSchedule, BoltzmannsConstantIsOpenMMs) {
+    // kT of the schedules, the same double as OpenMM's integrators take (BOLTZ of its reference headers).
+    EXPECT_EQ(BoltzmannKJPerMolK, BOLTZ);
 }

@@ -1,5 +1,5 @@
 #include "internal/FlowSchedule.h"
-#include "openmm/reference/SimTKOpenMMRealType.h"
+#include "internal/PhysicalConstants.h"
 #include <algorithm>
 #include <cmath>
 
@@ -205,7 +205,7 @@ FlavorParameters FlavorPlugin::flavorParameters(const FlavorIntegrator& integrat
                        integrator.getFriction(),
                        integrator.getStiffFriction(),
                        integrator.getThermostatPlacement()};
-    p.kT = BOLTZ * integrator.getTemperature();
+    p.kT = BoltzmannKJPerMolK * integrator.getTemperature();
     p.stiffClock = !integrator.getStiffClockParameter().empty();
     p.metropolis = integrator.getMetropolis();
     return p;
@@ -273,8 +273,8 @@ ImpulseParameters FlavorPlugin::impulseParameters(const StochasticImpulseIntegra
     ImpulseParameters p{integrator.getSplitting(), integrator.getStepSize(), integrator.getStiffGroups(),
                         integrator.getIntegrationForceGroups()};
     p.thermostatPlacement = integrator.getThermostatPlacement();
-    p.bath = Bath{BOLTZ * integrator.getTemperature(), integrator.getFriction()};
-    p.stiffBath = Bath{BOLTZ * integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()};
+    p.bath = Bath{BoltzmannKJPerMolK * integrator.getTemperature(), integrator.getFriction()};
+    p.stiffBath = Bath{BoltzmannKJPerMolK * integrator.getStiffModeTemperature(), integrator.getStiffModeFriction()};
     p.metropolis = integrator.getMetropolis();
     p.maxDrudeDistance = integrator.getMaxDrudeDistance();
     p.maxWarpedPhase = integrator.getMaxWarpedPhase();

@@ -1,6 +1,6 @@
 #include "internal/FlowSchedule.h"
 #include "internal/ParameterChecks.h"
-#include "openmm/reference/SimTKOpenMMRealType.h"
+#include "internal/PhysicalConstants.h"
 #include <cmath>
 #include <sstream>
 
@@ -46,7 +46,7 @@ string kickName(int groups, int stiffGroups, int integrationGroups) {
 }
 
 string describeBath(const Bath& bath) {
-    return formatNumber(bath.kT / BOLTZ) + " K, " + formatNumber(bath.friction) + "/ps";
+    return formatNumber(bath.kT / BoltzmannKJPerMolK) + " K, " + formatNumber(bath.friction) + "/ps";
 }
 
 } // namespace

@@ -1,10 +1,10 @@
 #include "internal/StiffVelocities.h"
+#include "internal/PhysicalConstants.h"
 #include "internal/UnionFind.h"
 #include "openmm/CustomBondForce.h"
 #include "openmm/DrudeForce.h"
 #include "openmm/HarmonicBondForce.h"
 #include "openmm/System.h"
-#include "openmm/reference/SimTKOpenMMRealType.h"
 #include <cmath>
 #include <random>
 
@@ -67,7 +67,7 @@ vector<Vec3> FlavorPlugin::velocitiesWithStiffTemperature(const System& system, 
     const auto draw = [&](double kT, double m) {
         return Vec3(normal(generator), normal(generator), normal(generator)) * std::sqrt(kT / m);
     };
-    const double kT = BOLTZ * temperature, kTStiff = BOLTZ * stiffTemperature;
+    const double kT = BoltzmannKJPerMolK * temperature, kTStiff = BoltzmannKJPerMolK * stiffTemperature;
     // Each particle at the stiff temperature first (particles alone in their component keep it at temperature below).
     vector<Vec3> velocity(n, Vec3());
     vector<Vec3> momentum(n, Vec3());

@@ -483,8 +483,33 @@ TEST_P(ImpulseFiltered, ASoftForceStiffAlongAModeIsStableExactlyBelowItsThreshol
                          " of omega H = " + std::to_string(limit));
             StochasticImpulseIntegrator integrator(0.0, 0.0, factor * limit / omega, StiffMask);
             integrator.setSplitting(splitting);
+            // Warped's own step, without the limit it would choose (below).
+            if (splitting == StochasticImpulseIntegrator::Warped)
+                integrator.setMaxWarpedPhase(Pi);
             expectBoundedOrGrowing(integrator, factor < 1);
         }
+    }
+    // The limit Warped chooses by itself (setMaxWarpedPhase(0), the default): r measured 0.3 to 1e-4, the phase
+    // 2 asin(1/sqrt(1 + 1.05 r)) below the edge 2.140, and the step held at 1.02, 2 and 4 times Warped's threshold.
+    for (double stepFactor : {1.02, 2.0, 4.0}) {
+        SCOPED_TRACE("Warped with its chosen limit at omega H = " + std::to_string(stepFactor * warpedLimit));
+        StochasticImpulseIntegrator integrator(0.0, 0.0, stepFactor * warpedLimit / omega, StiffMask);
+        integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+        expectBoundedOrGrowing(integrator, true);
+    }
+    {
+        StochasticImpulseIntegrator integrator(0.0, 0.0, 2 * warpedLimit / omega, StiffMask);
+        integrator.setSplitting(StochasticImpulseIntegrator::Warped);
+        Context context(system, integrator, platform(), properties());
+        context.setPositions({Vec3(1e-3, 0, 0)});
+        const std::string text = integrator.describeContext();
+        const std::string chosenAt = "Warped phase limit chosen here (setMaxWarpedPhase(0)): ";
+        const size_t at = text.find(chosenAt);
+        ASSERT_NE(std::string::npos, at) << text;
+        const double chosen = std::stod(text.substr(at + chosenAt.size()));
+        EXPECT_NEAR(2 * std::asin(1 / std::sqrt(1 + 1.05 * r)), chosen, 1e-3) << text;
+        const size_t ratioAt = text.find("up to ");
+        EXPECT_NEAR(r, std::stod(text.substr(ratioAt + 6)), 1e-3 * r) << text;
     }
     // Warped with its phase limited to maxPhase: (1 + r) sin^2(min(xi~, maxPhase)/2) < 1, whatever omega H is.  The
     // limiting phase for r = 0.3 is 2 asin(1/sqrt(1.3)) = 2.140: a limit 2% below it holds at 1.02, 2 and 4 times
@@ -505,9 +530,11 @@ TEST_P(ImpulseFiltered, TheWarpedPhaseLimitIsCheckedDescribedAndSerialized) {
     TetheredParticle p(1036.0);
     StochasticImpulseIntegrator integrator(0.0, 0.0, 0.003, StiffMask);
     EXPECT_EQ(0.0, integrator.getMaxWarpedPhase());
-    for (double bad : {-0.5, Pi, 4.0, std::nan("")})
+    for (double bad : {-0.5, Pi + 1e-9, 4.0, std::nan("")})
         expectRejected([&] { integrator.setMaxWarpedPhase(bad); }, {"maxWarpedPhase", "between 0 and pi"});
     EXPECT_EQ(0.0, integrator.getMaxWarpedPhase());
+    integrator.setMaxWarpedPhase(Pi); // no limit
+    EXPECT_EQ(Pi, integrator.getMaxWarpedPhase());
     integrator.setMaxWarpedPhase(2.05);
     EXPECT_EQ(2.05, integrator.getMaxWarpedPhase());
     // Only Warped has a warped frequency to limit: another splitting is rejected when a step is taken, and the

@@ -25,6 +25,9 @@ public:
     std::vector<double> getStiffModeFrequencies(OpenMM::ContextImpl& context,
                                                 const StochasticImpulseIntegrator& integrator,
                                                 bool& stiffModesValid) override;
+    std::vector<double> getWarpedPhaseChoice(OpenMM::ContextImpl& context,
+                                             const StochasticImpulseIntegrator& integrator,
+                                             bool& stiffModesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator) override;
 
 private:

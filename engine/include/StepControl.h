@@ -6,6 +6,7 @@
 #include "StepBackend.h"
 #include "StiffProbe.h"
 #include "StochasticImpulseIntegrator.h"
+#include "WarpedPhaseChoice.h"
 #include "internal/FlowSchedule.h"
 #include "internal/windowsExportFlavors.h"
 #include "openmm/System.h"
@@ -42,8 +43,8 @@ private:
 
 /**
  * The step of a StochasticImpulseIntegrator on every platform: parameters checked and applied only when one changed,
- * the stiff modes measured where the first step starts and after anything that may change them, then the backend's
- * step.
+ * the stiff modes measured where the first step starts and after anything that may change them, the Warped phase
+ * limit chosen from the System with them unless the integrator sets one (WarpedPhaseChoice), then the backend's step.
  */
 class OPENMM_EXPORT_FLAVORS ImpulseStepControl {
 public:
@@ -52,15 +53,33 @@ public:
               bool& stiffModesValid);
     /** The stiff modes' frequencies (measured first if they are not valid). */
     std::vector<double> getStiffModeFrequencies(OpenMM::ContextImpl& context, int stiffGroups, bool& stiffModesValid);
+    /**
+     * The Warped phase limit chosen for the integrator's settings (the stiff modes measured and the limit chosen first
+     * if needed), or null where the integrator chooses none: another splitting, or a limit of its own.
+     */
+    const WarpedPhaseChoice* getWarpedPhaseChoice(OpenMM::ContextImpl& context,
+                                                  const StochasticImpulseIntegrator& integrator, bool& stiffModesValid);
 
 private:
     void check(const ImpulseParameters& current, bool constrained) const;
     void measureStiffModes(OpenMM::ContextImpl& context, int stiffGroups);
+    /** Whether these settings leave the Warped phase limit to the integrator. */
+    static bool choosesPhase(const ImpulseParameters& p) {
+        return p.splitting == StochasticImpulseIntegrator::Warped && p.maxWarpedPhase == 0.0;
+    }
+    /** The parameters the schedule is built from: the chosen phase limit in place of 0 where there is one. */
+    ImpulseParameters scheduled() const;
+    /** Chooses the phase limit for the current modes and positions; whether it changed the schedule's. */
+    bool choosePhase(OpenMM::ContextImpl& context);
     StepBackend& backend;
     std::string platformName;
     StiffModesMeasurement measurement;
     bool configured = false;
     ImpulseParameters parameters;
+    // The limit chosen for the modes last measured (phaseChosen), the phase the schedule was built with.
+    WarpedPhaseChoice choice;
+    bool phaseChosen = false;
+    double scheduledPhase = 0.0;
 };
 
 /**

@@ -24,6 +24,15 @@ std::vector<double> ImpulseStepKernel::getStiffModeFrequencies(ContextImpl& cont
     return control->getStiffModeFrequencies(context, integrator.getStiffGroups(), stiffModesValid);
 }
 
+std::vector<double> ImpulseStepKernel::getWarpedPhaseChoice(ContextImpl& context,
+                                                            const StochasticImpulseIntegrator& integrator,
+                                                            bool& stiffModesValid) {
+    const WarpedPhaseChoice* choice = control->getWarpedPhaseChoice(context, integrator, stiffModesValid);
+    if (choice == nullptr)
+        return {};
+    return {choice->phase, choice->couplingRatio, choice->seconds};
+}
+
 double ImpulseStepKernel::computeKineticEnergy(ContextImpl& context,
                                                const StochasticImpulseIntegrator& /*integrator*/) {
     return runner->kineticEnergy(context);

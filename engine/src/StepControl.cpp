@@ -2,6 +2,7 @@
 #include "ConstraintProjector.h"
 #include "openmm/OpenMMException.h"
 #include "openmm/internal/ContextImpl.h"
+#include <cmath>
 
 using namespace FlavorPlugin;
 using namespace OpenMM;
@@ -87,21 +88,70 @@ void ImpulseStepControl::measureStiffModes(ContextImpl& context, int stiffGroups
         backend.setStiffModes(measurement.getModes());
 }
 
+ImpulseParameters ImpulseStepControl::scheduled() const {
+    ImpulseParameters p = parameters;
+    // A limit of π binds no mode (setMaxWarpedPhase(π): Warped's own step; or nothing couples).
+    if (choosesPhase(p) && phaseChosen)
+        p.maxWarpedPhase = choice.phase;
+    if (p.maxWarpedPhase >= M_PI)
+        p.maxWarpedPhase = 0.0;
+    return p;
+}
+
+bool ImpulseStepControl::choosePhase(ContextImpl& context) {
+    const int softGroups = ~parameters.stiffGroups & parameters.integrationGroups;
+    choice = chooseWarpedPhase(context, *measurement.getModes(), softGroups);
+    phaseChosen = true;
+    return scheduled().maxWarpedPhase != scheduledPhase;
+}
+
 void ImpulseStepControl::step(ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
                               bool& stiffModesValid) {
     const ImpulseParameters current = impulseParameters(integrator);
+    bool rebuild = false;
     if (!configured || !(current == parameters)) {
         check(current, context.getSystem().getNumConstraints() > 0);
-        // Rebuilt only when a parameter changed, so the step loop does not allocate.
-        backend.setSchedule(impulseSchedule(current));
         parameters = current;
         configured = true;
+        rebuild = true;
+        // Chosen again for the new settings (the soft groups may have changed).
+        phaseChosen = false;
     }
+    // Rebuilt only when a parameter or the chosen limit changed, so the step loop does not allocate.
+    if (rebuild)
+        backend.setSchedule(impulseSchedule(scheduled()));
+    scheduledPhase = rebuild ? scheduled().maxWarpedPhase : scheduledPhase;
+    bool measured = false;
     if (!stiffModesValid || !measurement.getModes()) {
         measureStiffModes(context, parameters.stiffGroups);
         stiffModesValid = true;
+        measured = true;
+    }
+    if (choosesPhase(parameters) && (measured || !phaseChosen) && choosePhase(context)) {
+        backend.setSchedule(impulseSchedule(scheduled()));
+        scheduledPhase = scheduled().maxWarpedPhase;
     }
     backend.step(context, integrator.getConstraintTolerance(), parameters.stepSize, forcesValid);
+}
+
+const WarpedPhaseChoice* ImpulseStepControl::getWarpedPhaseChoice(ContextImpl& context,
+                                                                  const StochasticImpulseIntegrator& integrator,
+                                                                  bool& stiffModesValid) {
+    const ImpulseParameters current = impulseParameters(integrator);
+    if (!choosesPhase(current))
+        return nullptr;
+    if (!stiffModesValid || !measurement.getModes()) {
+        measureStiffModes(context, current.stiffGroups);
+        stiffModesValid = true;
+        phaseChosen = false;
+    }
+    // Without a step taken yet the choice is made for these settings; the step keeps it unless they change.
+    if (!phaseChosen || !(current == parameters)) {
+        const int softGroups = ~current.stiffGroups & current.integrationGroups;
+        choice = chooseWarpedPhase(context, *measurement.getModes(), softGroups);
+        phaseChosen = current == parameters;
+    }
+    return &choice;
 }
 
 vector<double> ImpulseStepControl::getStiffModeFrequencies(ContextImpl& context, int stiffGroups,

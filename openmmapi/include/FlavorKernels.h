@@ -115,6 +115,15 @@ public:
                                                         const StochasticImpulseIntegrator& integrator,
                                                         bool& stiffModesValid) = 0;
     /**
+     * Get the Warped phase limit the integrator chooses from the System (StochasticImpulseIntegrator::
+     * setMaxWarpedPhase(0)), measuring the stiff potential and choosing first if needed: the phase, the largest soft
+     * stiffness along the stiff modes in units of their own, and the seconds the choice took; empty where the
+     * integrator chooses none (another splitting, or a limit set).
+     */
+    virtual std::vector<double> getWarpedPhaseChoice(OpenMM::ContextImpl& context,
+                                                     const StochasticImpulseIntegrator& integrator,
+                                                     bool& stiffModesValid) = 0;
+    /**
      * Compute the kinetic energy.
      */
     virtual double computeKineticEnergy(OpenMM::ContextImpl& context,

@@ -174,8 +174,8 @@ public:
      */
     void setThermostatPlacement(ThermostatPlacement placement);
     /**
-     * Get the largest angle (in radians) a stiff mode of the Warped splitting turns per step, 0 (the default) for no
-     * limit.  See setMaxWarpedPhase().
+     * Get the largest angle (in radians) a stiff mode of the Warped splitting turns per step: 0 (the default) for a
+     * limit the integrator chooses from the System, pi for none.  See setMaxWarpedPhase().
      */
     double getMaxWarpedPhase() const { return maxWarpedPhase; }
     /**
@@ -186,8 +186,16 @@ public:
      * stability that the warp has at a shorter step (for SWM4-NDP water, whose Drude-Drude coupling reaches r = 0.5-
      * 0.66, the 2.05 that Warped has at 2.5 fs) at longer steps.  The price is a slower stiff mode: it follows a
      * soft force that changes at frequency Omega as a spring of frequency about omega~ would, so the lag grows as
-     * (Omega/omega~)^2.  It must be 0 (no limit) or between 0 and pi; only the Warped splitting takes a nonzero
-     * value (checked when a step is taken).  docs/sim_drude.md section 6 measures it.
+     * (Omega/omega~)^2.  It must be 0, pi or between them; only the Warped splitting takes a nonzero value (checked
+     * when a step is taken).  docs/sim_drude.md section 6 measures it.
+     *
+     * 0 (the default) lets the integrator choose the limit where the first step starts (and again after anything that
+     * measures the stiff modes again): 2 asin(1/sqrt(1 + r)) for the largest soft stiffness r k along the stiff modes
+     * at the Context's positions, measured by Lanczos iterations of central differences of the soft forces in a copy
+     * of the System on the CPU platform (a fraction of a second for SWM4-NDP water, seconds for a protein).  It binds
+     * only the modes that Warped would turn farther, so a step that Warped holds is unchanged; describeContext() says
+     * what was chosen.  Minimize the energy before the first step: at unrelaxed positions r reads far too high.  pi
+     * means no limit: Warped's own step.
      */
     void setMaxWarpedPhase(double phase);
     /**

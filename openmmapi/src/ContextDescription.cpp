@@ -73,5 +73,15 @@ string StochasticImpulseIntegrator::describeContext() {
     modes.precision(4);
     modes << "stiff modes: " << stiff.size() << ", ω from " << stiff.front() << " to " << stiff.back()
           << " /ps, ωH from " << stiff.front() * H / M_PI << "π to " << stiff.back() * H / M_PI << "π\n";
+    const std::vector<double> choice = stepKernel->getWarpedPhaseChoice(*context, *this, binding.stiffModesValid);
+    if (!choice.empty()) {
+        modes << "Warped phase limit chosen here (setMaxWarpedPhase(0)): ";
+        if (choice[0] < M_PI)
+            modes << choice[0] << " rad";
+        else
+            modes << "none";
+        modes << ", for a soft stiffness along the stiff modes of up to " << choice[1]
+              << " times their own (measured in " << choice[2] << " s; stable while (1 + r) sin²(ω̃H/2) < 1)\n";
+    }
     return text + modes.str();
 }

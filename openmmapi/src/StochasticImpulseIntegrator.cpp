@@ -71,9 +71,10 @@ void StochasticImpulseIntegrator::setMaxDrudeDistance(double distance) {
 
 void StochasticImpulseIntegrator::setMaxWarpedPhase(double phase) {
     // Written so that NaN fails too.
-    if (!(phase == 0.0 || (phase > 0.0 && phase < M_PI)))
+    if (!(phase == 0.0 || (phase > 0.0 && phase <= M_PI)))
         throwInvalidParameter(Owner, "maxWarpedPhase", formatNumber(phase),
-                              "maxWarpedPhase must be 0 (no limit) or an angle between 0 and pi radians");
+                              "maxWarpedPhase must be 0 (chosen from the System), pi (no limit) or an angle between 0 "
+                              "and pi radians");
     maxWarpedPhase = phase;
 }
 

@@ -957,6 +957,16 @@ vector<double> CommonImpulseStepKernel::getStiffModeFrequencies(ContextImpl& con
     return control->getStiffModeFrequencies(context, integrator.getStiffGroups(), stiffModesValid);
 }
 
+vector<double> CommonImpulseStepKernel::getWarpedPhaseChoice(ContextImpl& context,
+                                                             const StochasticImpulseIntegrator& integrator,
+                                                             bool& stiffModesValid) {
+    ContextSelector selector(cc);
+    const WarpedPhaseChoice* choice = control->getWarpedPhaseChoice(context, integrator, stiffModesValid);
+    if (choice == nullptr)
+        return {};
+    return {choice->phase, choice->couplingRatio, choice->seconds};
+}
+
 double CommonImpulseStepKernel::computeKineticEnergy(ContextImpl& /*context*/,
                                                      const StochasticImpulseIntegrator& /*integrator*/) {
     ContextSelector selector(cc);

@@ -290,6 +290,9 @@ public:
     std::vector<double> getStiffModeFrequencies(OpenMM::ContextImpl& context,
                                                 const StochasticImpulseIntegrator& integrator,
                                                 bool& stiffModesValid) override;
+    std::vector<double> getWarpedPhaseChoice(OpenMM::ContextImpl& context,
+                                             const StochasticImpulseIntegrator& integrator,
+                                             bool& stiffModesValid) override;
     double computeKineticEnergy(OpenMM::ContextImpl& context, const StochasticImpulseIntegrator& integrator) override;
     void createCheckpoint(OpenMM::ContextImpl& context, std::ostream& stream) const override;
     void loadCheckpoint(OpenMM::ContextImpl& context, std::istream& stream) override;

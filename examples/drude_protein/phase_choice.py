@@ -59,7 +59,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--systems", nargs="+", default=["water", "dipeptide", "villin"],
                         choices=["water", "dipeptide", "villin"])
-    parser.add_argument("--out", default=os.path.join(HERE, "..", "..", "results", "drude_protein"))
+    parser.add_argument("--out", default=os.path.join(HERE, "..", "..", "results", "drude_protein"),
+                        help="where phase_choice.json goes (this run's: examples/drude_protein/results)")
     args = parser.parse_args()
     results = {}
     for name in args.systems:

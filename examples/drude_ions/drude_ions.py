@@ -16,6 +16,7 @@ the centre-of-mass and Drude temperatures, the potential energy per Drude pair, 
 """
 import argparse
 import json
+import math
 import os
 import random
 import time
@@ -162,8 +163,8 @@ class SelfConsistent:
 
 
 def make_integrator(kind, step_fs, seed, max_warped_phase=0.0, scaled_friction=False):
-    """DrudeLangevin, or the SIM ("WarpedMiddle"; max_warped_phase > 0: setMaxWarpedPhase, radians; scaled_friction:
-    setWarpedFrictionScaling)."""
+    """DrudeLangevin, or the SIM ("WarpedMiddle"; max_warped_phase > 0: setMaxWarpedPhase, radians, else Warped's own
+    step, the limit off (pi), as this scene measured it; scaled_friction: setWarpedFrictionScaling)."""
     if kind == "DrudeLangevin":
         integrator = openmm.DrudeLangevinIntegrator(300 * unit.kelvin, 5 / unit.picosecond, 1 * unit.kelvin,
                                                     20 / unit.picosecond, step_fs * unit.femtosecond)
@@ -174,7 +175,7 @@ def make_integrator(kind, step_fs, seed, max_warped_phase=0.0, scaled_friction=F
         integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
         integrator.setStiffModeTemperature(1 * unit.kelvin)
         integrator.setStiffModeFriction(20 / unit.picosecond)
-        integrator.setMaxWarpedPhase(max_warped_phase)
+        integrator.setMaxWarpedPhase(max_warped_phase if max_warped_phase > 0 else math.pi)
         integrator.setWarpedFrictionScaling(scaled_friction)
     integrator.setRandomNumberSeed(seed)
     return integrator

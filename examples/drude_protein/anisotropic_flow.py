@@ -33,6 +33,7 @@ Writes anisotropic_flow.json to --out and prints each peer as it finishes.
 """
 import argparse
 import json
+import math
 import os
 import time
 
@@ -169,7 +170,8 @@ def make_integrator(kind, step_fs, phase, seed):
         integrator.setThermostatPlacement(StochasticImpulseIntegrator.Middle)
         integrator.setStiffModeTemperature(1.0)
         integrator.setStiffModeFriction(20.0)
-        integrator.setMaxWarpedPhase(phase)
+        # Without a phase Warped's own step (the limit off), as this scene measured it.
+        integrator.setMaxWarpedPhase(phase if phase > 0 else math.pi)
         integrator.setWarpedFrictionScaling(phase > 0)
     integrator.setRandomNumberSeed(seed)
     return integrator

@@ -69,8 +69,8 @@ private:
     }
     /** The parameters the schedule is built from: the chosen phase limit in place of 0 where there is one. */
     ImpulseParameters scheduled() const;
-    /** Chooses the phase limit for the current modes and positions; whether it changed the schedule's. */
-    bool choosePhase(OpenMM::ContextImpl& context);
+    /** Chooses the phase limit for the current modes and positions, with the soft forces of p. */
+    void choosePhase(OpenMM::ContextImpl& context, const ImpulseParameters& p);
     StepBackend& backend;
     std::string platformName;
     StiffModesMeasurement measurement;

@@ -98,11 +98,8 @@ ImpulseParameters ImpulseStepControl::scheduled() const {
     return p;
 }
 
-bool ImpulseStepControl::choosePhase(ContextImpl& context) {
-    const int softGroups = ~parameters.stiffGroups & parameters.integrationGroups;
-    choice = chooseWarpedPhase(context, *measurement.getModes(), softGroups);
-    phaseChosen = true;
-    return scheduled().maxWarpedPhase != scheduledPhase;
+void ImpulseStepControl::choosePhase(ContextImpl& context, const ImpulseParameters& p) {
+    choice = chooseWarpedPhase(context, *measurement.getModes(), ~p.stiffGroups & p.integrationGroups);
 }
 
 void ImpulseStepControl::step(ContextImpl& context, const StochasticImpulseIntegrator& integrator, bool& forcesValid,
@@ -118,18 +115,23 @@ void ImpulseStepControl::step(ContextImpl& context, const StochasticImpulseInteg
         phaseChosen = false;
     }
     // Rebuilt only when a parameter or the chosen limit changed, so the step loop does not allocate.
-    if (rebuild)
+    auto schedule = [this]() {
         backend.setSchedule(impulseSchedule(scheduled()));
-    scheduledPhase = rebuild ? scheduled().maxWarpedPhase : scheduledPhase;
+        scheduledPhase = scheduled().maxWarpedPhase;
+    };
+    if (rebuild)
+        schedule();
     bool measured = false;
     if (!stiffModesValid || !measurement.getModes()) {
         measureStiffModes(context, parameters.stiffGroups);
         stiffModesValid = true;
         measured = true;
     }
-    if (choosesPhase(parameters) && (measured || !phaseChosen) && choosePhase(context)) {
-        backend.setSchedule(impulseSchedule(scheduled()));
-        scheduledPhase = scheduled().maxWarpedPhase;
+    if (choosesPhase(parameters) && (measured || !phaseChosen)) {
+        choosePhase(context, parameters);
+        phaseChosen = true;
+        if (scheduled().maxWarpedPhase != scheduledPhase)
+            schedule();
     }
     backend.step(context, integrator.getConstraintTolerance(), parameters.stepSize, forcesValid);
 }
@@ -147,8 +149,7 @@ const WarpedPhaseChoice* ImpulseStepControl::getWarpedPhaseChoice(ContextImpl& c
     }
     // Without a step taken yet the choice is made for these settings; the step keeps it unless they change.
     if (!phaseChosen || !(current == parameters)) {
-        const int softGroups = ~current.stiffGroups & current.integrationGroups;
-        choice = chooseWarpedPhase(context, *measurement.getModes(), softGroups);
+        choosePhase(context, current);
         phaseChosen = current == parameters;
     }
     return &choice;

@@ -59,8 +59,6 @@ public:
     void constrainAfterFlow(size_t p, double tolerance, bool projectVelocities);
     /** The velocity solve at the end of pass p (a Filtered kick), after its closing response readied the carriers. */
     void constrainVelocities(size_t p, double tolerance);
-    /** Whether a step of this plan processes velocities (the next step starts by taking that off). */
-    bool processesVelocities() const { return processing; }
     /** Where a step starts: takes the last step's velocity processing off the velocities. */
     void takeOffProcessing();
     /** The velocity processing still on the velocities, in the host's history and back (System order). */
